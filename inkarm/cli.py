@@ -1,0 +1,58 @@
+"""The ``inkarm`` command: a thin layer over the library.
+
+Each sub-command lives in ``inkarm/commands/<name>.py`` and defines ``add_parser(subparsers)``
+and ``run(args) -> int``. Errors a user can cause (:class:`inkarm.errors.InkarmError`) are
+printed as one line and exit with status 2, never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+import inkarm
+from inkarm.errors import InkarmError
+
+
+def _command_modules():
+    import inkarm.commands as pkg
+
+    for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name):
+        if not info.name.startswith("_"):
+            yield importlib.import_module(f"inkarm.commands.{info.name}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="inkarm",
+        description="Human-like pen trajectories, drawn by a simulated or real robot arm. "
+        "Units: millimetres and seconds.",
+    )
+    parser.add_argument("--version", action="version", version=f"inkarm {inkarm.__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module in _command_modules():
+        p = module.add_parser(sub)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args._run(args) or 0)
+    except InkarmError as e:
+        print(f"inkarm {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"inkarm {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

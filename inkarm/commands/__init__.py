@@ -1,0 +1,1 @@
+"""One module per `inkarm` sub-command; each defines ``add_parser(subparsers)`` and ``run(args) -> int``."""

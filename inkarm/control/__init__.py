@@ -1,0 +1,1 @@
+"""Controllers that only see a Plant and a kinematic model."""

@@ -1,0 +1,1 @@
+"""Movement models: pure NumPy/SciPy, no simulator, no device I/O."""

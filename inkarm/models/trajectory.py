@@ -1,0 +1,306 @@
+"""Time-stamped pen paths: :class:`Trajectory` (one stroke) and :class:`Drawing` (a page of them).
+
+Units: time in [s], positions in [mm] in the page frame (x to the right, y up, origin at the
+page's lower-left corner; D = 2, or 3 with z the height above the paper).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from inkarm.errors import InputError
+
+A4_MM = (210.0, 297.0)
+
+
+def _as_array(name: str, value, ndim: int) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim != ndim:
+        raise InputError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise InputError(f"{name}: non-finite value (NaN or inf) at index {tuple(int(i) for i in bad)}")
+    return arr
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """One pen-down stroke sampled in time.
+
+    Attributes:
+        t: Sample times in [s], shape (N,), strictly increasing.
+        pos: Pen positions in [mm], shape (N, D) with D in {2, 3}.
+        vel: Optional velocities in [mm/s], shape (N, D); estimated by finite differences when
+            absent (see :meth:`velocity`).
+        pressure: Optional per-sample pressure or width in [0, 1], shape (N,).
+    """
+
+    t: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray | None = None
+    pressure: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        t = _as_array("trajectory t", self.t, 1)
+        pos = _as_array("trajectory pos", self.pos, 2)
+        if pos.shape[0] != t.shape[0]:
+            raise InputError(
+                f"trajectory: t has {t.shape[0]} samples but pos has {pos.shape[0]} rows"
+            )
+        if pos.shape[1] not in (1, 2, 3):
+            raise InputError(f"trajectory pos: expected 1 to 3 columns, got {pos.shape[1]}")
+        if t.shape[0] == 0:
+            raise InputError("trajectory: no samples")
+        if t.shape[0] > 1 and np.any(np.diff(t) <= 0):
+            i = int(np.argmax(np.diff(t) <= 0))
+            raise InputError(
+                f"trajectory t: must be strictly increasing, but t[{i + 1}] = {t[i + 1]} "
+                f"<= t[{i}] = {t[i]}"
+            )
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "pos", pos)
+        if self.vel is not None:
+            vel = _as_array("trajectory vel", self.vel, 2)
+            if vel.shape != pos.shape:
+                raise InputError(f"trajectory vel: shape {vel.shape} differs from pos {pos.shape}")
+            object.__setattr__(self, "vel", vel)
+        if self.pressure is not None:
+            pressure = _as_array("trajectory pressure", self.pressure, 1)
+            if pressure.shape != t.shape:
+                raise InputError(
+                    f"trajectory pressure: shape {pressure.shape} differs from t {t.shape}"
+                )
+            object.__setattr__(self, "pressure", pressure)
+
+    @property
+    def n(self) -> int:
+        """Number of samples N."""
+        return self.t.shape[0]
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension D."""
+        return self.pos.shape[1]
+
+    @property
+    def duration(self) -> float:
+        """t[-1] - t[0] in [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def length(self) -> float:
+        """Arc length of the polyline in [mm]."""
+        return float(np.sum(np.linalg.norm(np.diff(self.pos, axis=0), axis=1)))
+
+    def velocity(self) -> np.ndarray:
+        """Velocity in [mm/s], (N, D): the stored one, else second-order finite differences."""
+        if self.vel is not None:
+            return self.vel
+        if self.n < 2:
+            return np.zeros_like(self.pos)
+        return np.gradient(self.pos, self.t, axis=0, edge_order=1)
+
+    def speed(self) -> np.ndarray:
+        """Tangential speed |v| in [mm/s], (N,)."""
+        return np.linalg.norm(self.velocity(), axis=1)
+
+    def shifted(self, dt: float = 0.0, dpos=None) -> Trajectory:
+        """The same stroke delayed by ``dt`` [s] and translated by ``dpos`` [mm]."""
+        pos = self.pos if dpos is None else self.pos + np.asarray(dpos, dtype=float)
+        return replace(self, t=self.t + dt, pos=pos)
+
+    def resample(self, dt: float) -> Trajectory:
+        """Linear interpolation onto a uniform grid of step ``dt`` [s] from t[0] to t[-1].
+
+        The last sample is kept exactly, so the grid's final step may be shorter than dt.
+        """
+        if not np.isfinite(dt) or dt <= 0:
+            raise InputError(f"resample: dt must be a positive number of seconds, got {dt}")
+        t = np.arange(self.t[0], self.t[-1], dt)
+        if t.size == 0 or t[-1] < self.t[-1]:
+            t = np.append(t, self.t[-1])
+        if t.size > 1 and t[-1] - t[-2] < 1e-9 * max(dt, 1.0):
+            t = np.delete(t, -2)
+        pos = np.column_stack([np.interp(t, self.t, c) for c in self.pos.T])
+        vel = None
+        if self.vel is not None:
+            vel = np.column_stack([np.interp(t, self.t, c) for c in self.vel.T])
+        pressure = None if self.pressure is None else np.interp(t, self.t, self.pressure)
+        return Trajectory(t=t, pos=pos, vel=vel, pressure=pressure)
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write ``t,x,y[,z]`` with a header row."""
+        Drawing([self]).to_csv(path, stroke_column=False)
+
+    @staticmethod
+    def from_csv(path: str | Path) -> Trajectory:
+        """Read a CSV with header ``t,x,y`` or ``t,x,y,z`` (a ``stroke`` column is refused here:
+        use :meth:`Drawing.from_csv`)."""
+        drawing = Drawing.from_csv(path)
+        if len(drawing.strokes) != 1:
+            raise InputError(
+                f"{path}: holds {len(drawing.strokes)} strokes; read it with Drawing.from_csv"
+            )
+        return drawing.strokes[0]
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """An ordered list of pen-down strokes on a page; the pen is up between strokes.
+
+    Attributes:
+        strokes: The strokes, in drawing order. Stroke times are absolute and non-overlapping
+            when the drawing came from a timed plan; they may also each start at 0.
+        page_size: (width, height) of the page in [mm].
+    """
+
+    strokes: list[Trajectory]
+    page_size: tuple[float, float] = A4_MM
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        strokes = list(self.strokes)
+        for i, s in enumerate(strokes):
+            if not isinstance(s, Trajectory):
+                raise InputError(f"drawing stroke {i}: expected a Trajectory, got {type(s).__name__}")
+        dims = {s.dim for s in strokes}
+        if len(dims) > 1:
+            raise InputError(f"drawing: strokes mix dimensions {sorted(dims)}")
+        w, h = (float(v) for v in self.page_size)
+        if not (w > 0 and h > 0 and np.isfinite(w) and np.isfinite(h)):
+            raise InputError(f"drawing page_size: expected positive (width, height) in mm, got {self.page_size}")
+        object.__setattr__(self, "strokes", strokes)
+        object.__setattr__(self, "page_size", (w, h))
+
+    @property
+    def dim(self) -> int:
+        return self.strokes[0].dim if self.strokes else 2
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(min, max) corners of all strokes in [mm]."""
+        if not self.strokes:
+            raise InputError("drawing: no strokes")
+        allpos = np.vstack([s.pos for s in self.strokes])
+        return allpos.min(axis=0), allpos.max(axis=0)
+
+    def transformed(self, scale: float = 1.0, offset=(0.0, 0.0)) -> Drawing:
+        """Scale about the origin then translate by ``offset`` [mm] (x, y only)."""
+        off = np.zeros(self.dim)
+        off[: len(offset)] = offset
+        k = np.ones(self.dim)
+        k[:2] = scale
+        strokes = [
+            replace(s, pos=s.pos * k + off, vel=None if s.vel is None else s.vel * k)
+            for s in self.strokes
+        ]
+        return replace(self, strokes=strokes)
+
+    def sequential(self, pause: float = 0.0) -> Drawing:
+        """Strokes re-timed to follow each other, separated by ``pause`` [s]."""
+        strokes, t0 = [], 0.0
+        for s in self.strokes:
+            strokes.append(s.shifted(dt=t0 - s.t[0]))
+            t0 = strokes[-1].t[-1] + pause
+        return replace(self, strokes=strokes)
+
+    # -- files -----------------------------------------------------------------------------
+
+    def to_csv(self, path: str | Path, stroke_column: bool = True) -> None:
+        """Write ``t,x,y[,z][,stroke]`` rows, strokes concatenated in order."""
+        names = ["t", "x", "y", "z"][: 1 + self.dim]
+        with open(path, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(names + (["stroke"] if stroke_column else []))
+            for k, s in enumerate(self.strokes):
+                for ti, p in zip(s.t, s.pos):
+                    row = [repr(float(ti))] + [repr(float(v)) for v in p]
+                    w.writerow(row + ([k] if stroke_column else []))
+
+    @staticmethod
+    def from_csv(path: str | Path, page_size: tuple[float, float] = A4_MM) -> Drawing:
+        """Read ``t,x,y[,z]`` with an optional ``stroke`` column (integer stroke index)."""
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"{path}: no such file")
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))
+        if not rows:
+            raise InputError(f"{path}: empty file; expected a header t,x,y[,z][,stroke]")
+        header = [h.strip().lower() for h in rows[0]]
+        allowed = (["t", "x", "y"], ["t", "x", "y", "z"])
+        cols = [h for h in header if h != "stroke"]
+        if cols not in allowed:
+            raise InputError(
+                f"{path}: header {','.join(rows[0])!r}; expected t,x,y or t,x,y,z "
+                "(optionally with a stroke column)"
+            )
+        data = []
+        for lineno, row in enumerate(rows[1:], start=2):
+            if not row or all(not c.strip() for c in row):
+                continue
+            if len(row) != len(header):
+                raise InputError(f"{path}:{lineno}: expected {len(header)} fields, got {len(row)}")
+            try:
+                data.append([float(c) for c in row])
+            except ValueError:
+                raise InputError(f"{path}:{lineno}: non-numeric field in {row}") from None
+        if not data:
+            raise InputError(f"{path}: no data rows")
+        arr = np.array(data)
+        if not np.all(np.isfinite(arr)):
+            lineno = int(np.argwhere(~np.isfinite(arr))[0][0]) + 2
+            raise InputError(f"{path}:{lineno}: NaN or inf value")
+        pos_idx = [header.index(c) for c in cols[1:]]
+        t_idx = header.index("t")
+        if "stroke" in header:
+            sid = arr[:, header.index("stroke")]
+            breaks = np.flatnonzero(np.diff(sid) != 0) + 1
+            groups = np.split(np.arange(len(arr)), breaks)
+        else:
+            groups = [np.arange(len(arr))]
+        strokes = []
+        for g in groups:
+            try:
+                strokes.append(Trajectory(t=arr[g, t_idx], pos=arr[g][:, pos_idx]))
+            except InputError as e:
+                raise InputError(f"{path}: {e}") from None
+        return Drawing(strokes, page_size=page_size)
+
+    def to_npz(self, path: str | Path) -> None:
+        """Write arrays ``t``, ``pos``, ``stroke`` (stroke index per sample) and ``page_size``."""
+        t = np.concatenate([s.t for s in self.strokes]) if self.strokes else np.zeros(0)
+        pos = np.vstack([s.pos for s in self.strokes]) if self.strokes else np.zeros((0, 2))
+        sid = np.concatenate([np.full(s.n, k) for k, s in enumerate(self.strokes)]) if self.strokes else np.zeros(0, int)
+        np.savez(path, t=t, pos=pos, stroke=sid, page_size=np.array(self.page_size))
+
+    @staticmethod
+    def from_npz(path: str | Path) -> Drawing:
+        with np.load(path) as z:
+            missing = {"t", "pos", "stroke"} - set(z.files)
+            if missing:
+                raise InputError(f"{path}: missing arrays {sorted(missing)}")
+            t, pos, sid = z["t"], z["pos"], z["stroke"]
+            page = tuple(z["page_size"]) if "page_size" in z.files else A4_MM
+        strokes = [Trajectory(t=t[sid == k], pos=pos[sid == k]) for k in np.unique(sid)]
+        return Drawing(strokes, page_size=page)
+
+    def to_svg(self, path: str | Path, stroke_width: float = 0.5) -> None:
+        """Write the strokes as SVG polylines in a viewBox of the page in [mm] (y flipped so the
+        page's y axis points up, as in inkarm's page frame)."""
+        w, h = self.page_size
+        lines = [
+            '<?xml version="1.0" encoding="UTF-8"?>',
+            f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}mm" height="{h}mm" '
+            f'viewBox="0 0 {w} {h}">',
+            f'<g fill="none" stroke="black" stroke-width="{stroke_width}" '
+            'stroke-linecap="round" stroke-linejoin="round">',
+        ]
+        for s in self.strokes:
+            pts = " ".join(f"{x:.3f},{h - y:.3f}" for x, y in s.pos[:, :2])
+            lines.append(f'<polyline points="{pts}"/>')
+        lines += ["</g>", "</svg>"]
+        Path(path).write_text("\n".join(lines) + "\n")

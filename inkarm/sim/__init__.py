@@ -1,0 +1,1 @@
+"""MuJoCo simulation: the arm, the pen, the paper and the ink."""
