@@ -7,6 +7,7 @@ is lifted between strokes. Means in [mm], covariances in [mm^2], times in [s].
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -74,12 +75,18 @@ class StrokePlan:
         segment_time: Duration T_s each target is tracked, in [s] (local isochrony, seed 000 sec. 3.3).
         keypoints: If True the targets are sparse key-points, each active at one instant
             (GI paper eq. 6-7) instead of held stepwise.
+        velocities: Optional (m, D) velocities in [mm/s] imposed at each target's first step
+            (key-points: at the key-point), GI sec. 4.3 (Bezier mimicking); a row of NaN leaves
+            that target's velocity free.
+        velocity_var: Variance of the velocity constraints in [(mm/s)^2] (small = hard).
     """
 
     targets: tuple[GaussianTarget, ...]
     segment_time: float = 0.5
     keypoints: bool = False
     meta: dict = field(default_factory=dict)
+    velocities: np.ndarray | None = None
+    velocity_var: float = 1e-6
 
     def __post_init__(self) -> None:
         targets = tuple(self.targets)
@@ -99,20 +106,43 @@ class StrokePlan:
             raise PlanError(f"stroke segment_time: must be a positive number of seconds, got {self.segment_time}")
         object.__setattr__(self, "targets", targets)
         object.__setattr__(self, "segment_time", st)
+        if self.velocities is not None:
+            vel = np.asarray(self.velocities, dtype=float)
+            if vel.shape != (len(targets), dims[0]):
+                raise PlanError(
+                    f"stroke velocities: expected shape {(len(targets), dims[0])}, got {vel.shape}"
+                )
+            partial = np.isnan(vel).any(axis=1) & ~np.isnan(vel).all(axis=1)
+            if partial.any() or np.isinf(vel).any():
+                i = int(np.flatnonzero(partial | np.isinf(vel).any(axis=1))[0])
+                raise PlanError(
+                    f"stroke velocity {i}: {vel[i].tolist()}; expected finite values or a row of NaN (free)"
+                )
+            object.__setattr__(self, "velocities", vel)
+        vv = float(self.velocity_var)
+        if not np.isfinite(vv) or vv <= 0:
+            raise PlanError(f"stroke velocity_var: must be a positive variance in (mm/s)^2, got {self.velocity_var}")
+        object.__setattr__(self, "velocity_var", vv)
 
     @property
     def dim(self) -> int:
         return self.targets[0].dim
 
-    @property
+    @cached_property
     def means(self) -> np.ndarray:
-        """(m, D) target means in [mm]."""
-        return np.array([tg.mean for tg in self.targets])
+        """(m, D) target means in [mm] (read-only)."""
+        return _frozen(np.array([tg.mean for tg in self.targets]))
 
-    @property
+    @cached_property
     def covs(self) -> np.ndarray:
-        """(m, D, D) target covariances in [mm^2]."""
-        return np.array([tg.cov for tg in self.targets])
+        """(m, D, D) target covariances in [mm^2] (read-only)."""
+        return _frozen(np.array([tg.cov for tg in self.targets]))
+
+    @cached_property
+    def precisions(self) -> np.ndarray:
+        """(m, D, D) target precisions Sigma_i^-1 in [mm^-2] (read-only, symmetric)."""
+        p = np.linalg.inv(self.covs)
+        return _frozen(0.5 * (p + np.swapaxes(p, 1, 2)))
 
     @staticmethod
     def from_arrays(means, covs, segment_time: float = 0.5, keypoints: bool = False) -> "StrokePlan":
@@ -131,6 +161,41 @@ class StrokePlan:
             except PlanError as e:
                 raise PlanError(f"stroke target {i}: {str(e).removeprefix('target: ').removeprefix('target ')}") from None
         return StrokePlan(tuple(targets), segment_time, keypoints)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+def bezier_keypoints(
+    control_points, segment_time: float = 0.5, variance: float = 1e-6, velocity_var: float = 1e-6
+) -> StrokePlan:
+    """Key-points with velocities that mimic a piecewise cubic Bezier curve (GI sec. 4.3).
+
+    Args:
+        control_points: (3 k + 1, D) points P0, P1, P2, P3, P4, ... in [mm]: k cubic segments
+            sharing end points.
+        segment_time: Duration of each cubic segment in [s].
+        variance: Position variance of every key-point in [mm^2] (small = interpolate).
+        velocity_var: Variance of the velocity constraints in [(mm/s)^2].
+    Returns:
+        A key-point :class:`StrokePlan` through the segment end points whose velocities are the
+        Bezier end tangents 3 (P1 - P0) / T and 3 (P3 - P2) / T. Where segments meet, the
+        incoming tangent is used (the curve is C1 only if the control points are collinear there).
+    """
+    cps = np.asarray(control_points, dtype=float)
+    if cps.ndim != 2 or cps.shape[0] < 4 or (cps.shape[0] - 1) % 3:
+        raise PlanError(f"bezier control_points: expected (3k + 1, D) points, got shape {cps.shape}")
+    if not np.all(np.isfinite(cps)):
+        raise PlanError("bezier control_points: NaN or inf")
+    ends = cps[::3]
+    vel = np.empty_like(ends)
+    vel[:-1] = 3.0 * (cps[1::3] - cps[0:-1:3]) / segment_time
+    vel[-1] = 3.0 * (cps[-1] - cps[-2]) / segment_time
+    vel[1:-1] = 3.0 * (cps[3:-1:3] - cps[2:-2:3]) / segment_time
+    plan = StrokePlan.from_arrays(ends, variance, segment_time=segment_time, keypoints=True)
+    return StrokePlan(plan.targets, plan.segment_time, True, velocities=vel, velocity_var=velocity_var)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,32 @@
+# Two commands do all the set-up on a fresh machine (Python >= 3.11 with venv):
+#   make draw   - install into .venv and draw the default scenario with the simulated arm
+#   make test   - install into .venv (with test extras) and run the test suite
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+OUT    ?= out/default
+
+.PHONY: draw test bench install clean
+
+$(BIN)/activate:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+
+$(VENV)/.installed: $(BIN)/activate pyproject.toml
+	$(BIN)/pip install -q -e ".[test]"
+	touch $@
+
+install: $(VENV)/.installed
+
+draw: $(VENV)/.installed
+	$(BIN)/inkarm draw --out $(OUT)
+
+test: $(VENV)/.installed
+	$(BIN)/python -m pytest
+
+bench: $(VENV)/.installed
+	$(BIN)/pip install -q -e ".[compare]"
+	$(BIN)/python benchmarks/run_all.py --write
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .hypothesis

@@ -1,0 +1,250 @@
+"""DPPLA speed against a plain triple loop, and seed 001's density/curvature figures.
+
+Run: ``python benchmarks/bench_dppla.py`` (``--quick`` for fewer repeats). Prints two markdown
+tables:
+
+1. Median wall time of :func:`inkarm.models.dppla.dppla` (exact and banded) and of a plain
+   triple-loop DP (pure Python loops over segments k, end sample j and start sample i, each
+   segment error in O(1) from the same prefix sums), in the same process. Where the triple
+   loop would take too long, it runs on a shorter trajectory and its time is extrapolated by
+   the exact count of inner-loop iterations at full size (its cost is linear in that count).
+2. Seed 001 sec. 5 measures (Table 1 and the power-law exponent gamma) for a harmonic
+   ellipse, a lemniscate and a script word from a Hershey font sampled at 200 Hz.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from inkarm.models.analysis import analyse_drawing
+from inkarm.models.dppla import dppla
+from inkarm.models.trace import resample_arc_length
+from inkarm.models.trajectory import Drawing, Trajectory
+
+
+def smooth_curve(w: int, seed: int = 0) -> np.ndarray:
+    """A smooth random planar curve of w samples in [mm] (a few sinusoids per axis)."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, w)
+    freq = rng.uniform(0.5, 4.0, size=(2, 4))
+    amp = rng.uniform(5.0, 30.0, size=(2, 4))
+    phase = rng.uniform(0, 2 * np.pi, size=(2, 4))
+    return np.column_stack(
+        [
+            np.sum(amp[c] * np.sin(2 * np.pi * freq[c] * t[:, None] + phase[c]), axis=1)
+            for c in range(2)
+        ]
+    )
+
+
+def triple_loop(x: np.ndarray, k: int, band: int | None = None) -> tuple[float, int]:
+    """Plain DP (seed 001 sec. 3) with Python loops over m, j, i; returns (cost, inner iterations).
+
+    Same problem as ``dppla(x, k, banded=band is not None, band=band)``: interpolation error
+    with tau = n, and for the banded DP the same band (segment length <= band, break point m
+    within band of m (w-1)/k).
+    """
+    w = len(x)
+    xs, ys = x[:, 0].tolist(), x[:, 1].tolist()
+    sx, sy, snx, sny, sxx = [0.0], [0.0], [0.0], [0.0], [0.0]
+    for n in range(w):
+        sx.append(sx[-1] + xs[n])
+        sy.append(sy[-1] + ys[n])
+        snx.append(snx[-1] + n * xs[n])
+        sny.append(sny[-1] + n * ys[n])
+        sxx.append(sxx[-1] + xs[n] * xs[n] + ys[n] * ys[n])
+
+    def cost(i: int, j: int) -> float:
+        c, span = j - i + 1, j - i
+        ax, ay, dx, dy = xs[i], ys[i], xs[j] - xs[i], ys[j] - ys[i]
+        px, py = sx[j + 1] - sx[i], sy[j + 1] - sy[i]
+        qx = (snx[j + 1] - snx[i] - i * px) / span
+        qy = (sny[j + 1] - sny[i] - i * py) / span
+        sum_s = (span + 1) / 2
+        sum_ss = (span + 1) * (2 * span + 1) / (6 * span)
+        return (
+            sxx[j + 1]
+            - sxx[i]
+            - 2 * (ax * px + ay * py)
+            + c * (ax * ax + ay * ay)
+            - 2 * (dx * qx + dy * qy)
+            + 2 * (dx * ax + dy * ay) * sum_s
+            + (dx * dx + dy * dy) * sum_ss
+        )
+
+    lo, hi = _windows(w, k, band)
+    inf = math.inf
+    prev = [inf] * w
+    prev[0] = 0.0
+    iterations = 0
+    for m in range(1, k + 1):
+        cur = [inf] * w
+        for j in range(lo[m], hi[m] + 1):
+            start = max(lo[m - 1], 0 if band is None else j - band)
+            best = inf
+            for i in range(start, min(j, hi[m - 1] + 1)):
+                iterations += 1
+                v = prev[i] + cost(i, j)
+                best = min(best, v)
+            cur[j] = best
+        prev = cur
+    return prev[w - 1], iterations
+
+
+def _windows(w: int, k: int, band: int | None) -> tuple[list[int], list[int]]:
+    lo = list(range(k + 1))
+    hi = [w - 1 - (k - m) for m in range(k + 1)]
+    if band is not None:
+        lo = [max(lo[m], math.ceil(m * (w - 1) / k - band)) for m in range(k + 1)]
+        hi = [min(hi[m], math.floor(m * (w - 1) / k + band)) for m in range(k + 1)]
+    return lo, hi
+
+
+def inner_iterations(w: int, k: int, band: int | None) -> int:
+    """The triple loop's inner-iteration count, without running it."""
+    lo, hi = _windows(w, k, band)
+    total = 0
+    for m in range(1, k + 1):
+        for j in range(lo[m], hi[m] + 1):
+            start = max(lo[m - 1], 0 if band is None else j - band)
+            total += max(min(j, hi[m - 1] + 1) - start, 0)
+    return total
+
+
+def median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def timing_table(repeats: int) -> None:
+    cases = [  # (label, w, k, banded, w for the triple loop, budget in [s])
+        ("banded", 2000, 100, True, 2000, 0.5),
+        ("exact", 1000, 30, False, 250, 2.0),
+    ]
+    print(
+        "| DPPLA | w | k | band | inkarm [s] (median) | budget [s] | triple loop [s] | triple loop run at w | ratio | costs agree |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for label, w, k, banded, w_loop, budget in cases:
+        x = smooth_curve(w)
+        band = math.ceil(2 * w / k) if banded else None
+        result = dppla(x, k, banded=banded, verify=False)
+        t_fast = median_time(
+            lambda x=x, k=k, b=banded: dppla(x, k, banded=b, verify=False), repeats
+        )
+        # The band scales with w / k: keep k w_loop / w segments on the shorter run.
+        k_loop = max(1, round(k * w_loop / w))
+        x_loop = smooth_curve(w_loop)
+        band_loop = math.ceil(2 * w_loop / k_loop) if banded else None
+        t0 = time.perf_counter()
+        loop_cost, n_loop = triple_loop(x_loop, k_loop, band_loop)
+        t_loop = (time.perf_counter() - t0) * inner_iterations(w, k, band) / n_loop
+        reference = dppla(x_loop, k_loop, banded=banded, band=band_loop, verify=False).cost
+        agree = abs(loop_cost - reference) <= 1e-6 * max(reference, 1.0)
+        extrapolated = "" if w_loop == w else " (extrapolated)"
+        print(
+            f"| {label} | {w} | {k} | {band or '-'} | {t_fast:.3f} | {budget} | {t_loop:.2f}{extrapolated} | "
+            f"{w_loop} (k={k_loop}) | {t_loop / t_fast:.0f}x | {agree} |"
+        )
+        if not np.isfinite(result.cost):
+            raise SystemExit("non-finite DPPLA cost")
+
+
+def harmonic_ellipse(rate: float) -> Trajectory:
+    t = np.arange(0.0, 3.0, 1.0 / rate)
+    w = 2 * np.pi / 3.0
+    return Trajectory(t, np.column_stack([60 * np.cos(w * t), 20 * np.sin(w * t)]))
+
+
+def lemniscate(rate: float) -> Trajectory:
+    t = np.arange(0.0, 3.0, 1.0 / rate)
+    s, c = np.sin(2 * np.pi * t / 3.0), np.cos(2 * np.pi * t / 3.0)
+    return Trajectory(t, np.column_stack([50 * c / (1 + s * s), 50 * s * c / (1 + s * s)]))
+
+
+def hershey_word(
+    word: str = "minimum", height: float = 20.0, speed: float = 40.0, rate: float = 200.0
+) -> Drawing:
+    """A word of the Hershey ``scripts`` font, drawn at constant ``speed`` [mm/s] and sampled at
+    ``rate`` [Hz]; glyph strokes that meet end to start are joined into one stroke."""
+    from HersheyFonts import HersheyFonts
+
+    font = HersheyFonts()
+    font.load_default_font("scripts")
+    scale = height / 21.0  # the font's cap-to-bottom span is 21 units
+    polylines: list[np.ndarray] = []
+    for stroke in font.strokes_for_text(word):
+        pts = np.array(stroke, dtype=float) * [scale, -scale]  # Hershey y points down
+        if polylines and np.allclose(polylines[-1][-1], pts[0]):
+            polylines[-1] = np.vstack([polylines[-1], pts[1:]])
+        else:
+            polylines.append(pts)
+    strokes = []
+    for poly in polylines:
+        pos = resample_arc_length(poly, speed / rate)
+        if pos is not None and len(pos) > 2:
+            t = (
+                np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))])
+                / speed
+            )
+            strokes.append(Trajectory(t, pos))
+    return Drawing(strokes)
+
+
+def lqt_word(word: Drawing, rate: float = 200.0) -> Drawing:
+    """The Hershey word re-drawn by the LQT through its glyph vertices (human-like speed: slow
+    at cusps), sampled at ``rate`` [Hz]."""
+    from inkarm.models.lqt import LQTConfig, solve
+    from inkarm.models.plan import StrokePlan
+
+    strokes = []
+    for s in word.strokes:
+        targets = s.pos[:: max(1, s.n // max(4, round(s.length / 1.5)))]
+        plan = StrokePlan.from_arrays(targets, 0.05, segment_time=0.06)
+        strokes.append(solve(plan, LQTConfig(order=4, dt=1.0 / rate, d=2.0)))
+    return Drawing(strokes)
+
+
+def analysis_table() -> None:
+    word = hershey_word()
+    traces = [
+        ("harmonic ellipse 60 x 20 mm, 110 Hz", Drawing([harmonic_ellipse(110.0)])),
+        ("lemniscate a = 50 mm, 110 Hz", Drawing([lemniscate(110.0)])),
+        ("Hershey 'minimum' (scripts), constant 40 mm/s, 200 Hz", word),
+        ("Hershey 'minimum', LQT-drawn (order 4), 200 Hz", lqt_word(word)),
+    ]
+    print("| trace | samples | compression | segments | correlation density-curvature | gamma |")
+    print("|---|---|---|---|---|---|")
+    for label, drawing in traces:
+        samples = sum(s.n for s in drawing.strokes)
+        for rho in (0.65, 0.75, 0.85):
+            res = analyse_drawing(drawing, rho)
+            k = sum(a.result.k for a in res.strokes)
+            print(
+                f"| {label} | {samples} | {rho:.2f} | {k} | {res.correlation:.3f} | {res.power_law.gamma:.2f} |"
+            )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one repeat instead of seven")
+    args = parser.parse_args(argv)
+    print(f"python {sys.version.split()[0]}, numpy {np.__version__}\n")
+    timing_table(1 if args.quick else 7)
+    print()
+    analysis_table()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

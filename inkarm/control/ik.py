@@ -1,0 +1,266 @@
+"""Damped-least-squares inverse kinematics of a pen held perpendicular to the paper.
+
+The task is 5-D: the pen tip position (3) and the pen axis direction (2 tilts); the spin about
+the pen axis is left free, so a 7-DOF arm keeps two redundant degrees of freedom, which a
+null-space term spends on staying near a posture and away from joint limits.
+
+With the site Jacobian J = [Jp; Jr] (mj_jacSite), the site axes x_s, y_s, z_s (z_s along the
+pen, from flange to tip) and the desired pen direction a:
+
+    e = [p* - p ; x_s . w ; y_s . w],   w = z_s x a           (position and tilt error)
+    J5 = [Jp ; x_s^T Jr ; y_s^T Jr]                            (5 x n task Jacobian)
+    dq = J5^T (J5 J5^T + lambda^2 I)^-1 e  +  (I - J5^+ J5) dq_0  (damped least squares)
+    dq_0 = k_posture (q_posture - q) + k_limit * (push out of the margin zone near the limits)
+
+and ``dq`` is scaled as a whole vector (direction kept) so that no joint moves more than its
+step limit. Units: SI inside (m, rad), as in MuJoCo; callers in page millimetres go through
+:mod:`inkarm.control.transform` first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from inkarm.errors import InputError, UnreachableError
+
+
+class ArmKinematics:
+    """Kinematics and rigid-body dynamics of an arm on the controller's own MjModel/MjData.
+
+    Only the hinge joints named in ``joint_names`` (default: every hinge joint) are controlled;
+    other joints (the pen slide) stay at their reference value. Never shares MjData with a plant.
+    """
+
+    def __init__(self, model: mujoco.MjModel, site: str = "pen_tip", joint_names=None):
+        self.model = model
+        self.data = mujoco.MjData(model)
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        if sid < 0:
+            raise InputError(f"kinematic model: no site named {site!r}")
+        self.site_id = sid
+        if joint_names is None:
+            joint_names = [
+                model.joint(j).name for j in range(model.njnt)
+                if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
+            ]
+        ids = []
+        for name in joint_names:
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if jid < 0:
+                raise InputError(f"kinematic model: no joint named {name!r}")
+            ids.append(jid)
+        self.joint_names = tuple(joint_names)
+        self.qpos_adr = np.array([model.jnt_qposadr[j] for j in ids])
+        self.dof_adr = np.array([model.jnt_dofadr[j] for j in ids])
+        self.n = len(ids)
+        self.lower = model.jnt_range[ids, 0].copy()
+        self.upper = model.jnt_range[ids, 1].copy()
+        self._jacp = np.zeros((3, model.nv))
+        self._jacr = np.zeros((3, model.nv))
+        self._bias = np.zeros(model.nv)
+        self._dense_mass = np.zeros((model.nv, model.nv))
+        # The kinematic copy never needs contacts; skipping them keeps every call cheap.
+        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+
+    def _set(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
+        self.data.qpos[self.qpos_adr] = q
+        if qd is not None:
+            self.data.qvel[self.dof_adr] = qd
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Site position (3,) in [m] and orientation (3, 3) (columns: site axes) at ``q``."""
+        self._set(q)
+        mujoco.mj_kinematics(self.model, self.data)
+        return (
+            self.data.site_xpos[self.site_id].copy(),
+            self.data.site_xmat[self.site_id].reshape(3, 3).copy(),
+        )
+
+    def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(p, R, Jp, Jr): site pose and its translational/rotational Jacobians (3, n)."""
+        self._set(q)
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_comPos(self.model, self.data)
+        mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self.site_id)
+        return (
+            self.data.site_xpos[self.site_id].copy(),
+            self.data.site_xmat[self.site_id].reshape(3, 3).copy(),
+            self._jacp[:, self.dof_adr].copy(),
+            self._jacr[:, self.dof_adr].copy(),
+        )
+
+    def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """Gravity + Coriolis + centrifugal + passive-free joint force c(q, qd) in [N m] (n,)."""
+        self._set(q, qd)
+        m, d = self.model, self.data
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_rne(m, d, 0, self._bias)
+        return self._bias[self.dof_adr]
+
+    def mass(self, q: np.ndarray) -> np.ndarray:
+        """Joint-space inertia M(q) (n, n) in [kg m^2], armature included."""
+        self._set(q)
+        m, d = self.model, self.data
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_makeM(m, d)
+        mujoco.mj_fullM(m, d, self._dense_mass)
+        return self._dense_mass[np.ix_(self.dof_adr, self.dof_adr)].copy()
+
+
+@dataclass(frozen=True)
+class IKConfig:
+    """Solver settings (SI).
+
+    Attributes:
+        damping: lambda of the damped least squares, in task units ([m] ~ [rad]).
+        max_step: Largest joint step per iteration in [rad]; dq is scaled as a whole.
+        posture_gain: k_posture, fraction of the posture error corrected per step in the null space.
+        limit_margin: Width of the zone near each joint limit that the null space pushes out of, [rad].
+        limit_gain: k_limit, fraction of the intrusion into that zone removed per step.
+        tol_pos: Convergence tolerance on the tip position in [m].
+        tol_tilt: Convergence tolerance on the pen axis tilt in [rad].
+        max_iter: Iteration cap of :func:`solve_ik`.
+    """
+
+    damping: float = 1e-4
+    max_step: float = 0.2
+    posture_gain: float = 0.05
+    limit_margin: float = np.deg2rad(10.0)
+    limit_gain: float = 0.2
+    tol_pos: float = 1e-6
+    tol_tilt: float = 1e-5
+    max_iter: int = 300
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Outcome of :func:`solve_ik`: joint angles [rad], tip error [m], tilt error [rad]."""
+
+    q: np.ndarray
+    converged: bool
+    pos_error: float
+    tilt_error: float
+    iterations: int
+
+
+def pen_task(
+    p: np.ndarray, R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray, p_goal: np.ndarray,
+    axis_goal: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The 5-D error e and Jacobian J5 of the pen task (module docstring)."""
+    x_s, y_s, z_s = R[:, 0], R[:, 1], R[:, 2]
+    w = _cross(z_s, axis_goal)
+    e = np.empty(5)
+    e[:3] = p_goal - p
+    e[3] = x_s @ w
+    e[4] = y_s @ w
+    J5 = np.empty((5, Jp.shape[1]))
+    J5[:3] = Jp
+    J5[3] = x_s @ Jr
+    J5[4] = y_s @ Jr
+    return e, J5
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    # np.cross spends most of its time on axis bookkeeping for 3-vectors.
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
+    """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits."""
+    return np.maximum(lower + margin - q, 0.0) - np.maximum(q - (upper - margin), 0.0)
+
+
+def dls_step(
+    kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray,
+    q_posture: np.ndarray, cfg: IKConfig, null_space: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``."""
+    p, R, Jp, Jr = kin.jacobian(q)
+    e, J = pen_task(p, R, Jp, Jr, p_goal, axis_goal)
+    JJt = J @ J.T
+    JJt.flat[::6] += cfg.damping**2
+    dq = J.T @ np.linalg.solve(JJt, e)
+    if null_space:
+        dq0 = cfg.posture_gain * (q_posture - q) + cfg.limit_gain * limit_push(
+            q, kin.lower, kin.upper, cfg.limit_margin
+        )
+        dq += dq0 - J.T @ np.linalg.solve(JJt, J @ dq0)
+    biggest = np.max(np.abs(dq))
+    if biggest > cfg.max_step:
+        dq *= cfg.max_step / biggest
+    return np.clip(q + dq, kin.lower, kin.upper), e
+
+
+def task_error(e: np.ndarray) -> tuple[float, float]:
+    """(position error [m], tilt error [rad]) of a pen-task error vector."""
+    return float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
+
+
+def solve_ik(
+    kin: ArmKinematics, p_goal, axis_goal, q0, q_posture=None, cfg: IKConfig = IKConfig(),
+) -> IKResult:
+    """Iterate :func:`dls_step` from ``q0`` until the tip is within tolerance of ``p_goal`` [m]
+    and the pen points along ``axis_goal`` (unit, 3,). Never raises on failure: check
+    ``converged``. The null-space term acts during the first half of the iterations (until the
+    posture has settled), task-only steps after."""
+    q = np.clip(np.asarray(q0, float).copy(), kin.lower, kin.upper)
+    q_posture = q.copy() if q_posture is None else np.asarray(q_posture, float)
+    p_goal = np.asarray(p_goal, float)
+    axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
+    e = np.zeros(5)
+    for it in range(1, cfg.max_iter + 1):
+        null_space = it <= cfg.max_iter // 2
+        q_next, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=null_space)
+        pos_err, tilt_err = task_error(e)
+        settled = not null_space or np.max(np.abs(q_next - q)) < 1e-4
+        if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt and settled:
+            return IKResult(q, True, pos_err, tilt_err, it)
+        q = q_next
+    pos_err, tilt_err = task_error(e)
+    return IKResult(q, False, pos_err, tilt_err, cfg.max_iter)
+
+
+def track_path(
+    kin: ArmKinematics, points: np.ndarray, axis_goal, q0, q_posture,
+    cfg: IKConfig = IKConfig(), labels=None,
+) -> np.ndarray:
+    """Joint path (N, n) [rad] through ``points`` (N, 3) [m], warm-started from ``q0``.
+
+    Closed-loop inverse kinematics: one null-space step per sample (so the posture drift is the
+    same at every sample and the joint path stays smooth: pass a ``cfg`` whose posture and
+    limit gains are rates times the sample period), then task-only steps until the tip is
+    within tolerance. Raises UnreachableError naming the first sample (``labels[i]`` when
+    given) whose tip error stays above ``100 * tol_pos`` or which sits at a joint limit.
+    """
+    points = np.asarray(points, float)
+    axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
+    q_posture = np.asarray(q_posture, float)
+    q = np.asarray(q0, float).copy()
+    path = np.empty((points.shape[0], kin.n))
+    for i, p_goal in enumerate(points):
+        q, _ = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=True)
+        for _ in range(20):
+            # e is the error before this step, so it bounds the error of the q kept.
+            q, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=False)
+            pos_err, tilt_err = task_error(e)
+            if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
+                break
+        pos_err, tilt_err = task_error(e)
+        at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
+        if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or at_limit.any():
+            where = labels[i] if labels is not None else f"sample {i}"
+            why = (
+                f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"
+                if at_limit.any()
+                else f"tip error {1000 * pos_err:.3f} mm, pen tilt {np.rad2deg(tilt_err):.3f} deg"
+            )
+            raise UnreachableError(f"{where}: out of reach with the pen perpendicular ({why})")
+        path[i] = q
+    return path

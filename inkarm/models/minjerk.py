@@ -1,0 +1,313 @@
+"""Flash-Hogan minimum-jerk trajectories: point-to-point and through via-points.
+
+The minimum-jerk model (Flash & Hogan 1985) picks, among all paths from rest to rest in a
+given time, the one that minimises the jerk cost
+
+    J = integral_0^tf |d^3 x / dt^3|^2 dt                      (seed 002 eq. 2.3, without the 1/2)
+
+Point to point, the optimum is the quintic of seed 002 eq. 3.1,
+
+    x(t) = x0 + (xf - x0) s(tau),  s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5,  tau = t / tf,
+
+whose bell-shaped speed peaks at tf/2 with V_max = 1.875 A / tf (seed 002 eq. 3.2), and whose
+cost is J = 720 A^2 / tf^5. (Seed 002 writes the polynomial as
+(x0 - xf)(15 tau^4 - 6 tau^5 - 10 tau^3): the same thing with both signs flipped.)
+
+Through via-points the optimum is a piecewise quintic, C^4 at each via-point (only the
+fifth derivative jumps). With one via-point u = x1 - x0 reached at tau1, and v = xf - x0,
+
+    J(tau1) = [720 |v|^2 + 20 |u - v s(tau1)|^2 / (tau1^5 (1 - tau1)^5)] / tf^5,
+
+and setting dJ/dtau1 = 0 gives the polynomial of degree 9 that the GI paper (seed 000,
+sec. 4.2) solves for the via time (see :func:`via_time_polynomial`).
+
+Units: positions in [mm], times in [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial import Polynomial
+from scipy.optimize import minimize
+
+from inkarm.errors import InputError
+from inkarm.models.trajectory import Trajectory
+
+PEAK_SPEED_RATIO = 1.875  # seed 002 eq. 3.2: V_max = C A / t_f with C = 15/8
+
+
+def quintic_profile(tau) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The normalised minimum-jerk profile s(tau) and its first three derivatives in tau.
+
+    s goes from 0 at tau = 0 to 1 at tau = 1 with zero velocity and acceleration at both ends.
+    """
+    tau = np.asarray(tau, dtype=float)
+    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    ds = 30.0 * tau**2 * (1.0 - tau) ** 2
+    d2s = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
+    d3s = 60.0 - 360.0 * tau + 360.0 * tau**2
+    return s, ds, d2s, d3s
+
+
+def peak_speed(amplitude: float, duration: float) -> float:
+    """Peak speed in [mm/s] of a point-to-point movement of ``amplitude`` [mm] in ``duration`` [s]."""
+    return PEAK_SPEED_RATIO * amplitude / duration  # seed 002 eq. 3.2
+
+
+def _point(name: str, value, dim: int | None = None) -> np.ndarray:
+    p = np.asarray(value, dtype=float)
+    if p.ndim != 1 or not 1 <= p.shape[0] <= 3:
+        raise InputError(f"{name}: expected 1 to 3 coordinates in mm, got shape {p.shape}")
+    if dim is not None and p.shape[0] != dim:
+        raise InputError(f"{name}: has {p.shape[0]} coordinates, expected {dim}")
+    if not np.all(np.isfinite(p)):
+        raise InputError(f"{name}: NaN or inf in {p.tolist()}")
+    return p
+
+
+def _positive(name: str, value: float) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise InputError(f"{name}: must be a positive number, got {value}")
+    return v
+
+
+def _time_grid(duration: float, dt: float) -> np.ndarray:
+    """Samples 0, dt, 2 dt, ... ending exactly at ``duration`` (last step possibly shorter)."""
+    dt = _positive("dt", dt)
+    n = max(int(np.ceil(duration / dt - 1e-9)), 1)
+    t = np.minimum(np.arange(n + 1) * dt, duration)
+    t[-1] = duration
+    return t
+
+
+def point_to_point(start, end, duration: float, dt: float = 0.01) -> Trajectory:
+    """Minimum-jerk movement from rest at ``start`` to rest at ``end`` [mm] in ``duration`` [s].
+
+    Seed 002 eq. 3.1 (without the squiggle term D, see :mod:`inkarm.models.human_line`),
+    sampled every ``dt`` [s]; the returned velocity is the exact derivative.
+    """
+    x0 = _point("start", start)
+    xf = _point("end", end, x0.shape[0])
+    tf = _positive("duration", duration)
+    t = _time_grid(tf, dt)
+    s, ds, _, _ = quintic_profile(t / tf)
+    pos = x0 + np.outer(s, xf - x0)
+    vel = np.outer(ds / tf, xf - x0)
+    return Trajectory(t=t, pos=pos, vel=vel)
+
+
+# -- one via-point: closed forms --------------------------------------------------------------
+
+
+def via_jerk_cost(start, via, end, duration: float, t_via: float) -> float:
+    """Jerk cost in [mm^2/s^5] of the minimum-jerk path through ``via`` at time ``t_via`` [s].
+
+    J = [720 |v|^2 + 20 |u - v s(tau1)|^2 / (tau1^5 (1 - tau1)^5)] / tf^5, with u = via - start,
+    v = end - start, tau1 = t_via / tf. The second term is |u - v s|^2 over the diagonal
+    20 / (tau1 (1 - tau1))^5 of the Green's function of d^6/dtau^6 with clamped ends; it is
+    checked against the piecewise-quintic solution in the tests.
+    """
+    x0 = _point("start", start)
+    u = _point("via", via, x0.shape[0]) - x0
+    v = _point("end", end, x0.shape[0]) - x0
+    tf = _positive("duration", duration)
+    tau1 = float(t_via) / tf
+    if not 0.0 < tau1 < 1.0:
+        raise InputError(f"t_via: must lie strictly inside (0, {tf}) s, got {t_via}")
+    s1 = quintic_profile(tau1)[0]
+    miss = u - v * s1
+    return float(720.0 * v @ v + 20.0 * miss @ miss / (tau1 * (1.0 - tau1)) ** 5) / tf**5
+
+
+def via_time_polynomial(start, via, end) -> Polynomial:
+    """The degree-9 polynomial in tau1 = t_via / tf whose real roots in (0, 1) are the stationary
+    points of the via-point jerk cost (Flash & Hogan 1985; seed 000, GI sec. 4.2).
+
+    With u = via - start, v = end - start and a(tau) = u - v s(tau), dJ/dtau1 = 0 reads
+    tau (1 - tau) d|a|^2/dtau - 5 |a|^2 (1 - 2 tau) = 0; the degree-11 and degree-10 terms cancel
+    and, divided by 5, what is left is
+
+        -6|v|^2 t^9 + 27|v|^2 t^8 - 40|v|^2 t^7 + (20|v|^2 - 12 u.v) t^6 + 36 u.v t^5
+        - 34 u.v t^4 + 8 u.v t^3 + 2|u|^2 t - |u|^2.
+    """
+    x0 = _point("start", start)
+    u = _point("via", via, x0.shape[0]) - x0
+    v = _point("end", end, x0.shape[0]) - x0
+    vv, uv, uu = float(v @ v), float(u @ v), float(u @ u)
+    return Polynomial(
+        [-uu, 2 * uu, 0.0, 8 * uv, -34 * uv, 36 * uv, 20 * vv - 12 * uv, -40 * vv, 27 * vv, -6 * vv]
+    )
+
+
+def optimal_via_time(start, via, end, duration: float) -> float:
+    """Time [s] at which the minimum-jerk movement should pass ``via`` to minimise its jerk cost.
+
+    The candidates are the real roots in (0, 1) of :func:`via_time_polynomial`; the one of least
+    cost wins. A via-point on the start or end point (|u| = 0 or u = v) has no interior optimum
+    and is refused.
+    """
+    tf = _positive("duration", duration)
+    x0 = _point("start", start)
+    u = _point("via", via, x0.shape[0]) - x0
+    v = _point("end", end, x0.shape[0]) - x0
+    scale = max(float(np.linalg.norm(u)), float(np.linalg.norm(v)), 1e-300)
+    if np.linalg.norm(u) <= 1e-12 * scale or np.linalg.norm(u - v) <= 1e-12 * scale:
+        raise InputError("via: coincides with the start or end point; no interior via time")
+    poly = via_time_polynomial(start, via, end)
+    roots = poly.trim(1e-12 * np.max(np.abs(poly.coef))).roots()  # end ~ start: degree drops
+    real = roots[np.abs(roots.imag) <= 1e-7 * np.maximum(1.0, np.abs(roots))].real
+    inside = real[(real > 0.0) & (real < 1.0)]
+    if inside.size == 0:  # cannot happen: J -> inf at both ends (kept as a guard on round-off)
+        raise InputError("via: no stationary via time in (0, 1); check the points")
+    costs = [via_jerk_cost(start, via, end, 1.0, tau) for tau in inside]
+    return float(inside[int(np.argmin(costs))] * tf)
+
+
+# -- several via-points: piecewise quintic ----------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MinJerkSpline:
+    """Piecewise quintic through ``points`` at ``times``, at rest at both ends, C^4 inside.
+
+    Attributes:
+        times: Knot times in [s], shape (m,), times[0] = 0, strictly increasing.
+        coeffs: Monomial coefficients of each piece in its local time t - times[k],
+            shape (m - 1, 6, D), position in [mm].
+    """
+
+    times: np.ndarray
+    coeffs: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def evaluate(self, t, derivative: int = 0) -> np.ndarray:
+        """Position (derivative 0) or its ``derivative``-th time derivative at times ``t`` [s]."""
+        t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
+        k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.coeffs) - 1)
+        local = t - self.times[k]
+        out = np.zeros((t.shape[0], self.coeffs.shape[2]))
+        for i in range(derivative, 6):
+            factor = np.prod(np.arange(i - derivative + 1, i + 1)) if derivative else 1.0
+            out += factor * self.coeffs[k, i] * (local ** (i - derivative))[:, None]
+        return out
+
+    def jerk_cost(self) -> float:
+        """Exact integral of |d^3x/dt^3|^2 over the movement in [mm^2/s^5]."""
+        total = 0.0
+        for k, c in enumerate(self.coeffs):
+            h = self.times[k + 1] - self.times[k]
+            for d in range(c.shape[1]):
+                jerk = Polynomial(c[:, d]).deriv(3)
+                total += float((jerk**2).integ()(h))
+        return total
+
+    def to_trajectory(self, dt: float = 0.01) -> Trajectory:
+        t = _time_grid(self.duration, dt)
+        return Trajectory(t=t, pos=self.evaluate(t), vel=self.evaluate(t, 1))
+
+
+def _monomial_row(h: float, derivative: int) -> np.ndarray:
+    """Row r with r @ c = d^derivative/dt^derivative of sum_i c_i t^i at t = h."""
+    row = np.zeros(6)
+    for i in range(derivative, 6):
+        row[i] = np.prod(np.arange(i - derivative + 1, i + 1)) * h ** (i - derivative)
+    return row
+
+
+def _spline_through(points: np.ndarray, times: np.ndarray) -> MinJerkSpline:
+    """Solve the 6(m-1) linear conditions: rest at both ends, pass every point, C^4 inside."""
+    m, dim = points.shape
+    pieces = m - 1
+    a = np.zeros((6 * pieces, 6 * pieces))
+    b = np.zeros((6 * pieces, dim))
+    row = 0
+
+    def put(piece: int, coeffs_row: np.ndarray, rhs, sign: float = 1.0) -> None:
+        a[row, 6 * piece : 6 * piece + 6] += sign * coeffs_row
+        b[row] = rhs
+
+    for derivative in range(3):  # rest at the start and at the end
+        put(0, _monomial_row(0.0, derivative), points[0] if derivative == 0 else 0.0)
+        row += 1
+        h = times[-1] - times[-2]
+        put(pieces - 1, _monomial_row(h, derivative), points[-1] if derivative == 0 else 0.0)
+        row += 1
+    for k in range(1, m - 1):  # via-point k joins piece k-1 (at its end) and piece k (at 0)
+        h = times[k] - times[k - 1]
+        put(k - 1, _monomial_row(h, 0), points[k])
+        row += 1
+        put(k, _monomial_row(0.0, 0), points[k])
+        row += 1
+        for derivative in range(1, 5):
+            put(k - 1, _monomial_row(h, derivative), 0.0)
+            a[row, 6 * k : 6 * k + 6] -= _monomial_row(0.0, derivative)
+            row += 1
+    coeffs = np.linalg.solve(a, b).reshape(pieces, 6, dim)
+    return MinJerkSpline(times=times.copy(), coeffs=coeffs)
+
+
+def _check_points(points) -> np.ndarray:
+    p = np.asarray(points, dtype=float)
+    if p.ndim != 2 or p.shape[0] < 2 or not 1 <= p.shape[1] <= 3:
+        raise InputError(f"points: expected shape (m >= 2, D in 1..3) in mm, got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise InputError("points: NaN or inf")
+    return p
+
+
+def min_jerk_spline(points, duration: float, via_times=None) -> MinJerkSpline:
+    """Minimum-jerk path from rest at ``points[0]`` through ``points[1:-1]`` to rest at
+    ``points[-1]`` [mm], lasting ``duration`` [s].
+
+    ``via_times`` [s] gives the passage time of each via-point (strictly inside (0, duration),
+    increasing). When omitted they are chosen to minimise the jerk cost: for one via-point as
+    the best real root of :func:`via_time_polynomial`, for several by a bounded numerical
+    search started from arc-length-proportional times.
+    """
+    p = _check_points(points)
+    tf = _positive("duration", duration)
+    n_via = p.shape[0] - 2
+    if via_times is None:
+        if n_via == 0:
+            inner = np.zeros(0)
+        elif n_via == 1:
+            inner = np.array([optimal_via_time(p[0], p[1], p[2], tf)])
+        else:
+            inner = _optimal_times(p, tf)
+    else:
+        inner = np.atleast_1d(np.asarray(via_times, dtype=float))
+        if inner.shape != (n_via,):
+            raise InputError(f"via_times: expected {n_via} times for {n_via} via-points, got {inner.shape[0]}")
+        knots = np.concatenate([[0.0], inner, [tf]])
+        if not np.all(np.isfinite(inner)) or np.any(np.diff(knots) <= 0):
+            raise InputError(
+                f"via_times: must increase strictly inside (0, {tf}) s, got {inner.tolist()}"
+            )
+    return _spline_through(p, np.concatenate([[0.0], inner, [tf]]))
+
+
+def _optimal_times(points: np.ndarray, duration: float) -> np.ndarray:
+    """Via times minimising the jerk cost; intervals parametrised by a softmax to stay ordered."""
+    chords = np.linalg.norm(np.diff(points, axis=0), axis=1) + 1e-9
+
+    def times_of(logits: np.ndarray) -> np.ndarray:
+        w = np.exp(np.concatenate([[0.0], logits]) - np.max(logits, initial=0.0))
+        return np.concatenate([[0.0], np.cumsum(w / w.sum())[:-1] * duration, [duration]])
+
+    def cost(logits: np.ndarray) -> float:
+        return _spline_through(points, times_of(logits)).jerk_cost()
+
+    start = np.log(chords[1:] / chords[0])
+    best = minimize(cost, start, method="Nelder-Mead", options={"xatol": 1e-8, "fatol": 1e-12, "maxiter": 4000})
+    return times_of(best.x)[1:-1]
+
+
+def via_points(points, duration: float, via_times=None, dt: float = 0.01) -> Trajectory:
+    """:func:`min_jerk_spline` sampled every ``dt`` [s] as a Trajectory with exact velocity."""
+    return min_jerk_spline(points, duration, via_times).to_trajectory(dt)

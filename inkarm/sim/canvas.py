@@ -1,0 +1,423 @@
+"""The ink raster: a sheet of paper that the simulated pen marks while it touches it.
+
+Page frame: origin at the paper's lower-left corner, x to the right, y up, in [mm]. The raster
+has ``round(width_mm * px_per_mm)`` columns and ``round(height_mm * px_per_mm)`` rows, row 0 at
+the top of the page; pixel (i, j) has its centre at
+
+    x = (j + 1/2) / px_per_mm,    y = (n_rows - i - 1/2) / px_per_mm        [mm].
+
+The plant calls :meth:`Canvas.touch` at every physics step while the pen tip touches the paper
+and :meth:`Canvas.lift` when contact ends. Successive touch points are joined by anti-aliased
+capsules (the set of points within a radius of a segment, the radius varying linearly along
+it), so a fast stroke is a continuous line however far the pen moves in one step. To keep a
+physics step cheap, a segment is only rasterised once the pen has moved ``max_segment_mm`` or
+the ink width or opacity has changed noticeably since the last rasterised point; the pending
+end point is flushed on lift. The chord error this introduces on a curve of radius R is
+``max_segment_mm**2 / (8 R)`` (0.016 mm for the default 0.5 mm on a 2 mm radius).
+
+Darkness is an opacity in [0, 1]. Strokes composite as ``1 - (1 - a)(1 - b)`` (two layers of
+ink let through the product of their transmittances, so darkness never exceeds 1); within one
+stroke the coverage is the maximum over its capsules, so that the heavily overlapping capsules
+laid at successive steps do not darken their own anti-aliased edges.
+
+Ink models turn the contact force [N] and the pen speed [mm/s] into a line width [mm] and an
+opacity: :class:`MarkerInk` (force-saturating width), :class:`BrushInk` (width an inverse power
+of speed, seed 000 sec. 4 and GI sec. 5) and :class:`PencilInk` (thin, force-dependent
+darkness).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from inkarm.errors import InputError
+
+A4_MM = (210.0, 297.0)
+
+
+class InkModel(Protocol):
+    """Maps contact force and pen speed to the mark the pen leaves."""
+
+    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
+        """Line width in [mm] and opacity in [0, 1] for a contact force in [N] and a pen
+        speed in [mm/s]."""
+        ...
+
+
+def _require_positive(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not (value > 0 and math.isfinite(value)):
+            raise InputError(f"{owner}.{name}: expected a positive finite number, got {value!r}")
+
+
+def _require_opacity(owner: str, name: str, value: float) -> None:
+    if not 0 < value <= 1:
+        raise InputError(f"{owner}.{name}: expected an opacity in (0, 1], got {value!r}")
+
+
+@dataclass(frozen=True)
+class MarkerInk:
+    """A felt-tip marker: the nib flattens under load, so the width grows with the normal force
+    and saturates,
+
+        w(F) = w0 + k (1 - exp(-F / F0))        [mm],
+
+    at constant opacity.
+
+    Attributes:
+        w0_mm: Width at a feather-light touch in [mm].
+        k_mm: Extra width at full load in [mm].
+        f0_n: Force scale of the saturation in [N].
+        opacity: Darkness of the ink in (0, 1].
+    """
+
+    w0_mm: float = 0.3
+    k_mm: float = 0.5
+    f0_n: float = 1.0
+    opacity: float = 1.0
+
+    def __post_init__(self) -> None:
+        _require_positive("MarkerInk", w0_mm=self.w0_mm, f0_n=self.f0_n)
+        if not (self.k_mm >= 0 and math.isfinite(self.k_mm)):
+            raise InputError(f"MarkerInk.k_mm: expected a finite number >= 0, got {self.k_mm!r}")
+        _require_opacity("MarkerInk", "opacity", self.opacity)
+
+    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
+        return self.w0_mm + self.k_mm * (1.0 - math.exp(-force_n / self.f0_n)), self.opacity
+
+
+@dataclass(frozen=True)
+class BrushInk:
+    """A brush that deposits more ink where it moves slowly: the width is an inverse power of
+    the speed (GI sec. 5), clipped to the bristles' range,
+
+        w(v) = clip(w_ref (v_ref / v)^gamma, w_min, w_max)        [mm].
+
+    Seed 000 sec. 4 says "inversely proportional" (gamma = 1, the default) while GI sec. 5 says
+    "an inverse power function" without giving the exponent; neither gives constants, and both
+    diverge as v -> 0, hence the clip (a resting brush leaves a blob of width w_max).
+
+    Attributes:
+        w_ref_mm: Width at the reference speed in [mm].
+        v_ref_mm_s: Reference speed in [mm/s].
+        gamma: Exponent of the inverse power law.
+        w_min_mm, w_max_mm: Width bounds in [mm].
+        opacity: Darkness of the ink in (0, 1].
+    """
+
+    w_ref_mm: float = 1.5
+    v_ref_mm_s: float = 50.0
+    gamma: float = 1.0
+    w_min_mm: float = 0.3
+    w_max_mm: float = 4.0
+    opacity: float = 0.9
+
+    def __post_init__(self) -> None:
+        _require_positive(
+            "BrushInk",
+            w_ref_mm=self.w_ref_mm,
+            v_ref_mm_s=self.v_ref_mm_s,
+            gamma=self.gamma,
+            w_min_mm=self.w_min_mm,
+            w_max_mm=self.w_max_mm,
+        )
+        if self.w_min_mm > self.w_max_mm:
+            raise InputError(
+                f"BrushInk: w_min_mm = {self.w_min_mm} exceeds w_max_mm = {self.w_max_mm}"
+            )
+        _require_opacity("BrushInk", "opacity", self.opacity)
+
+    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
+        if speed_mm_s <= 0.0:
+            return self.w_max_mm, self.opacity
+        width = self.w_ref_mm * (self.v_ref_mm_s / speed_mm_s) ** self.gamma
+        return min(max(width, self.w_min_mm), self.w_max_mm), self.opacity
+
+
+@dataclass(frozen=True)
+class PencilInk:
+    """A graphite pencil: a thin line of constant width whose darkness grows with the force
+    and saturates,
+
+        a(F) = a_max (1 - exp(-F / F0)).
+
+    (Seed 002's grade-dependent grain texture is not modelled: only the mean darkness.)
+
+    Attributes:
+        width_mm: Line width in [mm].
+        max_opacity: Darkness at full load in (0, 1].
+        f0_n: Force scale of the saturation in [N].
+    """
+
+    width_mm: float = 0.4
+    max_opacity: float = 0.9
+    f0_n: float = 0.7
+
+    def __post_init__(self) -> None:
+        _require_positive("PencilInk", width_mm=self.width_mm, f0_n=self.f0_n)
+        _require_opacity("PencilInk", "max_opacity", self.max_opacity)
+
+    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
+        return self.width_mm, self.max_opacity * (1.0 - math.exp(-force_n / self.f0_n))
+
+
+INK_MODELS: dict[str, type] = {"marker": MarkerInk, "brush": BrushInk, "pencil": PencilInk}
+
+
+def make_ink(name: str, **params: float) -> InkModel:
+    """The ink model called ``name`` ("marker", "brush" or "pencil") with the given parameters."""
+    if name not in INK_MODELS:
+        raise InputError(f"ink model {name!r}: expected one of {sorted(INK_MODELS)}")
+    try:
+        return INK_MODELS[name](**params)
+    except TypeError as err:
+        raise InputError(f"ink model {name!r}: {err}") from None
+
+
+class Canvas:
+    """An ink raster in page coordinates (see the module docstring for the pixel convention).
+
+    Args:
+        size_mm: Page (width, height) in [mm].
+        px_per_mm: Raster resolution in [px/mm].
+        ink: An ink model or the name of one (default "marker").
+        max_segment_mm: Longest pen travel in [mm] left un-rasterised between physics steps.
+        speed_tau_s: Time constant in [s] of the first-order low-pass filter on the pen speed
+            given to the ink model (a physics step's finite difference is noisy).
+    """
+
+    def __init__(
+        self,
+        size_mm: tuple[float, float] = A4_MM,
+        px_per_mm: float = 10.0,
+        ink: InkModel | str = "marker",
+        max_segment_mm: float = 0.5,
+        speed_tau_s: float = 0.02,
+    ) -> None:
+        width_mm, height_mm = (float(v) for v in size_mm)
+        _require_positive(
+            "Canvas",
+            width_mm=width_mm,
+            height_mm=height_mm,
+            px_per_mm=px_per_mm,
+            max_segment_mm=max_segment_mm,
+            speed_tau_s=speed_tau_s,
+        )
+        self.size_mm = (width_mm, height_mm)
+        self.px_per_mm = float(px_per_mm)
+        self.ink: InkModel = make_ink(ink) if isinstance(ink, str) else ink
+        self.max_segment_mm = float(max_segment_mm)
+        self.speed_tau_s = float(speed_tau_s)
+        self.shape = (round(height_mm * px_per_mm), round(width_mm * px_per_mm))
+        if min(self.shape) < 1:
+            raise InputError(f"Canvas: size_mm {size_mm} at {px_per_mm} px/mm has no pixels")
+        # np.full writes every page now, not at the first touches of a run (page faults)
+        self._base = np.full(self.shape, 0.0, np.float32)  # strokes already lifted
+        self._stroke = np.full(self.shape, 0.0, np.float32)  # the stroke in progress
+        self._image = np.full(self.shape, 0.0, np.float32)  # 1 - (1 - base)(1 - stroke)
+        self._stroke_box: list[int] | None = None  # [r0, r1, c0, c1) touched by the stroke
+        self._stale_box: list[int] | None = None  # where _image lags behind _stroke
+        self._dirty_box: list[int] | None = None  # touched since take_dirty_box()
+        self.revision = 0  # incremented at every change of the raster
+        self.n_strokes = 0
+        self._reset_pen()
+
+    # -- the plant's interface ------------------------------------------------------------
+
+    def touch(self, p_mm, force_n: float, t: float) -> None:
+        """The pen tip touches the page at ``p_mm`` = (x, y) in [mm] with normal force
+        ``force_n`` in [N] at time ``t`` in [s]. Call once per physics step while in contact."""
+        x, y, force, t = float(p_mm[0]), float(p_mm[1]), float(force_n), float(t)
+        if not (force >= 0.0 and math.isfinite(force)):
+            raise InputError(f"Canvas.touch: force_n must be finite and >= 0, got {force_n!r}")
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(t)):
+            raise InputError(f"Canvas.touch: non-finite p_mm ({x}, {y}) or t = {t}")
+        if self._last is None:  # pen down: wait for the next step to know the speed
+            self._last = (x, y, t)
+            self._first_force = force
+            self._pending = None
+            return
+        lx, ly, lt = self._last
+        if t < lt:
+            raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous {lt}")
+        dt = t - lt
+        if dt > 0.0:
+            raw = math.hypot(x - lx, y - ly) / dt
+            if self._speed is None:
+                self._speed = raw
+            else:
+                self._speed += (1.0 - math.exp(-dt / self.speed_tau_s)) * (raw - self._speed)
+        if self._first_force is not None:
+            width, opacity = self.ink.mark(self._first_force, self._speed or 0.0)
+            self._stamp(lx, ly, width, lx, ly, width, opacity)
+            self._stamped = (lx, ly, width, opacity)
+            self._first_force = None
+        self._last = (x, y, t)
+        width, opacity = self.ink.mark(force, self._speed or 0.0)
+        sx, sy, sw, sa = self._stamped
+        moved2 = (x - sx) ** 2 + (y - sy) ** 2
+        if (
+            moved2 >= self.max_segment_mm**2
+            or abs(width - sw) * self.px_per_mm >= 0.5
+            or abs(opacity - sa) >= 0.05
+        ):
+            self._stamp(sx, sy, sw, x, y, width, opacity)
+            self._stamped = (x, y, width, opacity)
+            self._pending = None
+        else:
+            self._pending = (x, y, width, opacity)
+
+    def lift(self) -> None:
+        """The pen left the paper: finish the stroke in progress (no-op when none is)."""
+        if self._last is None:
+            return
+        if self._first_force is not None:  # a single touch: a dot, the pen at rest
+            x, y, _ = self._last
+            width, opacity = self.ink.mark(self._first_force, 0.0)
+            self._stamp(x, y, width, x, y, width, opacity)
+        elif self._pending is not None:
+            sx, sy, sw, _ = self._stamped
+            x, y, width, opacity = self._pending
+            self._stamp(sx, sy, sw, x, y, width, opacity)
+        if self._stroke_box is not None:
+            self._refresh()
+            r0, r1, c0, c1 = self._stroke_box
+            self._base[r0:r1, c0:c1] = self._image[r0:r1, c0:c1]
+            self._stroke[r0:r1, c0:c1] = 0.0
+        self._stroke_box = None
+        self.n_strokes += 1
+        self._reset_pen()
+
+    @property
+    def in_contact(self) -> bool:
+        """Whether a stroke is in progress (touched since the last lift)."""
+        return self._last is not None
+
+    def clear(self) -> None:
+        """Blank the page (and forget any stroke in progress)."""
+        for buf in (self._base, self._stroke, self._image):
+            buf.fill(0.0)
+        self._stroke_box = self._stale_box = None
+        self._dirty_box = [0, self.shape[0], 0, self.shape[1]]
+        self.revision += 1
+        self.n_strokes = 0
+        self._reset_pen()
+
+    # -- reading the ink --------------------------------------------------------------------
+
+    @property
+    def image(self) -> np.ndarray:
+        """Darkness in [0, 1], shape (rows, cols), row 0 at the top of the page (a read-only
+        view of the live raster: copy it to keep a snapshot)."""
+        self._refresh()
+        view = self._image.view()
+        view.flags.writeable = False
+        return view
+
+    def pixel_centres_mm(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Page coordinates in [mm], shape (M, 2), of the centres of pixels (rows, cols)."""
+        return pixel_centres_mm(rows, cols, self.shape[0], self.px_per_mm)
+
+    def ink_points_mm(self, threshold: float = 0.5) -> np.ndarray:
+        """Centres in [mm], shape (M, 2), of the pixels whose darkness is >= ``threshold``."""
+        rows, cols = np.nonzero(self.image >= threshold)
+        return self.pixel_centres_mm(rows, cols)
+
+    def to_png(self, path: str | Path) -> Path:
+        """Write the page as a greyscale PNG (black ink on white) and return its path."""
+        from matplotlib.image import imsave
+
+        path = Path(path)
+        imsave(path, self.image, cmap="gray_r", vmin=0.0, vmax=1.0)
+        return path
+
+    def take_dirty_box(self) -> tuple[int, int, int, int] | None:
+        """The pixel box (r0, r1, c0, c1), half-open, changed since the previous call, or None
+        when nothing changed. For one consumer (the texture uploader) only."""
+        box, self._dirty_box = self._dirty_box, None
+        return None if box is None else tuple(box)
+
+    # -- rasterisation ----------------------------------------------------------------------
+
+    def _refresh(self) -> None:
+        """Bring the composite image up to date with the stroke in progress."""
+        if self._stale_box is None:
+            return
+        r0, r1, c0, c1 = self._stale_box
+        stroke, base = self._stroke[r0:r1, c0:c1], self._base[r0:r1, c0:c1]
+        self._image[r0:r1, c0:c1] = 1.0 - (1.0 - base) * (1.0 - stroke)
+        self._stale_box = None
+
+    def _reset_pen(self) -> None:
+        self._last: tuple[float, float, float] | None = None
+        self._stamped: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        self._pending: tuple[float, float, float, float] | None = None
+        self._speed: float | None = None  # low-passed pen speed in [mm/s], None before known
+        self._first_force: float | None = None  # the pen-down force, until its point is laid
+
+    def _stamp(
+        self, x0: float, y0: float, w0: float, x1: float, y1: float, w1: float, opacity: float
+    ) -> None:
+        """Max-composite into the stroke the capsule from (x0, y0) of width w0 to (x1, y1) of
+        width w1 (all in [mm]) with anti-aliased coverage times ``opacity``."""
+        ppm = self.px_per_mm
+        n_rows, n_cols = self.shape
+        # pixel-index coordinates: u along columns, v along rows (pixel centres at integers)
+        u0, u1 = x0 * ppm - 0.5, x1 * ppm - 0.5
+        v0, v1 = n_rows - y0 * ppm - 0.5, n_rows - y1 * ppm - 0.5
+        rad0, rad1 = 0.5 * w0 * ppm, 0.5 * w1 * ppm
+        reach = max(rad0, rad1) + 1.0
+        c0 = max(0, math.floor(min(u0, u1) - reach))
+        c1 = min(n_cols, math.ceil(max(u0, u1) + reach) + 1)
+        r0 = max(0, math.floor(min(v0, v1) - reach))
+        r1 = min(n_rows, math.ceil(max(v0, v1) + reach) + 1)
+        if c0 >= c1 or r0 >= r1 or opacity <= 0.0:
+            return
+        du, dv = u1 - u0, v1 - v0
+        pu = np.arange(c0 - u0, c1 - u0, dtype=np.float32)[None, : c1 - c0]
+        pv = np.arange(r0 - v0, r1 - v0, dtype=np.float32)[: r1 - r0, None]
+        length2 = du * du + dv * dv
+        if length2 > 1e-12:
+            s = pu * np.float32(du / length2) + pv * np.float32(dv / length2)
+            np.maximum(s, 0.0, out=s)
+            np.minimum(s, 1.0, out=s)
+            ex, ey = pu - s * np.float32(du), pv - s * np.float32(dv)
+            # coverage ramps over one pixel across the edge: ~ the pixel's area inside
+            coverage = s * np.float32(rad1 - rad0)
+            coverage += np.float32(rad0 + 0.5)
+            coverage -= np.sqrt(ex * ex + ey * ey)
+        else:
+            coverage = np.float32(max(rad0, rad1) + 0.5) - np.sqrt(pu * pu + pv * pv)
+        np.maximum(coverage, 0.0, out=coverage)
+        np.minimum(coverage, 1.0, out=coverage)
+        coverage *= np.float32(opacity)
+        stroke = self._stroke[r0:r1, c0:c1]
+        np.maximum(stroke, coverage, out=stroke)
+        self._stroke_box = _union(self._stroke_box, [r0, r1, c0, c1])
+        self._stale_box = _union(self._stale_box, [r0, r1, c0, c1])
+        self._dirty_box = _union(self._dirty_box, [r0, r1, c0, c1])
+        self.revision += 1
+
+
+def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
+    """Page coordinates in [mm], shape (M, 2), of raster pixels (rows, cols) of a raster with
+    ``n_rows`` rows at ``px_per_mm``, row 0 at the top (the convention of :class:`Canvas`)."""
+    rows = np.asarray(rows, dtype=float)
+    cols = np.asarray(cols, dtype=float)
+    return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
+
+
+def _union(box: list[int] | None, other: list[int]) -> list[int]:
+    if box is None:
+        return list(other)
+    return [
+        min(box[0], other[0]),
+        max(box[1], other[1]),
+        min(box[2], other[2]),
+        max(box[3], other[3]),
+    ]

@@ -1,0 +1,205 @@
+"""MujocoPlant: the simulated drawing cell behind the Plant protocol.
+
+One control period is ``substeps`` physics steps with the commanded joint torques held. Each
+physics step is split MuJoCo's way: ``mj_step2`` (constraint forces, integration) then
+``mj_step1`` (positions, velocities, contacts of the new state), so that between control periods
+the data is evaluated at the current time and :meth:`read` returns a consistent state.
+
+After each ``mj_step2`` the contact forces belong to the state just left (time t - h): the pen
+tip's normal force comes from ``mj_contactForce`` and, while it is positive, the canvas (if any)
+receives ``canvas.touch(p_mm, force_n, t)`` with the tip position in page [mm] at that same time;
+``canvas.lift()`` is called once when the contact ends.
+
+Divergence (non-finite state, a MuJoCo warning about bad qpos/qvel/qacc, or a joint faster
+than ``max_joint_speed``) raises :class:`inkarm.errors.SimulationError`. MuJoCo's automatic
+reset is disabled so that a diverging run cannot silently restart from the initial pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from inkarm.control.plant import PlantState
+from inkarm.errors import InputError, SimulationError
+from inkarm.sim.arm import JOINT_NAMES, CellConfig, build_model
+
+_DIVERGENCE_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+)
+
+
+@dataclass
+class SimState(PlantState):
+    """A :class:`PlantState` plus what only a simulator can measure.
+
+    Attributes:
+        pen_force: Normal force of the paper on the pen tip in [N] (0 when not touching),
+            from the last physics step.
+        tip_mm: Pen tip position (x, y, z) in the page frame in [mm].
+        pen_compression_mm: Pen slide compression in [mm].
+    """
+
+    pen_force: float = 0.0
+    tip_mm: np.ndarray | None = None
+    pen_compression_mm: float = 0.0
+
+
+class MujocoPlant:
+    """The drawing cell in MuJoCo, driven by joint torques.
+
+    Args:
+        model: A cell model (see :mod:`inkarm.sim.arm`); built from ``config`` when None. The
+            plant owns it: its auto-reset flag is switched off.
+        config: Cell configuration used when ``model`` is None.
+        substeps: Physics steps per control period.
+        canvas: Optional ink raster with ``touch(p_mm, force_n, t)`` and ``lift()``.
+        q0: Initial arm joint angles in [rad]; the model's ``home`` keyframe when None.
+        max_joint_speed: Joint speed in [rad/s] above which the run counts as diverged.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel | None = None,
+        config: CellConfig | None = None,
+        substeps: int = 2,
+        canvas=None,
+        q0=None,
+        max_joint_speed: float = 50.0,
+    ):
+        if int(substeps) < 1:
+            raise InputError(f"MujocoPlant: substeps must be >= 1, got {substeps}")
+        self.model = build_model(config) if model is None else model
+        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+        self.data = mujoco.MjData(self.model)
+        self.substeps = int(substeps)
+        self.canvas = canvas
+        self.max_joint_speed = float(max_joint_speed)
+        self._max_speed_sq = self.max_joint_speed**2
+        m = self.model
+        joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in JOINT_NAMES]
+        if min(joint_ids) < 0:
+            raise InputError(f"MujocoPlant: the model lacks one of the joints {JOINT_NAMES}")
+        self._qpos_adr = np.array([m.jnt_qposadr[j] for j in joint_ids])
+        self._dof_adr = np.array([m.jnt_dofadr[j] for j in joint_ids])
+        self._slide_adr = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")]
+        self._tip_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "pen_tip")
+        self._tip_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "pen_tip")
+        origin_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+        if min(self._tip_site, self._tip_geom, origin_site) < 0:
+            raise InputError("MujocoPlant: the model needs site pen_tip, geom pen_tip and site paper_origin")
+        self._contact = np.zeros(6)
+        self._touching = False
+        self._pen_force = 0.0
+        self._closed = False
+
+        key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home")
+        if key >= 0:
+            mujoco.mj_resetDataKeyframe(m, self.data, key)
+        if q0 is not None:
+            q0 = np.asarray(q0, dtype=float)
+            if q0.shape != (len(JOINT_NAMES),):
+                raise InputError(f"MujocoPlant q0: expected {len(JOINT_NAMES)} angles, got shape {q0.shape}")
+            self.data.qpos[self._qpos_adr] = q0
+        mujoco.mj_forward(m, self.data)
+        # The paper is static: its frame is fixed once the model is evaluated.
+        self._page_origin = self.data.site_xpos[origin_site].copy()
+        self._page_rotation = self.data.site_xmat[origin_site].reshape(3, 3).copy()
+        self._warnings = self._warning_counts()
+
+    @property
+    def dt(self) -> float:
+        """Control period in [s]."""
+        return self.substeps * self.model.opt.timestep
+
+    def _warning_counts(self) -> np.ndarray:
+        numbers = self.data.warning.number
+        return np.array([numbers[w] for w in _DIVERGENCE_WARNINGS])
+
+    def _tip_mm(self) -> np.ndarray:
+        return (self.data.site_xpos[self._tip_site] - self._page_origin) @ self._page_rotation * 1000.0
+
+    def read(self) -> SimState:
+        """The state at the current time (tip from the current kinematics, force from the last
+        physics step)."""
+        d = self.data
+        return SimState(
+            time=d.time,
+            q=d.qpos[self._qpos_adr].copy(),
+            qd=d.qvel[self._dof_adr].copy(),
+            torque=d.ctrl.copy(),
+            pen_force=self._pen_force,
+            tip_mm=self._tip_mm(),
+            pen_compression_mm=1000.0 * d.qpos[self._slide_adr],
+        )
+
+    def command(self, torque=None, q_goal=None, qd_ff=None, pen_down=None) -> None:
+        """Hold joint torques ``torque`` (7,) in [N m] (clamped to the motor limits) until the
+        next command. The simulated arm has no position servo nor separate pen actuator."""
+        if q_goal is not None or qd_ff is not None:
+            raise InputError("MujocoPlant.command: the simulated arm takes joint torques, not q_goal/qd_ff")
+        if torque is not None:
+            self.data.ctrl[:] = torque
+
+    def step(self) -> None:
+        """Advance one control period; feed the canvas; raise SimulationError on divergence."""
+        m, d = self.model, self.data
+        for _ in range(self.substeps):
+            mujoco.mj_step2(m, d)
+            self._pen_force = self._tip_normal_force()
+            if self._pen_force > 0.0:
+                self._touching = True
+                if self.canvas is not None:
+                    # Forces and positions of this pass belong to time d.time - h.
+                    t = d.time - m.opt.timestep
+                    self.canvas.touch(self._tip_mm()[:2], self._pen_force, t)
+            elif self._touching:
+                self._touching = False
+                if self.canvas is not None:
+                    self.canvas.lift()
+            mujoco.mj_step1(m, d)
+        self._check_divergence()
+
+    def _tip_normal_force(self) -> float:
+        d = self.data
+        force = 0.0
+        for i in range(d.ncon):
+            if self._tip_geom in d.contact.geom[i]:
+                mujoco.mj_contactForce(self.model, d, i, self._contact)
+                force += self._contact[0]
+        return force
+
+    def _check_divergence(self) -> None:
+        # One dot product catches both NaN/inf (the comparison fails) and runaway speed.
+        d = self.data
+        if float(np.dot(d.qvel, d.qvel)) <= self._max_speed_sq and np.isfinite(d.qpos[0]):
+            return
+        warnings = self._warning_counts()
+        names = [w.name for w, a, b in zip(_DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
+        where = f"simulation diverged at t = {d.time:.4f} s"
+        why = "unstable gains, too large a time step or absurd torques"
+        if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
+            raise SimulationError(
+                f"{where}: non-finite joint state"
+                + (f" (MuJoCo warned {', '.join(names)})" if names else "") + f"; {why}"
+            )
+        j = int(np.argmax(np.abs(d.qvel)))
+        raise SimulationError(
+            f"{where}: joint {self.model.joint(self.model.dof_jntid[j]).name} moves at "
+            f"{abs(d.qvel[j]):.1f} (rad or m)/s, above the {self.max_joint_speed:.1f} divergence "
+            f"threshold; {why}"
+        )
+
+    def close(self) -> None:
+        """Zero the torques and lift the canvas pen. Idempotent."""
+        if self._closed:
+            return
+        self.data.ctrl[:] = 0.0
+        if self._touching and self.canvas is not None:
+            self.canvas.lift()
+        self._touching = False
+        self._closed = True
