@@ -53,8 +53,8 @@ class ArmKinematics:
                 raise InputError(f"kinematic model: no joint named {name!r}")
             ids.append(jid)
         self.joint_names = tuple(joint_names)
-        self.qpos_adr = np.array([model.jnt_qposadr[j] for j in ids])
-        self.dof_adr = np.array([model.jnt_dofadr[j] for j in ids])
+        self.qpos_adr = _index([model.jnt_qposadr[j] for j in ids])
+        self.dof_adr = _index([model.jnt_dofadr[j] for j in ids])
         self.n = len(ids)
         self.lower = model.jnt_range[ids, 0].copy()
         self.upper = model.jnt_range[ids, 1].copy()
@@ -110,7 +110,15 @@ class ArmKinematics:
         mujoco.mj_comPos(m, d)
         mujoco.mj_makeM(m, d)
         mujoco.mj_fullM(m, d, self._dense_mass)
-        return self._dense_mass[np.ix_(self.dof_adr, self.dof_adr)].copy()
+        return self._dense_mass[self.dof_adr][:, self.dof_adr].copy()
+
+
+def _index(addresses: list[int]) -> slice | np.ndarray:
+    """A slice when the addresses are consecutive (cheaper to index with), else an array."""
+    first = int(addresses[0])
+    if list(addresses) == list(range(first, first + len(addresses))):
+        return slice(first, first + len(addresses))
+    return np.array(addresses)
 
 
 @dataclass(frozen=True)

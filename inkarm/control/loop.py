@@ -92,7 +92,7 @@ class LoopConfig:
     settle_timeout_s: float = 0.6
     contact_threshold_n: float = 0.02
     posture_rate: float = 0.5
-    ik_period_s: float = 0.02
+    ik_period_s: float = 0.04
     go_home: bool = True
     command: str = "torque"
 
@@ -259,7 +259,8 @@ def check_reachable(
     depth = config.force_n / pen_stiffness(kin_model, config)
     posture = home_posture(kin)
     q = posture.copy()
-    cfg = IKConfig(tol_pos=1e-5, tol_tilt=1e-4, max_iter=200)
+    # Task-only steps (no posture pull) warm-started along the stroke: a cheap yes/no.
+    cfg = IKConfig(posture_gain=0.0, tol_pos=1e-5, tol_tilt=1e-4, max_iter=200)
     for k, s in enumerate(drawing.strokes):
         pos = s.pos[:, :2]
         off = ~placement.contains(pos)
@@ -272,7 +273,7 @@ def check_reachable(
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))])
         picks = np.unique(np.searchsorted(arc, np.arange(0.0, arc[-1], spacing_mm)).tolist() + [len(pos) - 1])
         for i in picks:
-            for height in (-depth, config.hover_mm):
+            for height in (-depth,):
                 goal = placement.to_robot([pos[i, 0], pos[i, 1], height])
                 result = solve_ik(kin, goal, placement.pen_axis, q, posture, cfg)
                 if not result.converged:

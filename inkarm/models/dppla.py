@@ -34,7 +34,8 @@ claim holds when, in addition, the m-th break point stays within +-band of its p
 uniform segmentation, m (w-1)/k: each of the k layers then has O(band) rows of O(band)
 candidates, O(k band^2) = O(w^2 / k). :func:`dppla` with ``banded=True`` applies both
 restrictions, so it may miss the optimum when targets crowd far from the uniform segmentation
-(``DPPLAResult.optimal_in_band`` says whether it did, when checked).
+(``DPPLAResult.optimal_in_band`` says whether it did, when checked); ``window=False`` keeps
+only the paper's literal bound on the segment length (O(k w band) = O(w^2) time).
 """
 
 from __future__ import annotations
@@ -225,7 +226,8 @@ def _check_k(k, w: int) -> int:
 
 
 def _windows(k: int, w: int, band: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """Rows each layer m = 0..k may end on: [lo_m, hi_m] (inclusive)."""
+    """Rows each layer m = 0..k may end on: [lo_m, hi_m] (inclusive), within ``band`` of the
+    uniform segmentation unless ``band`` is None."""
     m = np.arange(k + 1)
     lo = m.copy()  # m segments need m+1 samples before ...
     hi = (w - 1) - (k - m)  # ... and k-m more samples after.
@@ -263,15 +265,15 @@ def _bellman(cost: SegmentCost, k: int, prune: bool = True):
     return delta, parent
 
 
-def _bellman_banded(cost: SegmentCost, k: int, band: int):
-    """Banded DP: break point m within ``band`` of m (w-1)/k and segments at most ``band``
-    samples long (the paper's lb = max(j - band, 0)).
+def _bellman_banded(cost: SegmentCost, k: int, band: int, window: bool):
+    """Banded DP: segments at most ``band`` samples long (the paper's lb = max(j - band, 0))
+    and, with ``window``, break point m within ``band`` of m (w-1)/k.
 
     The errors d(j - r, j), r = 1..band, of every row are computed once, in one vectorised
     call (w band = O(w^2 / k) of them, and as much memory); each layer then only gathers.
     """
     w = cost.w
-    lo, hi = _windows(k, w, band)
+    lo, hi = _windows(k, w, band if window else None)
     back = np.arange(1, band + 1)
     j_all = np.arange(w)[:, None]
     i_all = j_all - back[None, :]
@@ -306,6 +308,7 @@ def dppla(
     *,
     banded: bool = False,
     band: int | None = None,
+    window: bool = True,
     weights=None,
     tau=None,
     error: str = "interpolation",
@@ -319,6 +322,8 @@ def dppla(
         banded: Use the banded DP (segments at most ``band`` samples long and each break point
             within ``band`` of the uniform segmentation): O(w^2 / k) instead of O(k w^2).
         band: Band in samples; default the paper's 2 w / k (rounded up).
+        window: For the banded DP, also keep break point m within ``band`` of m (w-1)/k; False
+            bounds only the segment length (the paper's literal lb), in O(w^2).
         weights: Optional (p,) non-negative per-channel weights of the squared error.
         tau: Optional (w,) strictly increasing chord parameter (e.g. sample times in [s]);
             default the sample index n as in the paper. Only used by the interpolation error.
@@ -339,7 +344,7 @@ def dppla(
     if not isinstance(band, (int, np.integer)) or band < 1:
         raise InputError(f"dppla band: expected a positive integer number of samples, got {band!r}")
     band = int(band)
-    delta, parent = _bellman_banded(cost, k, band)
+    delta, parent = _bellman_banded(cost, k, band, window)
     total = float(delta[k, w - 1])
     if not np.isfinite(total):
         raise InputError(

@@ -112,11 +112,11 @@ class GAConfig:
         direction_weight: w in :func:`ordering_fitness`.
     """
 
-    population: int = 30
-    generations: int = 40
+    population: int = 40
+    generations: int = 50
     tournament: int = 3
     crossover_rate: float = 0.9
-    mutation_rate: float = 0.3
+    mutation_rate: float = 0.5
     elite: int = 2
     direction_weight: float = 0.5
 

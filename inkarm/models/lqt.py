@@ -170,6 +170,7 @@ class _Block:
     coef: np.ndarray  # (T, S) stencil on c_t .. c_{t+S-1}, already divided by dt^k, merged at the end
     precision: np.ndarray | None  # (T, D, D); None = identity
     value: np.ndarray | None  # (T, D), shifted so that c_0 = 0
+    weighted: np.ndarray | None = None  # (T, D) P_t v_t, when known in advance
 
     @property
     def start(self) -> int:
@@ -191,6 +192,7 @@ class _Problem:
     discretisation: str
     end_at_rest: bool
     floor: float  # lower bound on the tracking precision at every step (0 if some step is free)
+    ceiling: float  # upper bound on the tracking precision (Gershgorin), nan if other blocks
 
     @property
     def n_free(self) -> int:
@@ -323,7 +325,9 @@ def _problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> _Problem:
         steps = np.arange(n_steps)
         which = np.repeat(np.arange(m), per)
     coef = _merged(steps, stencils[0], n_coef) if stencils[0].size > 1 else _ones(steps.size)
-    blocks = [_Block(0, steps, coef, precisions[which], (means - origin)[which])]
+    shifted = means - origin
+    weighted = (precisions @ shifted[:, :, None])[:, :, 0]
+    blocks = [_Block(0, steps, coef, precisions[which], shifted[which], weighted[which])]
     vel = getattr(stroke, "velocities", None)
     if vel is not None:  # GI sec. 4.3: key-points augmented with velocities (Bezier mimicking)
         if n < 2:
@@ -340,9 +344,10 @@ def _problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> _Problem:
     r = cfg.control_weight(stroke.segment_time)
     everywhere = not stroke.keypoints and cfg.discretisation == "euler"
     floor = 1.0 / np.max(covs.trace(axis1=1, axis2=2)) if everywhere else 0.0
+    ceiling = np.abs(precisions).sum(axis=1).max() if len(blocks) == 1 else np.nan
     return _Problem(
         n, dim, n_steps, n_coef, dt, origin, np.sqrt(r) / dt**n, tuple(blocks), cfg.discretisation,
-        cfg.end_at_rest, floor,
+        cfg.end_at_rest, floor, ceiling,
     )
 
 
@@ -430,7 +435,9 @@ def _rhs(prob: _Problem, noise: tuple | None = None) -> np.ndarray:
     shape = (prob.n_free, prob.dim) if noise is None else (noise[1], prob.n_free, prob.dim)
     rhs = np.zeros(shape)
     for block in prob.blocks:
-        g = (block.precision @ block.value[:, :, None])[:, :, 0]
+        g = block.weighted
+        if g is None:
+            g = (block.precision @ block.value[:, :, None])[:, :, 0]
         if noise is not None:
             rng, k = noise
             # y_t ~ N(v_t, P_t^-1): P_t y_t = P_t v_t + L_t z with P_t = L_t L_t^T
@@ -506,10 +513,13 @@ def _precision_loss(prob: _Problem, obs: np.ndarray) -> float:
     """
     if prob.floor <= 0:
         return np.inf
-    rows = np.abs(obs).sum(axis=0)
-    for off in range(1, obs.shape[0]):
-        rows[off:] += np.abs(obs[off, :-off])
-    return _EPS * (4.0**prob.n * prob.control**2 + rows.max()) / prob.floor
+    ceiling = prob.ceiling
+    if not ceiling >= 0:
+        rows = np.abs(obs).sum(axis=0)
+        for off in range(1, obs.shape[0]):
+            rows[off:] += np.abs(obs[off, :-off])
+        ceiling = rows.max()
+    return _EPS * (4.0**prob.n * prob.control**2 + ceiling) / prob.floor
 
 
 class _Factor:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from inkarm.control.ik import _index
 from inkarm.control.plant import PlantState
 from inkarm.errors import InputError, SimulationError
 from inkarm.sim.arm import JOINT_NAMES, CellConfig, build_model
@@ -84,8 +85,8 @@ class MujocoPlant:
         joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in JOINT_NAMES]
         if min(joint_ids) < 0:
             raise InputError(f"MujocoPlant: the model lacks one of the joints {JOINT_NAMES}")
-        self._qpos_adr = np.array([m.jnt_qposadr[j] for j in joint_ids])
-        self._dof_adr = np.array([m.jnt_dofadr[j] for j in joint_ids])
+        self._qpos_adr = _index([m.jnt_qposadr[j] for j in joint_ids])
+        self._dof_adr = _index([m.jnt_dofadr[j] for j in joint_ids])
         self._slide_adr = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")]
         self._tip_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "pen_tip")
         self._tip_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "pen_tip")
