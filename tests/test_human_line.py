@@ -23,7 +23,8 @@ def _normal_offset(points: np.ndarray, start, end) -> np.ndarray:
 
 
 @pytest.mark.parametrize(
-    ("length_px", "step"), [(10, 0.5), (200, 0.5), (200.5, 0.3), (400, 0.3), (401, 0.2), (5000, 0.2)]
+    ("length_px", "step"),
+    [(10, 0.5), (200, 0.5), (200.5, 0.3), (400, 0.3), (401, 0.2), (5000, 0.2)],
 )
 def test_time_step_follows_table_3_1(length_px, step):
     assert hl.time_step_for_length(length_px) == step
@@ -51,11 +52,16 @@ def test_control_points_sit_on_the_minimum_jerk_path_plus_a_normal_squiggle():
 
 @settings(max_examples=30, deadline=None)
 @given(
-    x0=st.floats(-100, 100), y0=st.floats(-100, 100),
-    angle=st.floats(0, 2 * np.pi), length=st.floats(2.0, 150.0),
-    squiggle=st.floats(0.0, 20.0), seed=st.integers(0, 2**32 - 1),
+    x0=st.floats(-100, 100),
+    y0=st.floats(-100, 100),
+    angle=st.floats(0, 2 * np.pi),
+    length=st.floats(2.0, 150.0),
+    squiggle=st.floats(0.0, 20.0),
+    seed=st.integers(0, 2**32 - 1),
 )
-def test_line_keeps_its_ends_and_stays_within_the_squiggle_band(x0, y0, angle, length, squiggle, seed):
+def test_line_keeps_its_ends_and_stays_within_the_squiggle_band(
+    x0, y0, angle, length, squiggle, seed
+):
     start = np.array([x0, y0])
     end = start + length * np.array([np.cos(angle), np.sin(angle)])
     line = hl.human_line(start, end, rng=seed, squiggle=squiggle)

@@ -11,7 +11,9 @@ from inkarm.models.minjerk import point_to_point
 from inkarm.models.trajectory import Trajectory
 
 
-def _ellipse(a: float, b: float, omega: float, n: int = 4001, with_velocity: bool = False) -> Trajectory:
+def _ellipse(
+    a: float, b: float, omega: float, n: int = 4001, with_velocity: bool = False
+) -> Trajectory:
     t = np.linspace(0.0, 2 * np.pi / omega, n)
     pos = np.column_stack([a * np.cos(omega * t), b * np.sin(omega * t)])
     vel = np.column_stack([-a * omega * np.sin(omega * t), b * omega * np.cos(omega * t)])
@@ -82,7 +84,9 @@ def test_speed_peaks_counts_separated_bumps_above_the_threshold():
     bumps = [(0.5, 1.0), (1.5, 0.6), (2.5, 0.05), (3.4, 0.8)]  # (centre, height)
     v = sum(h * np.exp(-0.5 * ((t - c) / 0.08) ** 2) for c, h in bumps)
     x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
-    traj = Trajectory(t=t, pos=np.column_stack([x, np.zeros_like(x)]), vel=np.column_stack([v, 0 * v]))
+    traj = Trajectory(
+        t=t, pos=np.column_stack([x, np.zeros_like(x)]), vel=np.column_stack([v, 0 * v])
+    )
     assert kin.speed_peaks(traj) == 3  # the 5 % bump is under 10 % of the maximum
     assert kin.speed_peaks(traj, threshold=0.01) == 4
     assert kin.speed_peaks(traj, threshold=0.7) == 2

@@ -56,7 +56,9 @@ def test_via_point_trajectory_passes_through_via_with_rest_ends_and_c4_joint():
     spline = mj.min_jerk_spline(points, 2.0, via_times=[0.7])
     np.testing.assert_allclose(spline.evaluate(np.array([0.0, 0.7, 2.0])), points, atol=1e-9)
     for derivative in (1, 2):
-        np.testing.assert_allclose(spline.evaluate(np.array([0.0, 2.0]), derivative), 0.0, atol=1e-8)
+        np.testing.assert_allclose(
+            spline.evaluate(np.array([0.0, 2.0]), derivative), 0.0, atol=1e-8
+        )
     eps = 1e-7
     for derivative in (1, 2, 3, 4):
         left = spline.evaluate(np.array([0.7 - eps]), derivative)

@@ -28,14 +28,25 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "plan",
         help="realise a plan file (Gaussian targets, key-points, human lines) into trajectories",
-        description=__doc__.split("\n\n")[0].strip("`"),
+        description="Realise a plan file into trajectories: mean.csv, samples.npz (with --samples) "
+        "and the plan figure (plan.png, plan.svg). Schema: see inkarm.models.planfile.",
     )
     p.add_argument("file", type=Path, help="plan file (TOML); schema in inkarm.models.planfile")
     p.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
-    p.add_argument("--samples", type=int, default=None, metavar="K",
-                   help="samples per stroke (default: the file's 'samples', else 0)")
-    p.add_argument("--seed", type=int, default=None, metavar="S",
-                   help="random seed (default: the file's 'seed', else 0)")
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=None,
+        metavar="K",
+        help="samples per stroke (default: the file's 'samples', else 0)",
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        metavar="S",
+        help="random seed (default: the file's 'seed', else 0)",
+    )
     p.add_argument("--no-figure", action="store_true", help="skip plan.png and plan.svg")
     return p
 
@@ -64,8 +75,10 @@ def run(args) -> int:
         written += save_plan_figure(result, out / "plan")
     n = sum(s.n for s in result.drawing.strokes)
     duration = result.drawing.strokes[-1].t[-1]
-    print(f"{args.file}: {len(result.strokes)} strokes, {n} samples over {duration:.2f} s, "
-          f"{result.n_samples} sampled trajectories per stroke")
+    print(
+        f"{args.file}: {len(result.strokes)} strokes, {n} samples over {duration:.2f} s, "
+        f"{result.n_samples} sampled trajectories per stroke"
+    )
     for path in written:
         print(f"  wrote {path}")
     return 0

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inkarm.commands.write import ink
+from inkarm.commands.write import check_common, ink, save_figure
 from inkarm.models.glyphs import Tag, make_tag
 from inkarm.models.handstyles import get_handstyle, load_handstyles
 from inkarm.models.trajectory import Drawing
@@ -28,7 +28,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--style", default=DEFAULT_STYLE, help=f"handstyle name (default {DEFAULT_STYLE})")
+    p.add_argument(
+        "--style", default=DEFAULT_STYLE, help=f"handstyle name (default {DEFAULT_STYLE})"
+    )
     p.add_argument("--styles", type=Path, help="TOML file with extra [styles.NAME] handstyles")
     p.add_argument("--glyphs", type=int, default=5, help="glyphs in the tag (default 5)")
     p.add_argument("--size", type=float, default=12.0, help="glyph height in [mm] (default 12)")
@@ -37,6 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
+    check_common(args)
     extra = load_handstyles(args.styles) if args.styles else None
     style = get_handstyle(args.style, extra)
     tag = make_tag(style, seed=args.seed, n_glyphs=args.glyphs, size=args.size)
@@ -45,7 +48,7 @@ def run(args) -> int:
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
     fig = tag_figure(tag, drawing, title=f"seed {args.seed}, style {args.style}")
-    fig.savefig(args.out / "tag.png", dpi=200)
+    save_figure(fig, args.out / "tag.png")
     n = sum(len(p) for p in tag.points)
     print(
         f"{len(tag.points)} glyphs, {n} targets, {drawing.strokes[-1].t[-1]:.2f} s; "
@@ -77,15 +80,25 @@ def tag_figure(tag: Tag, drawing: Drawing, title: str = ""):
         ax_ga.plot(*pts.T, "-", color=colours[k % 10], lw=1.0, alpha=0.8)
         ax_ga.plot(*pts.T, "o", color=colours[k % 10], ms=3)
         ax_ga.plot(*pts[0], "o", mfc="none", mec="black", ms=6)
-    ax_ga.set_title("(a) random polar targets, ordered by the GA (circle: first)", fontsize=9, loc="left")
+    ax_ga.set_title(
+        "(a) random polar targets, ordered by the GA (circle: first)", fontsize=9, loc="left"
+    )
 
     for stroke in tag.plan.strokes:
         for mean, cov in zip(stroke.means, stroke.covs):
             val, vec = np.linalg.eigh(cov)
             angle = np.degrees(np.arctan2(vec[1, 1], vec[0, 1]))
             ax_tag.add_patch(
-                Ellipse(mean, 2 * np.sqrt(val[1]), 2 * np.sqrt(val[0]), angle=angle,
-                        facecolor="#f7d774", edgecolor="#d9a400", alpha=0.45, lw=0.5)
+                Ellipse(
+                    mean,
+                    2 * np.sqrt(val[1]),
+                    2 * np.sqrt(val[0]),
+                    angle=angle,
+                    facecolor="#f7d774",
+                    edgecolor="#d9a400",
+                    alpha=0.45,
+                    lw=0.5,
+                )
             )
         ax_tag.plot(*stroke.means.T, "-", color="#bbbbbb", lw=0.6)
         ax_tag.plot(*stroke.means.T, ".", color="#c0392b", ms=3)
@@ -103,6 +116,8 @@ def tag_figure(tag: Tag, drawing: Drawing, title: str = ""):
     ax_fit.set_xlabel("generation", fontsize=8)
     ax_fit.set_ylabel("best fitness", fontsize=8)
     ax_fit.tick_params(labelsize=7)
-    ax_fit.set_title("(c) GA with elitism: best fitness per glyph never falls", fontsize=9, loc="left")
+    ax_fit.set_title(
+        "(c) GA with elitism: best fitness per glyph never falls", fontsize=9, loc="left"
+    )
     fig.tight_layout()
     return fig

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.errors import InputError
 from inkarm.models.handstyles import PRESETS, get_handstyle, load_handstyles
 from inkarm.models.text import (
     DEFAULT_FONT,
@@ -29,25 +30,47 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="The glyphs of a Hershey script font become Gaussian targets, letters are "
         "joined by ligatures and the LQT draws them in the chosen handstyle. Writes "
         "drawing.csv, drawing.svg and write.png (font in grey, targets, stylised ink). "
-        "Handstyles: "
-        + "; ".join(f"{s.name}: {s.description}" for s in PRESETS.values()),
+        "Handstyles: " + "; ".join(f"{s.name}: {s.description}" for s in PRESETS.values()),
     )
     p.add_argument("text", help="the text (use \\n in the shell's quoting for new lines)")
     p.add_argument("--out", type=Path, required=True, help="output folder")
-    p.add_argument("--style", default=DEFAULT_STYLE, help=f"handstyle name (default {DEFAULT_STYLE})")
+    p.add_argument(
+        "--style", default=DEFAULT_STYLE, help=f"handstyle name (default {DEFAULT_STYLE})"
+    )
     p.add_argument("--styles", type=Path, help="TOML file with extra [styles.NAME] handstyles")
     p.add_argument(
-        "--height", type=float, default=DEFAULT_HEIGHT, help="letter (cap) height in [mm] (default 10)"
+        "--height",
+        type=float,
+        default=DEFAULT_HEIGHT,
+        help="letter (cap) height in [mm] (default 10)",
     )
     p.add_argument("--font", default=DEFAULT_FONT, help=f"Hershey font (default {DEFAULT_FONT})")
     p.add_argument("--seed", type=int, default=0, help="seed for the covariance perturbation rho")
     p.add_argument("--dt", type=float, default=0.01, help="LQT time step in [s] (default 0.01)")
     p.add_argument("--margin", type=float, default=20.0, help="page margins in [mm] (default 20)")
-    p.add_argument("--line-height", type=float, help="base line spacing in [mm] (default 2 x height)")
+    p.add_argument(
+        "--line-height", type=float, help="base line spacing in [mm] (default 2 x height)"
+    )
     return p
 
 
+def check_common(args) -> None:
+    """Refuse a negative seed and an output path that is a file (shared with ``tag``)."""
+    if args.seed < 0:
+        raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(f"--out {args.out}: exists and is not a directory")
+
+
+def save_figure(fig, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig.savefig(path, dpi=200)
+    plt.close(fig)
+
+
 def run(args) -> int:
+    check_common(args)
     extra = load_handstyles(args.styles) if args.styles else None
     style = get_handstyle(args.style, extra)
     layout = PageLayout(margins=(args.margin,) * 4, line_height=args.line_height)
@@ -59,9 +82,12 @@ def run(args) -> int:
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
     deviation = max(outline_deviation(tp, drawing).values())
-    fig = write_figure(tp, drawing, title=f"{args.style}: {len(drawing.strokes)} strokes, "
-                       f"max {deviation:.2f} mm from the font")
-    fig.savefig(args.out / "write.png", dpi=200)
+    fig = write_figure(
+        tp,
+        drawing,
+        title=f"{args.style}: {len(drawing.strokes)} strokes, max {deviation:.2f} mm from the font",
+    )
+    save_figure(fig, args.out / "write.png")
     letters = sum(1 for c in text if not c.isspace())
     print(
         f"{letters} letters in {len(drawing.strokes)} strokes, "
@@ -71,7 +97,9 @@ def run(args) -> int:
     return 0
 
 
-def ink(ax, drawing: Drawing, width: tuple[float, float] = (0.6, 2.2), colour: str = "black") -> None:
+def ink(
+    ax, drawing: Drawing, width: tuple[float, float] = (0.6, 2.2), colour: str = "black"
+) -> None:
     """Draw the strokes with a width falling with speed, like ink pooling where the pen is
     slow (seed 000 sec. 4); ``width`` = (fastest, slowest) line width in points."""
     from matplotlib.collections import LineCollection
@@ -82,7 +110,9 @@ def ink(ax, drawing: Drawing, width: tuple[float, float] = (0.6, 2.2), colour: s
         segments = np.stack([s.pos[:-1, :2], s.pos[1:, :2]], axis=1)
         slow = 1.0 - np.clip(0.5 * (s.speed()[:-1] + s.speed()[1:]) / top, 0.0, 1.0)
         widths = width[0] + (width[1] - width[0]) * slow
-        ax.add_collection(LineCollection(segments, linewidths=widths, colors=colour, capstyle="round"))
+        ax.add_collection(
+            LineCollection(segments, linewidths=widths, colors=colour, capstyle="round")
+        )
 
 
 def write_figure(tp: TextPlan, drawing: Drawing, title: str = ""):

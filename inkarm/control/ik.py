@@ -19,6 +19,7 @@ step limit. Units: SI inside (m, rad), as in MuJoCo; callers in page millimetres
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -237,14 +238,14 @@ def solve_ik(
 
 def track_path(
     kin: ArmKinematics, points: np.ndarray, axis_goal, q0, q_posture,
-    cfg: IKConfig = IKConfig(), labels=None,
+    cfg: IKConfig = IKConfig(), label: Callable[[int], str] | None = None,
 ) -> np.ndarray:
     """Joint path (N, n) [rad] through ``points`` (N, 3) [m], warm-started from ``q0``.
 
     Closed-loop inverse kinematics: one null-space step per sample (so the posture drift is the
     same at every sample and the joint path stays smooth: pass a ``cfg`` whose posture and
     limit gains are rates times the sample period), then task-only steps until the tip is
-    within tolerance. Raises UnreachableError naming the first sample (``labels[i]`` when
+    within tolerance. Raises UnreachableError naming the first sample (``label(i)`` when
     given) whose tip error stays above ``100 * tol_pos`` or which sits at a joint limit.
     """
     points = np.asarray(points, float)
@@ -263,7 +264,7 @@ def track_path(
         pos_err, tilt_err = task_error(e)
         at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
         if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or at_limit.any():
-            where = labels[i] if labels is not None else f"sample {i}"
+            where = label(i) if label is not None else f"sample {i}"
             why = (
                 f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"
                 if at_limit.any()

@@ -455,35 +455,54 @@ def run_drawing(
     f_star = config.force_n
     torque_mode = config.command == "torque"
     report_every = max(1, int(round(0.1 / dt)))
+    settle_at = np.zeros(len(ref), dtype=bool)
+    settle_at[list(ref.settle)] = True
+    senses_force = getattr(state, "pen_force", None) is not None
+    senses_tip = getattr(state, "tip_mm", None) is not None
+    # Local names: this loop runs once per control period and its Python cost is the budget.
+    q_ref, qd_ref, inertia, normal_q = ref.q, ref.qd, ref.inertia, ref.normal_q
+    press_tau = f_star * ref.normal_tau
+    phases, bias, update = ref.phase, kin.bias, pid.update
+    nan_torque = np.full(kin.n, np.nan)
 
     z_corr = 0.0  # force-loop correction along the normal, [m] (positive = deeper)
     row, i, waited, settled_for = 0, 0, 0, 0
+    n_ref = len(ref)
     wall0 = _time.perf_counter()
     try:
-        while i < len(ref):
+        while i < n_ref:
             state = plant.read()
-            force = getattr(state, "pen_force", None)
-            phase = ref.phase[i]
-            pressing = phase == DRAW or (i in ref.settle and waited > 0)
-            if force is not None and pressing and force > config.contact_threshold_n:
+            force = state.pen_force if senses_force else np.nan
+            phase = phases[i]
+            holding = settle_at[i] and senses_force
+            pressing = phase == DRAW or (holding and waited > 0)
+            if pressing and force > config.contact_threshold_n:
                 z_corr = min(max(z_corr + k_force * (f_star - force), -z_limit), z_limit)
-            q_goal = ref.q[i] + z_corr * ref.normal_q[i]
+            q_goal = q_ref[i] + z_corr * normal_q[i]
             if torque_mode:
-                feedforward = kin.bias(state.q, state.qd) + ref.inertia[i]
+                feedforward = bias(state.q, state.qd) + inertia[i]
                 if pressing:
-                    feedforward -= f_star * ref.normal_tau[i]
-                tau = pid.update(q_goal, state.q, state.qd, ref.qd[i], feedforward)
+                    feedforward -= press_tau[i]
+                tau = update(q_goal, state.q, state.qd, qd_ref[i], feedforward)
                 plant.command(torque=tau)
             else:
-                tau = np.full(kin.n, np.nan)
-                plant.command(q_goal=q_goal, qd_ff=ref.qd[i])
-            _record(log, row, state, tau, force, ref, i, kin, placement)
+                tau = nan_torque
+                plant.command(q_goal=q_goal, qd_ff=qd_ref[i])
+            log.time[row] = state.time
+            log.q[row] = state.q
+            log.qd[row] = state.qd
+            log.torque[row] = tau
+            log.tip[row] = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            log.force[row] = force
+            log.reference[row] = ref.page_mm[i]
+            log.phase[row] = phase
+            log.stroke[row] = ref.stroke[i]
             row += 1
             plant.step()
             if progress is not None and row % report_every == 0:
-                progress(i / len(ref), PHASES[phase])
+                progress(i / n_ref, PHASES[phase])
             # Hold the end of a descent until the force has settled at its set point.
-            if i in ref.settle and force is not None and waited < timeout_ticks:
+            if holding and waited < timeout_ticks:
                 waited += 1
                 settled_for = settled_for + 1 if abs(force - f_star) < config.settle_tol_n else 0
                 if settled_for < settle_ticks:
@@ -498,22 +517,8 @@ def run_drawing(
     result = log.truncated(row)
     result.wall_s = _time.perf_counter() - wall0
     if progress is not None:
-        progress(1.0, PHASES[ref.phase[-1]])
+        progress(1.0, PHASES[phases[-1]])
     return result
-
-
-def _record(log: DrawLog, row: int, state, tau, force, ref: Reference, i: int,
-            kin: ArmKinematics, placement: PagePlacement) -> None:
-    log.time[row] = state.time
-    log.q[row] = state.q
-    log.qd[row] = state.qd
-    log.torque[row] = tau
-    tip = getattr(state, "tip_mm", None)
-    log.tip[row] = tip if tip is not None else placement.to_page(kin.fk(state.q)[0])
-    log.force[row] = np.nan if force is None else force
-    log.reference[row] = ref.page_mm[i]
-    log.phase[row] = ref.phase[i]
-    log.stroke[row] = ref.stroke[i]
 
 
 __all__ = [

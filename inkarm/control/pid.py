@@ -53,7 +53,8 @@ class PIDGains:
             if not np.all(np.isfinite(arr)):
                 raise InputError(f"PIDGains.{name}: NaN or inf in {arr.tolist()}")
             arrays[name] = arr
-        n = max(a.size for a in arrays.values())
+        # kp fixes the joint count unless it is a scalar to broadcast.
+        n = arrays["kp"].size if arrays["kp"].size > 1 else max(a.size for a in arrays.values())
         for name, arr in arrays.items():
             if arr.size == 1:
                 arr = np.full(n, arr[0])

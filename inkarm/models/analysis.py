@@ -152,7 +152,11 @@ class Analysis:
 
 def analyse(traj: Trajectory, compression: float = 0.75, banded: bool = False) -> Analysis:
     """DPPLA of ``traj`` positions at compression rate ``compression``, then density against
-    curvature and the target-based power law (seed 001, sec. 5)."""
+    curvature and the target-based power law (seed 001, sec. 5).
+
+    The DPPLA uses the paper's interpolation error with the sample times as chord parameter
+    (the paper's frame index n when the trace is sampled uniformly); exact unless ``banded``.
+    """
     k = segments_for_compression(compression, traj.n, traj.dim)
     if k < 3:
         raise InputError(

@@ -49,8 +49,9 @@ from inkarm.errors import InputError
 from inkarm.models.trajectory import Trajectory
 
 ERRORS = ("interpolation", "perpendicular")
-VERIFY_BUDGET = 2e7
-"""Largest k w^2 / 2 for which a banded result is checked against the exact DP by default."""
+EXACT_BUDGET = 2e7
+"""Largest k w^2 / 2 (inner DP steps) for which the exact DP counts as cheap: a banded result
+is then checked against it by default (and :mod:`inkarm.models.restyle` prefers it)."""
 
 
 @dataclass(frozen=True)
@@ -65,7 +66,7 @@ class DPPLAResult:
         band: The band in samples (banded DP only).
         optimal_in_band: For the banded DP, whether its cost equals the exact optimum's,
             decided by running the exact DP as a certificate; None when that was not run
-            (k w^2 / 2 above ``VERIFY_BUDGET`` and ``verify`` not forced), and always True
+            (k w^2 / 2 above ``EXACT_BUDGET`` and ``verify`` not forced), and always True
             for the exact DP.
     """
 
@@ -329,7 +330,7 @@ def dppla(
             default the sample index n as in the paper. Only used by the interpolation error.
         error: "interpolation" (the paper's) or "perpendicular"; see the module docstring.
         verify: For the banded DP, run the exact DP to fill ``optimal_in_band``: True always,
-            False never, None when k w^2 / 2 <= ``VERIFY_BUDGET``.
+            False never, None when k w^2 / 2 <= ``EXACT_BUDGET``.
     """
     x, tau = _check_samples(x, weights, tau)
     w = x.shape[0]
@@ -352,7 +353,7 @@ def dppla(
             f"(need band >= {math.ceil((w - 1) / k)})"
         )
     in_band = None
-    if verify or (verify is None and k * w * w / 2 <= VERIFY_BUDGET):
+    if verify or (verify is None and k * w * w / 2 <= EXACT_BUDGET):
         exact, _ = _bellman(cost, k)
         optimum = float(exact[k, w - 1])
         in_band = total <= optimum + 1e-9 * max(optimum, 1.0)
@@ -365,7 +366,8 @@ def dppla_tolerance(
     """The exact DPPLA with the fewest segments whose RMS error sqrt(delta / w) is <= ``rms``.
 
     The exact DP yields delta(m, w) for every m <= k_max at once; k_max doubles until the
-    tolerance is met, so the work is at most about twice that of the final k.
+    tolerance is met, so the work is at most about four times that of the exact DP at the
+    final k.
     """
     x, tau = _check_samples(x, weights, tau)
     if not (isinstance(rms, (int, float)) and np.isfinite(rms) and rms >= 0):

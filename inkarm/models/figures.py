@@ -79,8 +79,11 @@ def plan_figure(result: PlanResult, title: str | None = None):
     ax_speed.set_ylim(bottom=0.0)
     if len(result.strokes) > 1:
         ax_speed.legend(
-            fontsize="small", frameon=False, ncol=min(len(result.strokes), 4),
-            loc="lower right", bbox_to_anchor=(1.0, 1.0),
+            fontsize="small",
+            frameon=False,
+            ncol=min(len(result.strokes), 4),
+            loc="lower right",
+            bbox_to_anchor=(1.0, 1.0),
         )
     fig.tight_layout()
     return fig

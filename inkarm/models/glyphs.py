@@ -41,9 +41,13 @@ def pmx(a, b, lo: int, hi: int) -> np.ndarray:
     b = np.asarray(b)
     m = a.shape[0]
     if a.shape != (m,) or b.shape != (m,):
-        raise InputError(f"pmx: parents must be 1-D of equal length, got shapes {a.shape} and {b.shape}")
+        raise InputError(
+            f"pmx: parents must be 1-D of equal length, got shapes {a.shape} and {b.shape}"
+        )
     if not (np.array_equal(np.sort(a), np.arange(m)) and np.array_equal(np.sort(b), np.arange(m))):
-        raise InputError(f"pmx: parents must be permutations of 0..{m - 1}, got {a.tolist()} and {b.tolist()}")
+        raise InputError(
+            f"pmx: parents must be permutations of 0..{m - 1}, got {a.tolist()} and {b.tolist()}"
+        )
     if not 0 <= lo <= hi <= m:
         raise InputError(f"pmx: section [{lo}, {hi}) is not within 0..{m}")
     return _pmx(a.tolist(), b.tolist(), lo, hi)
@@ -131,7 +135,9 @@ class GAConfig:
                 f"{self.population} and {self.tournament}"
             )
         if self.elite > self.population:
-            raise InputError(f"GAConfig elite: {self.elite} exceeds the population {self.population}")
+            raise InputError(
+                f"GAConfig elite: {self.elite} exceeds the population {self.population}"
+            )
         for key in ("crossover_rate", "mutation_rate"):
             value = getattr(self, key)
             if not 0.0 <= value <= 1.0:
@@ -148,7 +154,9 @@ class Evolution:
     history: np.ndarray
 
 
-def evolve_order(points: np.ndarray, rng: np.random.Generator, cfg: GAConfig = GAConfig()) -> Evolution:
+def evolve_order(
+    points: np.ndarray, rng: np.random.Generator, cfg: GAConfig = GAConfig()
+) -> Evolution:
     """Order ``points`` (m, 2) by the GA of seed 000 sec. 4.2 (see module docstring)."""
     m = len(points)
     if m < 2:

@@ -80,16 +80,24 @@ class Handstyle:
         where = f"handstyle {self.name!r}"
         basis = np.asarray(self.basis, dtype=float)
         if basis.shape != (2, 2) or not np.all(np.isfinite(basis)):
-            raise ScenarioError(f"{where}: basis must be two finite 2-D vectors, got {basis.tolist()}")
+            raise ScenarioError(
+                f"{where}: basis must be two finite 2-D vectors, got {basis.tolist()}"
+            )
         if abs(np.linalg.det(basis)) < 1e-9:
-            raise ScenarioError(f"{where}: basis vectors {basis.T.tolist()} are parallel (singular H)")
+            raise ScenarioError(
+                f"{where}: basis vectors {basis.T.tolist()} are parallel (singular H)"
+            )
         object.__setattr__(self, "basis", basis)
         _positive(where, "h", self.h)
         _positive(where, "d", self.d)
         _positive(where, "segment_time", self.segment_time)
         if not (np.isfinite(self.rho) and self.rho >= 0):
             raise ScenarioError(f"{where}: rho must be >= 0, got {self.rho}")
-        if isinstance(self.order, bool) or int(self.order) != self.order or not 1 <= self.order <= 7:
+        if (
+            isinstance(self.order, bool)
+            or int(self.order) != self.order
+            or not 1 <= self.order <= 7
+        ):
             raise ScenarioError(f"{where}: order must be an integer in 1..7, got {self.order}")
         object.__setattr__(self, "order", int(self.order))
         if self.max_spacing is not None:
@@ -111,7 +119,9 @@ class Handstyle:
 
         return np.asarray(semi_tied_covariances(m, self.basis, self.h, rho=self.rho, seed=rng))
 
-    def stroke_plan(self, means: np.ndarray, rng: np.random.Generator, meta: dict | None = None) -> StrokePlan:
+    def stroke_plan(
+        self, means: np.ndarray, rng: np.random.Generator, meta: dict | None = None
+    ) -> StrokePlan:
         """A stroke through ``means`` (m, 2) [mm] with this style's covariances and timing."""
         covs = self.covariances(len(means), rng)
         targets = tuple(GaussianTarget(mu, c) for mu, c in zip(means, covs))
@@ -215,7 +225,9 @@ PRESETS: dict[str, Handstyle] = {
 _KEYS = {f.name for f in fields(Handstyle)} - {"name"}
 
 
-def handstyle_from_mapping(table: dict, name: str = "custom", where: str = "handstyle") -> Handstyle:
+def handstyle_from_mapping(
+    table: dict, name: str = "custom", where: str = "handstyle"
+) -> Handstyle:
     """A user handstyle from a mapping (a TOML table or a dict).
 
     Keys are the :class:`Handstyle` fields (``basis`` as a list of two basis vectors) plus
@@ -224,7 +236,9 @@ def handstyle_from_mapping(table: dict, name: str = "custom", where: str = "hand
     Unknown keys raise :class:`ScenarioError` naming the key.
     """
     if not isinstance(table, dict):
-        raise ScenarioError(f"{where}: expected a table of handstyle settings, got {type(table).__name__}")
+        raise ScenarioError(
+            f"{where}: expected a table of handstyle settings, got {type(table).__name__}"
+        )
     allowed = _KEYS | {"base", "slant", "stretch"}
     for key in table:
         if key not in allowed:
@@ -233,22 +247,26 @@ def handstyle_from_mapping(table: dict, name: str = "custom", where: str = "hand
             )
     values = dict(table)
     base = get_handstyle(str(values.pop("base", "faithful")))
-    if "slant" in values or "stretch" in values:
-        if "basis" in values:
+    if "basis" in values:
+        if "slant" in values or "stretch" in values:
             raise ScenarioError(f"{where}: give either basis or slant/stretch, not both")
+        try:
+            values["basis"] = np.array(values["basis"], dtype=float).T
+        except (TypeError, ValueError):
+            raise ScenarioError(
+                f"{where}: basis must be two 2-D vectors, got {values['basis']!r}"
+            ) from None
+    elif "slant" in values or "stretch" in values:
         values["basis"] = slanted_basis(
             _number(where, "slant", values.pop("slant", 0.0)),
             _number(where, "stretch", values.pop("stretch", 1.0)),
         )
-    if "basis" in values:
-        try:
-            values["basis"] = np.array(values["basis"], dtype=float).T
-        except (TypeError, ValueError):
-            raise ScenarioError(f"{where}: basis must be two 2-D vectors, got {values['basis']!r}") from None
     for key in ("h", "rho", "d", "segment_time", "thin_angle", "max_spacing", "ligature_angle"):
         if key in values:
             values[key] = _number(where, key, values[key])
-    if "order" in values and (isinstance(values["order"], bool) or not isinstance(values["order"], int)):
+    if "order" in values and (
+        isinstance(values["order"], bool) or not isinstance(values["order"], int)
+    ):
         raise ScenarioError(f"{where}: order must be an integer in 1..7, got {values['order']!r}")
     try:
         return replace(base, name=name, **values)
@@ -273,7 +291,7 @@ def load_handstyles(path: str | Path) -> dict[str, Handstyle]:
         raise ScenarioError(f"{path}: not valid TOML: {e}") from None
     unknown = set(doc) - {"styles"}
     if unknown:
-        raise ScenarioError(f"{path}: unknown key {sorted(unknown)[0]!r}; expected [styles.NAME] tables")
+        raise ScenarioError(f"{path}: unknown key {min(unknown)!r}; expected [styles.NAME] tables")
     styles = doc.get("styles", {})
     if not isinstance(styles, dict):
         raise ScenarioError(f"{path}: styles must be a table of [styles.NAME] tables")

@@ -93,12 +93,14 @@ def control_points(
     p0 = np.asarray(start, dtype=float)
     p1 = np.asarray(end, dtype=float)
     if p0.ndim != 1 or p0.shape != p1.shape or p0.shape[0] not in (2, 3):
-        raise InputError(f"human line: start and end must be 2-D or 3-D points, got {p0.shape} and {p1.shape}")
+        raise InputError(
+            f"human line: start and end must be 2-D or 3-D points, got {p0.shape} and {p1.shape}"
+        )
     if not (np.all(np.isfinite(p0)) and np.all(np.isfinite(p1))):
         raise InputError("human line: NaN or inf in the end points")
     _check_params(squiggle, px_mm, 1.0, 1.0)
     length_px = float(np.linalg.norm(p1 - p0)) / px_mm
-    n = int(round(THESIS_CLOCK / time_step_for_length(length_px)))
+    n = round(THESIS_CLOCK / time_step_for_length(length_px))
     tau = np.linspace(0.0, 1.0, n + 1)
     s = quintic_profile(tau)[0]
     points = p0 + np.outer(s, p1 - p0)  # seed 002 eq. 3.1
@@ -149,7 +151,9 @@ def human_line(
     t = np.minimum(np.arange(steps + 1) * dt, duration)
     t[-1] = duration
     # arc length of the spline on a fine grid of its parameter u, then invert it
-    u_fine = np.linspace(0.0, points.shape[0] - 1, ARC_SAMPLES_PER_SEGMENT * (points.shape[0] - 1) + 1)
+    u_fine = np.linspace(
+        0.0, points.shape[0] - 1, ARC_SAMPLES_PER_SEGMENT * (points.shape[0] - 1) + 1
+    )
     fine, _ = catmull_rom(points, u_fine)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(fine, axis=0), axis=1))])
     s, ds, _, _ = quintic_profile(t / duration)

@@ -130,7 +130,9 @@ def power_law_fit(
     if not 0.0 <= min_speed < 1.0:
         raise InputError(f"power_law_fit min_speed: expected a fraction in [0, 1), got {min_speed}")
     if not max_radius > 0:
-        raise InputError(f"power_law_fit max_radius: expected a positive length in mm, got {max_radius}")
+        raise InputError(
+            f"power_law_fit max_radius: expected a positive length in mm, got {max_radius}"
+        )
     v = speed(traj)
     kappa = np.abs(curvature(traj))
     keep = np.isfinite(kappa) & (v > min_speed * np.max(v)) & (kappa > 1.0 / max_radius)

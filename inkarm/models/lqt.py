@@ -85,7 +85,7 @@ class LQTConfig:
         if (self.d is None) == (self.r is None):
             raise InputError(
                 f"LQTConfig: give exactly one of d (max displacement in mm) and r (raw control "
-                f"weight), got d={self.d}, r={self.r}"
+                f"weight), got d={self.d}, r={self.r} (d defaults to 5.0: pass d=None with r)"
             )
         if self.d is not None and not _positive_number(self.d):
             raise InputError(f"LQTConfig d: must be a positive number of mm, got {self.d}")
@@ -608,17 +608,22 @@ class _Factor:
         return c
 
     def samples(self, k: int, rng: np.random.Generator) -> np.ndarray:
-        """K exact draws (K, n_free, D) of the coefficients: perturbed targets, same factor."""
+        """K exact draws (K, n_free, D) of the coefficients, reusing the factorisation.
+
+        Cholesky (H = L L^T): c = c_hat + L^-T z, z ~ N(0, I), whose covariance is H^-1, the
+        posterior covariance of the coefficients. Augmented: perturbation sampling, re-solving
+        with targets y_t ~ N(mu_t, Sigma_t) and control residual targets z ~ N(0, I).
+        """
         p = self.prob
+        if self.method == "cholesky":
+            z = rng.standard_normal((k, p.n_free * p.dim)).T
+            dev, info = lapack.dtbtrs(self.chol, z, uplo="L", trans="T")
+            if info != 0:
+                raise SolverError(f"LQT banded triangular solve failed (tbtrs info {info})")
+            return self.mean() + dev.T.reshape(k, p.n_free, p.dim)
         rhs = _rhs(p, noise=(rng, k))
         zc = rng.standard_normal((k, p.n_steps - 1, p.dim))
-        if self.method == "augmented":
-            return self._aug_solve(rhs, zc)
-        rhs += _control_adjoint(p, zc)
-        c = self._chol_solve(rhs)
-        if self.refine:
-            c += self._chol_solve(_normal_residual(p, self.obs, rhs, c))
-        return c
+        return self._aug_solve(rhs, zc)
 
 
 @dataclass(frozen=True)
@@ -831,12 +836,14 @@ def sample(
 ) -> np.ndarray:
     """K draws (K, N, D) in [mm] from the trajectory distribution (seed 000 eq. 14-15, 22).
 
-    ``method="exact"``: perturbation sampling, exact for the Gaussian posterior. Each draw re-solves
-    the same banded system (factorisation reused, all K draws as K right-hand sides) with the
-    targets perturbed, y_t ~ N(mu_t, Sigma_t) on the observed steps, and the controls pulled towards
-    u0 ~ N(0, R^-1): the solution is linear in (y, u0), its mean is the LQT optimum and its
-    covariance is Sigma_u (S_u^T Q S_u + R) Sigma_u = Sigma_u mapped through S_u, i.e. exactly
-    Sigma_xi = S_u Sigma_u S_u^T (eq. 15). O(N) per draw; the dense covariance is never formed.
+    ``method="exact"``: exact draws in O(N) each, never forming the dense covariance. In the
+    banded position form the posterior of the free coefficients is N(c_hat, H^-1) with H the
+    normal matrix (the image of eq. 15's Sigma_xi = S_u Sigma_u S_u^T under the invertible map
+    u <-> c). With the Cholesky solver a draw is c_hat + L^-T z (H = L L^T, one banded triangular
+    solve). With the augmented solver it is perturbation sampling: re-solve the same factorised
+    system, all K draws as K right-hand sides, with perturbed targets y_t ~ N(mu_t, Sigma_t) and
+    controls pulled towards u0 ~ N(0, R^-1); the solution is linear in (y, u0), its mean is the
+    optimum and its covariance Sigma_u (S_u^T Q S_u + R) Sigma_u = Sigma_u, mapped through S_u.
     (GI eq. 22 scales Sigma_xi by a residual variance sigma; we keep sigma = 1, the MOCO form.)
 
     ``method="eigen"``: the paper's eq. 16-17 with the ``components`` largest eigenpairs of the

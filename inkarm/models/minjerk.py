@@ -106,9 +106,11 @@ def via_jerk_cost(start, via, end, duration: float, t_via: float) -> float:
     """Jerk cost in [mm^2/s^5] of the minimum-jerk path through ``via`` at time ``t_via`` [s].
 
     J = [720 |v|^2 + 20 |u - v s(tau1)|^2 / (tau1^5 (1 - tau1)^5)] / tf^5, with u = via - start,
-    v = end - start, tau1 = t_via / tf. The second term is |u - v s|^2 over the diagonal
-    20 / (tau1 (1 - tau1))^5 of the Green's function of d^6/dtau^6 with clamped ends; it is
-    checked against the piecewise-quintic solution in the tests.
+    v = end - start, tau1 = t_via / tf. The first term is the point-to-point cost; the second
+    is the miss u - v s(tau1) of that movement at tau1, squared, over G(tau1, tau1) =
+    tau1^5 (1 - tau1)^5 / 20, the diagonal of the Green's function of d^6/dtau^6 with
+    position, velocity and acceleration clamped at both ends (our derivation; checked against
+    the piecewise-quintic solution in the tests).
     """
     x0 = _point("start", start)
     u = _point("via", via, x0.shape[0]) - x0
@@ -193,8 +195,8 @@ class MinJerkSpline:
         local = t - self.times[k]
         out = np.zeros((t.shape[0], self.coeffs.shape[2]))
         for i in range(derivative, 6):
-            factor = np.prod(np.arange(i - derivative + 1, i + 1)) if derivative else 1.0
-            out += factor * self.coeffs[k, i] * (local ** (i - derivative))[:, None]
+            falling = np.prod(np.arange(i - derivative + 1, i + 1))  # i! / (i - derivative)!
+            out += falling * self.coeffs[k, i] * (local ** (i - derivative))[:, None]
         return out
 
     def jerk_cost(self) -> float:
@@ -283,7 +285,9 @@ def min_jerk_spline(points, duration: float, via_times=None) -> MinJerkSpline:
     else:
         inner = np.atleast_1d(np.asarray(via_times, dtype=float))
         if inner.shape != (n_via,):
-            raise InputError(f"via_times: expected {n_via} times for {n_via} via-points, got {inner.shape[0]}")
+            raise InputError(
+                f"via_times: expected {n_via} times for {n_via} via-points, got {inner.shape[0]}"
+            )
         knots = np.concatenate([[0.0], inner, [tf]])
         if not np.all(np.isfinite(inner)) or np.any(np.diff(knots) <= 0):
             raise InputError(
@@ -304,7 +308,9 @@ def _optimal_times(points: np.ndarray, duration: float) -> np.ndarray:
         return _spline_through(points, times_of(logits)).jerk_cost()
 
     start = np.log(chords[1:] / chords[0])
-    best = minimize(cost, start, method="Nelder-Mead", options={"xatol": 1e-8, "fatol": 1e-12, "maxiter": 4000})
+    best = minimize(
+        cost, start, method="Nelder-Mead", options={"xatol": 1e-8, "fatol": 1e-12, "maxiter": 4000}
+    )
     return times_of(best.x)[1:-1]
 
 

@@ -150,7 +150,7 @@ class StrokePlan:
         means = np.asarray(means, dtype=float)
         if means.ndim != 2:
             raise PlanError(f"stroke means: expected shape (m, D), got {means.shape}")
-        if np.ndim(covs) == 0:
+        if isinstance(covs, (int, float, np.number)) or (isinstance(covs, np.ndarray) and covs.ndim == 0):
             covs = [covs] * len(means)
         if len(covs) != len(means):
             raise PlanError(f"stroke: {len(means)} means but {len(covs)} covariances")

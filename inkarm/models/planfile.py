@@ -21,14 +21,14 @@ Schema (every key optional unless marked required)::
     r = 1e-9                 # ... or the raw control weight: give one of d, r (default d = 5)
     discretisation = "euler" # or "zoh"
     end_at_rest = true       # zero derivatives at the last step
-    segment_time = 0.5       # time per target T_s [s] (local isochrony)
+    segment_time = 0.5       # time per target T_s [s] (local isochrony); between key-points
     sampling = "exact"       # method of inkarm.models.lqt.sample: "exact" or "eigen" (eq. 16-17)
     solver = "auto"          # LQT solver: "auto", "cholesky", "augmented" or "batch"
 
     [semi_tied]              # covariances of targets without their own (seed 000 eq. 22)
     H = [[1.0, 0.5], [0.0, 1.0]]  # D x D oblique basis, columns are basis vectors (default I)
     h = 16.0                 # required: magnitude [mm^2], Sigma_i = h_i H H^T
-    rho = 0.0                # spread of h_i ~ N(h, rho), >= 0 (drawn with the plan seed)
+    rho = 0.0                # variance of h_i ~ N(h, rho), >= 0 (drawn with the plan seed)
 
     [human_line]             # Human Line Algorithm settings (seed 002 ch. 3)
     squiggle = 5.0           # largest normal displacement of a control point [px]
@@ -67,11 +67,10 @@ stroke's from fresh squiggles; a minimum-jerk stroke is deterministic and repeat
 
 from __future__ import annotations
 
-import difflib
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+
 import numpy as np
 
 from inkarm.errors import InkarmError, PlanError, ScenarioError
@@ -79,10 +78,32 @@ from inkarm.models.human_line import human_polyline
 from inkarm.models.minjerk import via_points
 from inkarm.models.plan import GaussianTarget, StrokePlan, check_covariance
 from inkarm.models.trajectory import Drawing, Trajectory
+from inkarm.tomlreader import TomlReader, describe, load_toml
 
 KINDS = ("gaussian", "keypoints", "human_line", "minjerk")
-TOP_KEYS = ("title", "seed", "samples", "pause", "cov", "model", "semi_tied", "human_line", "minjerk", "strokes")
-STROKE_KEYS = ("name", "kind", "targets", "points", "cov", "model", "semi_tied", "human_line", "minjerk")
+TOP_KEYS = (
+    "title",
+    "seed",
+    "samples",
+    "pause",
+    "cov",
+    "model",
+    "semi_tied",
+    "human_line",
+    "minjerk",
+    "strokes",
+)
+STROKE_KEYS = (
+    "name",
+    "kind",
+    "targets",
+    "points",
+    "cov",
+    "model",
+    "semi_tied",
+    "human_line",
+    "minjerk",
+)
 TARGET_KEYS = ("mean", "cov", "std", "angle")
 MODEL_DEFAULTS = {
     "order": 4,
@@ -150,100 +171,10 @@ class PlanFile:
         return self.strokes[0].dim
 
 
-# -- checked reading of TOML values ------------------------------------------------------------
-
-
-class _Reader:
-    """Reads values out of parsed TOML, raising ScenarioError that names the file and key."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def error(self, key: str, message: str) -> ScenarioError:
-        return ScenarioError(f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}")
-
-    def table(self, value, key: str) -> dict:
-        if not isinstance(value, dict):
-            raise self.error(key, f"expected a table, got {_describe(value)}")
-        return value
-
-    def keys(self, table: dict, allowed, key: str) -> None:
-        for name in table:
-            if name not in allowed:
-                where = f"{key}.{name}" if key else name
-                close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
-                hint = f" (did you mean '{close[0]}'?)" if close else ""
-                raise self.error(
-                    where, f"unknown key{hint}; valid keys here: {', '.join(allowed)}"
-                )
-
-    def number(self, value, key: str, minimum: float | None = None, strict: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(key, f"expected a number, got {_describe(value)}")
-        v = float(value)
-        if not math.isfinite(v):
-            raise self.error(key, f"expected a finite number, got {value}")
-        if minimum is not None and (v < minimum or (strict and v == minimum)):
-            relation = ">" if strict else ">="
-            raise self.error(key, f"expected a number {relation} {minimum:g}, got {value}")
-        return v
-
-    def integer(self, value, key: str, low: int, high: int | None = None) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.error(key, f"expected an integer, got {_describe(value)}")
-        if value < low or (high is not None and value > high):
-            span = f"in {low}..{high}" if high is not None else f">= {low}"
-            raise self.error(key, f"expected an integer {span}, got {value}")
-        return value
-
-    def boolean(self, value, key: str) -> bool:
-        if not isinstance(value, bool):
-            raise self.error(key, f"expected true or false, got {_describe(value)}")
-        return value
-
-    def choice(self, value, key: str, options) -> str:
-        if not isinstance(value, str):
-            raise self.error(key, f"expected one of {', '.join(map(repr, options))}, got {_describe(value)}")
-        if value not in options:
-            close = difflib.get_close_matches(value, options, n=1, cutoff=0.6)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise self.error(key, f"unknown value {value!r}{hint}; expected one of {', '.join(map(repr, options))}")
-        return value
-
-    def text(self, value, key: str) -> str:
-        if not isinstance(value, str):
-            raise self.error(key, f"expected a string, got {_describe(value)}")
-        return value
-
-    def array(self, value, key: str, depth: int) -> np.ndarray:
-        """A nested list of numbers of the given depth (1: vector, 2: matrix) as floats."""
-        def walk(v, level: int, where: str):
-            if level == 0:
-                return self.number(v, where)
-            if not isinstance(v, list):
-                raise self.error(where, f"expected an array, got {_describe(v)}")
-            return [walk(x, level - 1, f"{where}[{i}]") for i, x in enumerate(v)]
-
-        rows = walk(value, depth, key)
-        if depth == 2 and len({len(r) for r in rows}) > 1:
-            raise self.error(key, "rows have different lengths")
-        return np.array(rows, dtype=float)
-
-
-def _describe(value) -> str:
-    if isinstance(value, bool):
-        return f"{str(value).lower()} (boolean)"
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return "an array"
-    return f"{value!r} ({type(value).__name__})"
-
-
 # -- the sections ------------------------------------------------------------------------------
 
 
-def _model(rd: _Reader, table: dict, key: str, inherited: dict) -> dict:
+def _model(rd: TomlReader, table: dict, key: str, inherited: dict) -> dict:
     rd.keys(table, tuple(MODEL_DEFAULTS), key)
     out = dict(inherited)
     if "d" in table and "r" in table:
@@ -258,13 +189,17 @@ def _model(rd: _Reader, table: dict, key: str, inherited: dict) -> dict:
         if name in table:
             out[name] = rd.number(table[name], f"{key}.{name}", 0.0, strict=True)
     if "discretisation" in table:
-        out["discretisation"] = rd.choice(table["discretisation"], f"{key}.discretisation", ("euler", "zoh"))
+        out["discretisation"] = rd.choice(
+            table["discretisation"], f"{key}.discretisation", ("euler", "zoh")
+        )
     if "end_at_rest" in table:
         out["end_at_rest"] = rd.boolean(table["end_at_rest"], f"{key}.end_at_rest")
     if "sampling" in table:
         out["sampling"] = rd.choice(table["sampling"], f"{key}.sampling", ("exact", "eigen"))
     if "solver" in table:
-        out["solver"] = rd.choice(table["solver"], f"{key}.solver", ("auto", "cholesky", "augmented", "batch"))
+        out["solver"] = rd.choice(
+            table["solver"], f"{key}.solver", ("auto", "cholesky", "augmented", "batch")
+        )
     if out["segment_time"] < out["dt"]:
         raise rd.error(
             f"{key}.segment_time" if "segment_time" in table else f"{key}.dt",
@@ -273,7 +208,7 @@ def _model(rd: _Reader, table: dict, key: str, inherited: dict) -> dict:
     return out
 
 
-def _semi_tied(rd: _Reader, table: dict, key: str, inherited: dict | None) -> dict:
+def _semi_tied(rd: TomlReader, table: dict, key: str, inherited: dict | None) -> dict:
     rd.keys(table, tuple(SEMI_TIED_DEFAULTS), key)
     out = dict(inherited or SEMI_TIED_DEFAULTS)
     if "H" in table:
@@ -292,7 +227,7 @@ def _semi_tied(rd: _Reader, table: dict, key: str, inherited: dict | None) -> di
     return out
 
 
-def _options(rd: _Reader, kind: str, table: dict, key: str, inherited: dict) -> dict:
+def _options(rd: TomlReader, kind: str, table: dict, key: str, inherited: dict) -> dict:
     defaults = HUMAN_LINE_DEFAULTS if kind == "human_line" else MINJERK_DEFAULTS
     rd.keys(table, tuple(defaults), key)
     out = dict(inherited)
@@ -310,7 +245,7 @@ def _options(rd: _Reader, kind: str, table: dict, key: str, inherited: dict) -> 
     return out
 
 
-def _covariance(rd: _Reader, value, dim: int, key: str) -> np.ndarray:
+def _covariance(rd: TomlReader, value, dim: int, key: str) -> np.ndarray:
     if isinstance(value, list) and value and isinstance(value[0], list):
         arr = rd.array(value, key, 2)
     elif isinstance(value, list):
@@ -323,7 +258,7 @@ def _covariance(rd: _Reader, value, dim: int, key: str) -> np.ndarray:
         raise ScenarioError(str(e)) from None
 
 
-def _std_covariance(rd: _Reader, target: dict, dim: int, key: str) -> np.ndarray:
+def _std_covariance(rd: TomlReader, target: dict, dim: int, key: str) -> np.ndarray:
     std_value = target["std"]
     if isinstance(std_value, list):
         std = rd.array(std_value, f"{key}.std", 1)
@@ -343,9 +278,9 @@ def _std_covariance(rd: _Reader, target: dict, dim: int, key: str) -> np.ndarray
     return cov
 
 
-def _points(rd: _Reader, value, key: str) -> np.ndarray:
+def _points(rd: TomlReader, value, key: str) -> np.ndarray:
     if not isinstance(value, list):
-        raise rd.error(key, f"expected an array of points, got {_describe(value)}")
+        raise rd.error(key, f"expected an array of points, got {describe(value)}")
     pts = rd.array(value, key, 2)
     if pts.shape[0] < 2:
         raise rd.error(key, f"expected at least 2 points, got {pts.shape[0]}")
@@ -354,12 +289,16 @@ def _points(rd: _Reader, value, key: str) -> np.ndarray:
     return pts
 
 
-def _generated_covariances(rd: _Reader, settings: dict, m: int, dim: int, key: str, seed: int) -> np.ndarray:
+def _generated_covariances(
+    rd: TomlReader, settings: dict, m: int, dim: int, key: str, seed: int
+) -> np.ndarray:
     from inkarm.models.lqt import semi_tied_covariances
 
     basis = np.eye(dim) if settings["H"] is None else settings["H"]
     if basis.shape[0] != dim:
-        raise rd.error(f"{key}.H", f"is {basis.shape[0]} x {basis.shape[0]} but the targets are {dim}-D")
+        raise rd.error(
+            f"{key}.H", f"is {basis.shape[0]} x {basis.shape[0]} but the targets are {dim}-D"
+        )
     try:
         covs = semi_tied_covariances(m, basis, settings["h"], rho=settings["rho"], seed=seed)
     except InkarmError as e:
@@ -368,14 +307,22 @@ def _generated_covariances(rd: _Reader, settings: dict, m: int, dim: int, key: s
 
 
 def _targets(
-    rd: _Reader, stroke: dict, key: str, kind: str, cov_source: tuple | None, seed: int, segment_time: float
+    rd: TomlReader,
+    stroke: dict,
+    key: str,
+    kind: str,
+    cov_source: tuple | None,
+    seed: int,
+    segment_time: float,
 ) -> StrokePlan:
     """Read ``targets``; cov_source is ("cov", value, key) or ("semi_tied", settings, key) or None."""
     raw = stroke.get("targets")
     if raw is None:
         raise rd.error(f"{key}.targets", f"required for a {kind} stroke")
     if not isinstance(raw, list) or not raw:
-        raise rd.error(f"{key}.targets", "expected a non-empty array of tables { mean = [...], ... }")
+        raise rd.error(
+            f"{key}.targets", "expected a non-empty array of tables { mean = [...], ... }"
+        )
     means, explicit = [], []
     for i, target in enumerate(raw):
         tkey = f"{key}.targets[{i}]"
@@ -429,16 +376,20 @@ def _targets(
     return StrokePlan(tuple(targets), segment_time=segment_time, keypoints=kind == "keypoints")
 
 
-def _stroke(rd: _Reader, raw, index: int, top: dict, seed: int) -> PlannedStroke:
+def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStroke:
     key = f"strokes[{index}]"
     stroke = rd.table(raw, key)
     rd.keys(stroke, STROKE_KEYS, key)
     kind = rd.choice(stroke.get("kind", "gaussian"), f"{key}.kind", KINDS)
     name = rd.text(stroke.get("name", ""), f"{key}.name")
-    model = _model(rd, rd.table(stroke.get("model", {}), f"{key}.model"), f"{key}.model", top["model"])
+    model = _model(
+        rd, rd.table(stroke.get("model", {}), f"{key}.model"), f"{key}.model", top["model"]
+    )
     for section in ("human_line", "minjerk"):
         if section in stroke and kind != section:
-            raise rd.error(f"{key}.{section}", f"only applies to {section} strokes, this one is {kind}")
+            raise rd.error(
+                f"{key}.{section}", f"only applies to {section} strokes, this one is {kind}"
+            )
     if kind in ("human_line", "minjerk"):
         for name_ in ("targets", "cov", "semi_tied"):
             if name_ in stroke:
@@ -446,7 +397,9 @@ def _stroke(rd: _Reader, raw, index: int, top: dict, seed: int) -> PlannedStroke
         if "points" not in stroke:
             raise rd.error(f"{key}.points", f"required for a {kind} stroke")
         points = _points(rd, stroke["points"], f"{key}.points")
-        options = _options(rd, kind, rd.table(stroke.get(kind, {}), f"{key}.{kind}"), f"{key}.{kind}", top[kind])
+        options = _options(
+            rd, kind, rd.table(stroke.get(kind, {}), f"{key}.{kind}"), f"{key}.{kind}", top[kind]
+        )
         if kind == "minjerk" and options["via_times"] is not None:
             n_via = points.shape[0] - 2
             if options["via_times"].shape[0] != n_via:
@@ -463,7 +416,11 @@ def _stroke(rd: _Reader, raw, index: int, top: dict, seed: int) -> PlannedStroke
         cov_source = ("cov", stroke["cov"], f"{key}.cov")
     elif "semi_tied" in stroke:
         table = rd.table(stroke["semi_tied"], f"{key}.semi_tied")
-        cov_source = ("semi_tied", _semi_tied(rd, table, f"{key}.semi_tied", top["semi_tied"]), f"{key}.semi_tied")
+        cov_source = (
+            "semi_tied",
+            _semi_tied(rd, table, f"{key}.semi_tied", top["semi_tied"]),
+            f"{key}.semi_tied",
+        )
     else:
         cov_source = top["cov_source"]
     stroke_seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
@@ -477,7 +434,7 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
     ``source`` names the file in error messages; ``seed`` overrides the file's seed.
     Raises :class:`ScenarioError` naming the file and the key at fault.
     """
-    rd = _Reader(source)
+    rd = TomlReader(source)
     rd.keys(data, TOP_KEYS, "")
     title = rd.text(data.get("title", ""), "title")
     file_seed = rd.integer(data.get("seed", 0), "seed", 0)
@@ -500,9 +457,15 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
         "semi_tied": semi_tied,
         "cov_source": cov_source,
         "human_line": _options(
-            rd, "human_line", rd.table(data.get("human_line", {}), "human_line"), "human_line", HUMAN_LINE_DEFAULTS
+            rd,
+            "human_line",
+            rd.table(data.get("human_line", {}), "human_line"),
+            "human_line",
+            HUMAN_LINE_DEFAULTS,
         ),
-        "minjerk": _options(rd, "minjerk", rd.table(data.get("minjerk", {}), "minjerk"), "minjerk", MINJERK_DEFAULTS),
+        "minjerk": _options(
+            rd, "minjerk", rd.table(data.get("minjerk", {}), "minjerk"), "minjerk", MINJERK_DEFAULTS
+        ),
     }
     raw_strokes = data.get("strokes")
     if raw_strokes is None:
@@ -514,20 +477,14 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
     for i, d in enumerate(dims):
         if d != dims[0]:
             raise rd.error(f"strokes[{i}]", f"is {d}-D but strokes[0] is {dims[0]}-D")
-    return PlanFile(source=source, title=title, seed=seed, samples=samples, pause=pause, strokes=strokes)
+    return PlanFile(
+        source=source, title=title, seed=seed, samples=samples, pause=pause, strokes=strokes
+    )
 
 
 def load_plan(path: str | Path, seed: int | None = None) -> PlanFile:
     """Read and check the plan file at ``path`` (see the module docstring for the schema)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such plan file")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as e:
-        raise ScenarioError(f"{path}: not valid TOML: {e}") from None
-    except UnicodeDecodeError as e:
-        raise ScenarioError(f"{path}: not UTF-8 text: {e}") from None
+    data = load_toml(path, "plan file")
     return parse_plan(data, source=str(path), seed=seed)
 
 
@@ -582,8 +539,13 @@ def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResu
         mean = lqt.solve(stroke.plan, cfg)
         if samples > 0:
             pos = np.asarray(
-                lqt.sample(stroke.plan, cfg, k=samples, seed=_stroke_seeds(seed, stroke.index, 1)[0],
-                           method=stroke.model["sampling"]),
+                lqt.sample(
+                    stroke.plan,
+                    cfg,
+                    k=samples,
+                    seed=_stroke_seeds(seed, stroke.index, 1)[0],
+                    method=stroke.model["sampling"],
+                ),
                 dtype=float,
             )
         else:

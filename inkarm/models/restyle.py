@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.errors import InputError
-from inkarm.models.dppla import VERIFY_BUDGET, DPPLAResult, dppla, segments_for_compression
+from inkarm.models.dppla import EXACT_BUDGET, DPPLAResult, dppla, segments_for_compression
 from inkarm.models.plan import MotorPlan, StrokePlan
 from inkarm.models.trajectory import Drawing, Trajectory
 
@@ -50,7 +50,7 @@ class RestyleConfig:
         min_std: Lower bound on both standard deviations in [mm].
         shear: Shear of the semi-tied basis H (seed 000, eq. 22), for style "semi-tied".
         banded: Use the banded DPPLA (O(w^2 / k)) or the exact one (O(k w^2)); None picks the
-            exact one where k w^2 / 2 <= ``dppla.VERIFY_BUDGET``.
+            exact one where k w^2 / 2 <= ``dppla.EXACT_BUDGET``.
         seed: Random seed of the semi-tied magnitudes h_i.
     """
 
@@ -112,7 +112,7 @@ def stroke_targets(traj: Trajectory, compression: float, banded: bool | None = N
     """DPPLA of a stroke's positions at a compression rate (time as the chord parameter)."""
     k = segments_for_compression(compression, traj.n, traj.dim)
     if banded is None:
-        banded = k * traj.n**2 / 2 > VERIFY_BUDGET
+        banded = k * traj.n**2 / 2 > EXACT_BUDGET
     return dppla(traj.pos, k, banded=banded, tau=traj.t, verify=False)
 
 

@@ -19,8 +19,9 @@ Coordinates: page frame in [mm], x right, y up, origin at the page's lower-left 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
+from itertools import pairwise
 
 import numpy as np
 
@@ -125,7 +126,9 @@ class PageLayout:
         w, h = self.page_size
         left, right, top, bottom = self.margins
         if not (w > 0 and h > 0):
-            raise InputError(f"page size must be positive (width, height) in mm, got {self.page_size}")
+            raise InputError(
+                f"page size must be positive (width, height) in mm, got {self.page_size}"
+            )
         if min(self.margins) < 0 or left + right >= w or top + bottom >= h:
             raise InputError(
                 f"margins (left, right, top, bottom) = {self.margins} mm leave no room on a "
@@ -137,14 +140,18 @@ class PageLayout:
 
 @dataclass(frozen=True)
 class PlacedGlyph:
-    """A glyph on the page: ``index`` is its position in the text, strokes in page [mm]."""
+    """A glyph on the page: ``index`` is its position in the text, ``origin`` its left side on
+    the base line and ``strokes`` its polylines, in page [mm]."""
 
     char: str
     index: int
     strokes: tuple[np.ndarray, ...]
+    origin: tuple[float, float]
 
 
-def layout_text(text: str, font: HersheyFont, layout: PageLayout = PageLayout()) -> list[PlacedGlyph]:
+def layout_text(
+    text: str, font: HersheyFont, layout: PageLayout = PageLayout()
+) -> list[PlacedGlyph]:
     """Place ``text`` on the page, line by line, wrapping words at the right margin.
 
     Newlines start a new line; runs of spaces and tabs separate words. A word wider than the
@@ -185,7 +192,9 @@ def layout_text(text: str, font: HersheyFont, layout: PageLayout = PageLayout())
                 if x + g.advance > w - right and x > left:
                     new_line()  # a word longer than the line: break it
                 placed.append(
-                    PlacedGlyph(g.char, index + start + k, tuple(s + (x, y) for s in g.strokes))
+                    PlacedGlyph(
+                        g.char, index + start + k, tuple(s + (x, y) for s in g.strokes), (x, y)
+                    )
                 )
                 x += g.advance
             at_line_start = False
@@ -240,9 +249,7 @@ def thin_polyline(points: np.ndarray, min_turn: float) -> np.ndarray:
     for i in range(1, len(pts) - 1):
         chord = pts[i] - pts[kept[-1]]
         edge = pts[i + 1] - pts[i]
-        turn = np.degrees(
-            np.abs(np.arctan2(chord[0] * edge[1] - chord[1] * edge[0], chord @ edge))
-        )
+        turn = np.degrees(np.abs(np.arctan2(chord[0] * edge[1] - chord[1] * edge[0], chord @ edge)))
         if turn >= min_turn:
             kept.append(i)
     kept.append(len(pts) - 1)
@@ -258,7 +265,7 @@ def subdivide(points: np.ndarray, max_spacing: float | None) -> np.ndarray:
     if max_spacing is None or len(points) < 2:
         return points
     out = [points[:1]]
-    for a, b in zip(points[:-1], points[1:]):
+    for a, b in pairwise(points):
         k = max(1, int(np.ceil(np.linalg.norm(b - a) / max_spacing)))
         out.append(a + np.outer(np.arange(1, k + 1) / k, b - a))
     return np.vstack(out)
@@ -312,7 +319,9 @@ def join_ligatures(
         gap = float(np.linalg.norm(piece.means[0] - prev.means[-1]))
         same_letter = prev.letters[-1] == piece.letters[0]
         neighbours = prev.letters[-1] + 1 == piece.letters[0]
-        if not (prev.joinable and piece.joinable and gap <= max_gap and (same_letter or neighbours)):
+        if not (
+            prev.joinable and piece.joinable and gap <= max_gap and (same_letter or neighbours)
+        ):
             out.append(_copy(piece))
             continue
         start = 1 if gap <= _SAME_POINT else 0
@@ -485,7 +494,9 @@ def outline_deviation(tp: TextPlan, drawing) -> dict[int, float]:
         t = traj.t - traj.t[0]
         active = np.minimum((t / plan.segment_time + 1e-9).astype(int), m - 1)
         for i in np.unique(active):
-            polylines = [s for j in {max(i - 1, 0), i, min(i + 1, m - 1)} for s in outlines[letters[j]]]
+            polylines = [
+                s for j in {max(i - 1, 0), i, min(i + 1, m - 1)} for s in outlines[letters[j]]
+            ]
             polylines += [means[[j - 1, j]] for j in (i, i + 1) if 0 < j < m and connectors[j]]
             d = _distance_to_polylines(traj.pos[active == i, :2], polylines)
             worst[int(letters[i])] = max(worst.get(int(letters[i]), 0.0), float(d.max()))

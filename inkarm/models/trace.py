@@ -5,7 +5,9 @@ CSV files are read with :meth:`Drawing.from_csv` (``t,x,y[,z][,stroke]``). In an
 relative) and the ``points`` of every ``<polyline>`` and ``<polygon>`` are flattened, mapped
 to the page frame in [mm] (y up, origin at the page's lower-left corner, ``transform``
 attributes applied) and sampled uniformly in arc length, each sub-path a stroke traced at a
-constant ``speed``; consecutive samples are at most ``speed / rate`` apart.
+constant ``speed``; consecutive samples are at most ``speed / rate`` apart. Other shapes
+(``<line>``, ``<rect>``, ``<circle>``, ``<use>``, text) and anything inside ``<defs>`` are not
+drawn; an SVG with nothing drawable is refused.
 
 Units: a root ``width``/``height`` with a unit (mm, cm, in, pt, pc, px) and a ``viewBox``
 fix the scale; a bare number is CSS pixels (1/96 in); with no width/height, one user unit is

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from inkarm.control.ik import _index
 from inkarm.control.plant import PlantState
 from inkarm.errors import InputError, SimulationError
 from inkarm.sim.arm import JOINT_NAMES, CellConfig, build_model
@@ -32,6 +31,14 @@ _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQVEL,
     mujoco.mjtWarning.mjWARN_BADQACC,
 )
+
+
+def _index(addresses: list[int]) -> slice | np.ndarray:
+    """A slice when the addresses are consecutive (cheaper to index with), else an array."""
+    first = int(addresses[0])
+    if list(addresses) == list(range(first, first + len(addresses))):
+        return slice(first, first + len(addresses))
+    return np.array(addresses)
 
 
 @dataclass
@@ -175,7 +182,8 @@ class MujocoPlant:
         return force
 
     def _check_divergence(self) -> None:
-        # One dot product catches both NaN/inf (the comparison fails) and runaway speed.
+        # One dot product catches NaN/inf (the comparison fails) and runaway speed (the norm
+        # bounds every joint's speed); the slow path below sorts out which.
         d = self.data
         if float(np.dot(d.qvel, d.qvel)) <= self._max_speed_sq and np.isfinite(d.qpos[0]):
             return
@@ -189,10 +197,13 @@ class MujocoPlant:
                 + (f" (MuJoCo warned {', '.join(names)})" if names else "") + f"; {why}"
             )
         j = int(np.argmax(np.abs(d.qvel)))
+        if abs(d.qvel[j]) <= self.max_joint_speed:
+            return  # the norm was over the threshold, no single joint is
+        joint = self.model.joint(self.model.dof_jntid[j])
+        unit = "m/s" if joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE else "rad/s"
         raise SimulationError(
-            f"{where}: joint {self.model.joint(self.model.dof_jntid[j]).name} moves at "
-            f"{abs(d.qvel[j]):.1f} (rad or m)/s, above the {self.max_joint_speed:.1f} divergence "
-            f"threshold; {why}"
+            f"{where}: {joint.name} moves at {abs(d.qvel[j]):.1f} {unit}, above the "
+            f"{self.max_joint_speed:.1f} divergence threshold; {why}"
         )
 
     def close(self) -> None:
