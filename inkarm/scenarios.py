@@ -285,7 +285,7 @@ def source_drawing(scenario: Scenario) -> Drawing:
         if kind == "tag":
             from inkarm.models.glyphs import make_tag
 
-            return make_tag(seed=scenario.seed, style=src.get("style", "tag")).drawing
+            return make_tag(src.get("style", "graffiti"), seed=scenario.seed).realise()
         from inkarm.models.restyle import RestyleConfig, restyle
         from inkarm.models.trace import load_trace
 

@@ -212,8 +212,9 @@ def test_different_seeds_give_different_tags():
         assert means[i].shape != means[j].shape or not np.allclose(means[i], means[j])
 
 
-def test_tag_accepts_a_generator_and_centres_on_the_page():
-    tag = make_tag(PRESETS["cursive"], seed=np.random.default_rng(5), page_size=(200.0, 100.0))
+def test_tag_accepts_a_generator_and_a_preset_name_and_centres_on_the_page():
+    tag = make_tag("cursive", seed=np.random.default_rng(5), page_size=(200.0, 100.0))
+    assert tag.style is PRESETS["cursive"]
     allpts = np.vstack(tag.points)
     centre = 0.5 * (allpts.min(axis=0) + allpts.max(axis=0))
     assert abs(centre[0] - 100.0) < 12.0 and abs(centre[1] - 50.0) < 12.0

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from inkarm.errors import InputError
+from inkarm.errors import InputError, ScenarioError
 from inkarm.models.handstyles import PRESETS
 from inkarm.models.text import (
     HersheyFont,
@@ -298,6 +298,13 @@ def test_written_strokes_follow_each_other_in_time_and_start_on_their_targets():
         letters, on = sample_letters(plan, traj)
         assert letters.shape == on.shape == traj.t.shape
         assert letters[0] == plan.meta["letters"][0] and letters[-1] == plan.meta["letters"][-1]
+
+
+def test_write_text_takes_a_preset_name_and_names_its_results():
+    result = write_text("ab", "loose")
+    assert result.text_plan.text == "ab" and len(result.drawing.strokes) == 1
+    with pytest.raises(ScenarioError, match="unknown handstyle 'nope'"):
+        write_text("ab", "nope")
 
 
 def test_seed_changes_only_styles_with_rho():

@@ -111,7 +111,7 @@ def ink(
         slow = 1.0 - np.clip(0.5 * (s.speed()[:-1] + s.speed()[1:]) / top, 0.0, 1.0)
         widths = width[0] + (width[1] - width[0]) * slow
         ax.add_collection(
-            LineCollection(segments, linewidths=widths, colors=colour, capstyle="round")
+            LineCollection(segments, linewidths=widths, colors=colour, capstyle="round", zorder=3)
         )
 
 
@@ -130,8 +130,12 @@ def write_figure(tp: TextPlan, drawing: Drawing, title: str = ""):
     for g in tp.glyphs:
         for s in g.strokes:
             ax.plot(*s.T, color="#d4d4d4", lw=4.0, solid_capstyle="round", zorder=1)
-    for stroke in tp.plan.strokes:
-        ax.plot(*stroke.means.T, "o", color="#c0392b", ms=1.8, zorder=3)
+    means = [stroke.means for stroke in tp.plan.strokes]
+    gaps = np.concatenate([np.linalg.norm(np.diff(m, axis=0), axis=1) for m in means] + [[]])
+    spacing = float(np.median(gaps)) if gaps.size else tp.font.height
+    dot = float(np.clip(10.0 * spacing / tp.font.height, 0.6, 2.2))  # dense targets, small dots
+    for m in means:
+        ax.plot(*m.T, "o", color="#e74c3c", ms=dot, mew=0, alpha=0.8, zorder=2)
     ink(ax, drawing)
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad, hi[1] + pad)

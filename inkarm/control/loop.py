@@ -40,7 +40,7 @@ from dataclasses import dataclass, fields
 import mujoco
 import numpy as np
 
-from scipy.interpolate import CubicSpline
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from inkarm.control.ik import ArmKinematics, IKConfig, pen_task, solve_ik, track_path
 from inkarm.control.pid import JointPID, PIDGains
@@ -212,14 +212,29 @@ def _ticks(duration: float, dt: float) -> int:
     return max(2, int(np.ceil(duration / dt)) + 1)
 
 
-def pen_stiffness(kin_model: mujoco.MjModel, config: LoopConfig) -> float:
-    """Pen spring rate in [N/mm]: the configured one, else the model's ``pen_slide`` stiffness."""
-    if config.pen_stiffness_n_per_mm is not None:
-        return float(config.pen_stiffness_n_per_mm)
+def pen_depth_mm(kin_model: mujoco.MjModel, config: LoopConfig) -> float:
+    """Nominal pen compression F* / k in [mm]: how far below the paper the pen reference goes.
+
+    k is ``config.pen_stiffness_n_per_mm``, else the stiffness of the model's ``pen_slide``
+    joint, whose travel must then leave room for the compression."""
     jid = mujoco.mj_name2id(kin_model, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")
-    if jid < 0 or kin_model.jnt_stiffness[jid] <= 0:
+    if config.pen_stiffness_n_per_mm is not None:
+        stiffness = float(config.pen_stiffness_n_per_mm)
+    elif jid >= 0 and kin_model.jnt_stiffness[jid] > 0:
+        stiffness = float(kin_model.jnt_stiffness[jid]) / 1000.0
+    else:
         raise InputError("LoopConfig.pen_stiffness_n_per_mm: needed, the model has no sprung pen_slide")
-    return float(kin_model.jnt_stiffness[jid]) / 1000.0
+    if stiffness <= 0:
+        raise InputError(f"LoopConfig.pen_stiffness_n_per_mm: expected > 0, got {stiffness}")
+    depth = config.force_n / stiffness
+    if jid >= 0 and kin_model.jnt_limited[jid]:
+        travel = 1000.0 * float(np.ptp(kin_model.jnt_range[jid]))
+        if depth > 0.8 * travel:
+            raise InputError(
+                f"LoopConfig.force_n: {config.force_n} N compresses the pen by {depth:.1f} mm, "
+                f"more than 80% of its {travel:.1f} mm travel"
+            )
+    return depth
 
 
 def home_posture(kin: ArmKinematics) -> np.ndarray:
@@ -230,15 +245,25 @@ def home_posture(kin: ArmKinematics) -> np.ndarray:
 
 
 def _stroke_points(drawing: Drawing, k: int, dt: float) -> np.ndarray:
-    """Stroke k resampled on the control grid, (N, 3) page [mm] with z height (0 if 2-D)."""
+    """Stroke k resampled on the control grid, (N, 3) page [mm] with z height (0 if 2-D).
+
+    A cubic spline through the samples (Hermite with the stroke's velocities when it has
+    them): the arm draws smooth curves, and a piecewise-linear reference would differ from
+    them by the chord sagitta, (v T)^2 / (8 R) for samples T apart on a curve of radius R.
+    """
     s = drawing.strokes[k]
+    if s.dim == 1:
+        raise InputError(f"drawing stroke {k}: 1-D positions cannot be drawn on a page")
     n = max(1, int(np.floor(s.duration / dt + 1e-9)) + 1)
     t = s.t[0] + dt * np.arange(n)
     pts = np.zeros((n, 3))
-    for c in range(min(s.dim, 3)):
-        pts[:, c] = np.interp(t, s.t, s.pos[:, c])
-    if s.dim == 1:
-        raise InputError(f"drawing stroke {k}: 1-D positions cannot be drawn on a page")
+    if s.n >= 4 and s.vel is not None:
+        pts[:, : s.dim] = CubicHermiteSpline(s.t, s.pos, s.vel, axis=0)(t)
+    elif s.n >= 4:
+        pts[:, : s.dim] = CubicSpline(s.t, s.pos, axis=0)(t)
+    else:
+        for c in range(s.dim):
+            pts[:, c] = np.interp(t, s.t, s.pos[:, c])
     return pts
 
 
@@ -256,7 +281,7 @@ def check_reachable(
     if not drawing.strokes:
         raise InputError("drawing: no strokes to draw")
     kin = kin or ArmKinematics(kin_model)
-    depth = config.force_n / pen_stiffness(kin_model, config)
+    depth = pen_depth_mm(kin_model, config)
     posture = home_posture(kin)
     q = posture.copy()
     # Task-only steps (no posture pull) warm-started along the stroke: a cheap yes/no.
@@ -290,7 +315,7 @@ def plan_reference(
     q_start: np.ndarray, dt: float,
 ) -> Reference:
     """The whole run on the control grid of period ``dt`` [s], joint references included."""
-    depth = config.force_n / pen_stiffness(kin.model, config)
+    depth = pen_depth_mm(kin.model, config)
     hover = config.hover_mm
     posture = home_posture(kin)
     segments: list[tuple[int, int, np.ndarray]] = []  # (phase, stroke, page points (N, 3))

@@ -18,9 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from inkarm.errors import InputError
+from inkarm.models.handstyles import Handstyle, get_handstyle
 from inkarm.models.plan import MotorPlan
 from inkarm.models.text import TargetSequence, join_ligatures
-from inkarm.models.trajectory import A4_MM
+from inkarm.models.trajectory import A4_MM, Drawing
 
 # -- the genetic algorithm ----------------------------------------------------------------
 
@@ -53,7 +54,9 @@ def pmx(a, b, lo: int, hi: int) -> np.ndarray:
     return _pmx(a.tolist(), b.tolist(), lo, hi)
 
 
-def _pmx(a: list[int], b: list[int], lo: int, hi: int) -> np.ndarray:
+def _pmx(a, b, lo: int, hi: int) -> np.ndarray:
+    """:func:`pmx` without the checks (the GA's inner loop); ``where`` tracks each value's
+    position in the child so every exchange is O(1)."""
     child = list(a)
     where = [0] * len(child)
     for i, v in enumerate(child):
@@ -217,15 +220,15 @@ class Tag:
     plan: MotorPlan
     points: tuple[np.ndarray, ...]
     evolutions: tuple[Evolution, ...]
-    style: object
+    style: Handstyle
 
-    def realise(self, dt: float = 0.01, page_size: tuple[float, float] = A4_MM):
+    def realise(self, dt: float = 0.01, page_size: tuple[float, float] = A4_MM) -> Drawing:
         """The tag as a Drawing (the LQT with the tag's style)."""
         return self.style.realise(self.plan, dt=dt, page_size=page_size)
 
 
 def make_tag(
-    style,
+    style: Handstyle | str,
     seed: int | np.random.Generator = 0,
     n_glyphs: int = 5,
     targets: tuple[int, int] = (4, 7),
@@ -238,7 +241,7 @@ def make_tag(
 
     Args:
         style: The :class:`~inkarm.models.handstyles.Handstyle` (covariances, timing,
-            ligature angle).
+            ligature angle), or a preset's name.
         seed: Seed or numpy Generator; the only source of randomness.
         n_glyphs: Glyphs in the tag (seed 000 Fig. 11d uses five).
         targets: Inclusive range of the number of targets per glyph.
@@ -247,6 +250,7 @@ def make_tag(
         page_size: (width, height) of the page in [mm].
         ga: GA settings.
     """
+    style = get_handstyle(style) if isinstance(style, str) else style
     if n_glyphs < 1:
         raise InputError(f"make_tag: n_glyphs must be >= 1, got {n_glyphs}")
     lo, hi = targets

@@ -10,13 +10,15 @@ realisation; a handstyle is one choice of the latter. Covariances are semi-tied
 so every target of a style shares the oblique basis H (a slant, a shear) and differs only in
 magnitude. Larger h or smaller d give smoother, looser strokes; a slanted H leans them.
 
-The LQT optimum is linear in the means (start at rest on the first mean), and scaling
-Sigma and R together scales the whole cost, so the *shape* of a realised stroke depends only on
-the ratio sigma / d = sqrt(h) / d, the shape of H, the order and rho, never on the drawing's
-size: one style fits 5 mm letters and 50 mm tags alike. With R from eq. 9 the chain's time
-constant is about T_s / (2 pi) * (sigma / d)^(1/n). A :class:`Handstyle` also carries the few planning choices that belong to a hand: time per
-target, how sparsely a font polyline is turned into targets (``thin_angle``) and when a
-ligature drops a sharp junction target (``ligature_angle``).
+The LQT optimum is linear in the means (it starts at rest on the first mean), and scaling
+Sigma and R together only scales the whole cost, so the *shape* of a realised stroke depends
+on the ratio sigma / d = sqrt(h) / d, the shape of H, the order and rho, never on the
+drawing's size: one style fits 5 mm letters and 50 mm tags alike. With R from eq. 9 the
+chain's time constant is about T_s / (2 pi) * (sigma / d)^(1/n).
+
+A :class:`Handstyle` also carries the few planning choices that belong to a hand: time per
+target, how sparsely a font polyline is turned into targets (``thin_angle``,
+``max_spacing``) and when a ligature drops a sharp junction target (``ligature_angle``).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.errors import ScenarioError
+from inkarm.models.lqt import LQTConfig, semi_tied_covariances, solve
 from inkarm.models.plan import GaussianTarget, MotorPlan, StrokePlan
 from inkarm.models.trajectory import A4_MM, Drawing
 
@@ -68,7 +71,7 @@ class Handstyle:
     basis: np.ndarray = field(default_factory=lambda: np.eye(2))
     h: float = 0.01
     rho: float = 0.0
-    d: float = 5.0
+    d: float = 0.01
     order: int = 4
     segment_time: float = 0.06
     thin_angle: float = 0.0
@@ -107,16 +110,12 @@ class Handstyle:
             if not (np.isfinite(value) and 0.0 <= value <= 180.0):
                 raise ScenarioError(f"{where}: {key} must be in [0, 180] degrees, got {value}")
 
-    def lqt_config(self, dt: float = 0.01):
+    def lqt_config(self, dt: float = 0.01) -> LQTConfig:
         """The LQT settings of this style, time step ``dt`` in [s]."""
-        from inkarm.models.lqt import LQTConfig
-
         return LQTConfig(order=self.order, dt=dt, d=self.d)
 
     def covariances(self, m: int, rng: np.random.Generator) -> np.ndarray:
         """(m, 2, 2) semi-tied covariances in [mm^2], seed 000 eq. 22."""
-        from inkarm.models.lqt import semi_tied_covariances
-
         return np.asarray(semi_tied_covariances(m, self.basis, self.h, rho=self.rho, seed=rng))
 
     def stroke_plan(
@@ -142,8 +141,6 @@ class Handstyle:
             pen_up_time: Pause between strokes in [s] (pen travel, not simulated here).
             page_size: (width, height) of the page in [mm].
         """
-        from inkarm.models.lqt import solve
-
         cfg = self.lqt_config(dt)
         strokes = [solve(stroke, cfg) for stroke in plan.strokes]
         meta = {"style": self.name, "strokes": [dict(s.meta) for s in plan.strokes]}
@@ -246,7 +243,10 @@ def handstyle_from_mapping(
                 f"{where}: unknown key {key!r}; expected one of {', '.join(sorted(allowed))}"
             )
     values = dict(table)
-    base = get_handstyle(str(values.pop("base", "faithful")))
+    try:
+        base = get_handstyle(str(values.pop("base", "faithful")))
+    except ScenarioError as e:
+        raise ScenarioError(f"{where}: base: {e}") from None
     if "basis" in values:
         if "slant" in values or "stretch" in values:
             raise ScenarioError(f"{where}: give either basis or slant/stretch, not both")

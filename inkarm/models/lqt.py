@@ -193,6 +193,8 @@ class _Problem:
     end_at_rest: bool
     floor: float  # lower bound on the tracking precision at every step (0 if some step is free)
     ceiling: float  # upper bound on the tracking precision (Gershgorin), nan if other blocks
+    start: np.ndarray  # (n, D) the fixed c_0 .. c_{n-1} relative to the origin (0 when at rest)
+    control_target: np.ndarray | None  # (N-1, D) whitened control targets from a moving start
 
     @property
     def n_free(self) -> int:
@@ -342,13 +344,56 @@ def _problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> _Problem:
     for i, ref in enumerate(references):
         blocks.append(_reference_block(i, ref, args))
     r = cfg.control_weight(stroke.segment_time)
+    control = np.sqrt(r) / dt**n
+    start = _start_coefficients(stroke, n, dim, dt, stencils)
+    control_target = None
+    if start.any():  # the fixed coefficients move to the right-hand sides
+        blocks = [_shift_block(b, start, n) for b in blocks]
+        rows = _Block(n, np.arange(n), _merged(np.arange(n), _difference(n), n_coef), None, None)
+        control_target = np.zeros((n_steps - 1, dim))
+        control_target[:n] = -control * _apply_fixed(rows, start, n)
     everywhere = not stroke.keypoints and cfg.discretisation == "euler"
     floor = 1.0 / np.max(covs.trace(axis1=1, axis2=2)) if everywhere else 0.0
     ceiling = np.abs(precisions).sum(axis=1).max() if len(blocks) == 1 else np.nan
     return _Problem(
-        n, dim, n_steps, n_coef, dt, origin, np.sqrt(r) / dt**n, tuple(blocks), cfg.discretisation,
-        cfg.end_at_rest, floor, ceiling,
+        n, dim, n_steps, n_coef, dt, origin, control, tuple(blocks), cfg.discretisation,
+        cfg.end_at_rest, floor, ceiling, start, control_target,
     )
+
+
+def _start_coefficients(stroke: StrokePlan, n: int, dim: int, dt: float, stencils) -> np.ndarray:
+    """c_0 .. c_{n-1} (n, D) relative to mu_1 for the initial state xi_1 = (mu_1, v_1, 0, ...).
+
+    At rest (v_1 = 0) they are all 0. A first key-point with a prescribed velocity (Bezier
+    mimicking, GI sec. 4.3) starts moving: solve the n x n system state_k = s_k . c / dt^k.
+    """
+    start = np.zeros((n, dim))
+    vel = stroke.velocities
+    if vel is None or n < 2 or not np.all(np.isfinite(vel[0])) or not np.any(vel[0]):
+        return start
+    state = np.zeros((n, dim))
+    state[1] = vel[0]
+    stencil = np.zeros((n, n))
+    for k, s in enumerate(stencils):
+        stencil[k, : s.size] = s / dt**k
+    return np.linalg.solve(stencil, state)
+
+
+def _apply_fixed(block: _Block, start: np.ndarray, n: int) -> np.ndarray:
+    """(T, D) part of the block's rows A_t c that comes from the fixed c_0 .. c_{n-1}."""
+    out = np.zeros((block.steps.size, start.shape[1]))
+    for j in range(block.coef.shape[1]):
+        idx = block.steps + j
+        mask = idx < n
+        out[mask] += block.coef[mask, j, None] * start[idx[mask]]
+    return out
+
+
+def _shift_block(block: _Block, start: np.ndarray, n: int) -> _Block:
+    """The block with targets v_t - A_t c_fixed, so that the fixed coefficients can be dropped."""
+    value = block.value - _apply_fixed(block, start, n)
+    weighted = (block.precision @ value[:, :, None])[:, :, 0]
+    return _Block(block.derivative, block.steps, block.coef, block.precision, value, weighted)
 
 
 # --------------------------------------------------------------------------------------------
@@ -447,6 +492,13 @@ def _rhs(prob: _Problem, noise: tuple | None = None) -> np.ndarray:
     return rhs
 
 
+def _control_rhs(prob: _Problem) -> np.ndarray:
+    """(control Delta^n)^T applied to the control targets (zero when starting at rest)."""
+    if prob.control_target is None:
+        return 0.0
+    return _control_adjoint(prob, prob.control_target)
+
+
 def _psd_sqrt(prec: np.ndarray) -> np.ndarray:
     """L_t with L_t L_t^T = P_t for positive semi-definite P_t (Cholesky where definite)."""
     try:
@@ -456,9 +508,12 @@ def _psd_sqrt(prec: np.ndarray) -> np.ndarray:
         return v * np.sqrt(np.clip(w, 0.0, None))[:, None, :]
 
 
-def _extend(prob: _Problem, c: np.ndarray) -> np.ndarray:
-    """All coefficients c_0 .. c_{N+n-2} (..., N+n-1, D) from the free ones (fixed ones are 0)."""
+def _extend(prob: _Problem, c: np.ndarray, with_start: bool = False) -> np.ndarray:
+    """All coefficients c_0 .. c_{N+n-2} (..., N+n-1, D) from the free ones; the fixed ones are 0
+    (as in the shifted right-hand sides) or, with_start, their values."""
     ext = np.zeros((*c.shape[:-2], prob.n_steps + prob.n - 1, prob.dim))
+    if with_start:
+        ext[..., : prob.n, :] = prob.start
     ext[..., prob.n : prob.n_coef, :] = c
     ext[..., prob.n_coef :, :] = c[..., -1:, :]
     return ext
@@ -588,8 +643,8 @@ class _Factor:
         k = rhs.shape[0] if many else 1
         b = np.zeros((s.size, k))
         b[s.x_pos] = rhs.reshape(k, -1).T
-        if zc is not None:  # perturbed control targets: beta E x - beta^2 y = beta z
-            b[s.y_pos] = self.beta * zc.reshape(k, -1).T
+        if zc is not None:  # control targets: beta E x - beta^2 y = beta z
+            b[s.y_pos] = self.beta * np.broadcast_to(zc, (k, *zc.shape[-2:])).reshape(k, -1).T
         x, info = lapack.dgbtrs(self.lu, s.kl, s.ku, b, self.piv)
         if info != 0:
             raise SolverError(f"LQT augmented solve failed (gbtrs info {info})")
@@ -599,9 +654,9 @@ class _Factor:
     # public ----------------------------------------------------------------------------------
     def mean(self) -> np.ndarray:
         """Free coefficients (n_free, D) of the optimum."""
-        rhs = _rhs(self.prob)
         if self.method == "augmented":
-            return self._aug_solve(rhs)
+            return self._aug_solve(_rhs(self.prob), self.prob.control_target)
+        rhs = _rhs(self.prob) + _control_rhs(self.prob)
         c = self._chol_solve(rhs)
         if self.refine:  # one step of iterative refinement with an accurately computed residual
             c += self._chol_solve(_normal_residual(self.prob, self.obs, rhs, c))
@@ -623,6 +678,8 @@ class _Factor:
             return self.mean() + dev.T.reshape(k, p.n_free, p.dim)
         rhs = _rhs(p, noise=(rng, k))
         zc = rng.standard_normal((k, p.n_steps - 1, p.dim))
+        if p.control_target is not None:
+            zc += p.control_target
         return self._aug_solve(rhs, zc)
 
 
@@ -689,7 +746,7 @@ def _augmented_structure(n: int, dim: int, n_steps: int, n_coef: int, obs_width:
 
 def _positions(prob: _Problem, c_free: np.ndarray, derivative: int = 0) -> np.ndarray:
     """x^(k)_t (..., N, D) in [mm/s^k] from free coefficients (..., n_free, D)."""
-    ext = _extend(prob, c_free)
+    ext = _extend(prob, c_free, with_start=True)
     stencil = _state_stencils(prob.n, prob.discretisation)[derivative]
     if stencil.size == 1:
         out = ext[..., : prob.n_steps, :] * stencil[0]
@@ -738,30 +795,42 @@ def _batch(prob: _Problem, with_cov: bool = False):
     lag = np.arange(N)[:, None] - 1 - np.arange(N - 1)[None, :]  # t - 1 - s
     lag[lag < 0] = N - 1  # the zero block above the diagonal
     su = np.array(blocks)[lag].transpose(0, 2, 1, 3).reshape(N * nd, (N - 1) * dim)  # eq. 11
-    xi1 = np.zeros(nd)  # relative coordinates: xi_1 = (mu_1, 0, ...) becomes 0
+    xi1 = np.zeros(nd)  # relative coordinates: xi_1 = (mu_1, v_1, 0, ...) becomes (0, v_1, 0, ...)
+    stencil = np.zeros((n, n))
+    for k, s in enumerate(_state_stencils(n, prob.discretisation)):
+        stencil[k, : s.size] = s / dt**k
+    xi1[:] = (stencil @ prob.start).reshape(-1)
+    free = [xi1]  # S_xi xi_1 (eq. 10)
+    for _ in range(N - 1):
+        free.append(a @ free[-1])
+    free = np.concatenate(free)
     rows, rhs = [], []
     for block in prob.blocks:
         k = block.derivative
         sel = np.zeros((dim, nd))
         sel[:, k * dim : (k + 1) * dim] = np.eye(dim)
         roots = _psd_sqrt(block.precision)
-        for t, root, v in zip(block.steps, roots, block.value):
+        v_all = _original_values(prob, block)
+        for t, root, v in zip(block.steps, roots, v_all):
             rows.append(root.T @ sel @ su[t * nd : (t + 1) * nd])
-            rhs.append(root.T @ v)
+            rhs.append(root.T @ (v - sel @ free[t * nd : (t + 1) * nd]))
     r = (prob.control * dt**n) ** 2
     rows.append(np.sqrt(r) * np.eye((N - 1) * dim))
     rhs.append(np.zeros((N - 1) * dim))
     big_a, big_b = np.vstack(rows), np.concatenate(rhs)
     if prob.end_at_rest and n > 1:
         last = su[(N - 1) * nd + dim : N * nd].copy()  # derivatives of the last state
-        last /= np.linalg.norm(last, axis=1, keepdims=True)
+        target = -free[(N - 1) * nd + dim : N * nd]
+        norms = np.linalg.norm(last, axis=1)
+        last, target = last / norms[:, None], target / norms
         basis = null_space(last)
-        w = lstsq(big_a @ basis, big_b)[0]
-        u = basis @ w
+        u0 = lstsq(last, target)[0]
+        w = lstsq(big_a @ basis, big_b - big_a @ u0)[0]
+        u = u0 + basis @ w
     else:
         basis = np.eye((N - 1) * dim)
         u = lstsq(big_a, big_b)[0]
-    states = (su @ u + np.tile(xi1, N)).reshape(N, nd)
+    states = (su @ u + free).reshape(N, nd)
     if not with_cov:
         return states, None
     _, tri = np.linalg.qr(big_a @ basis)
@@ -769,6 +838,11 @@ def _batch(prob: _Problem, with_cov: bool = False):
     pos_rows = np.concatenate([np.arange(t * nd, t * nd + dim) for t in range(N)])
     sx = su[pos_rows] @ half.T  # S_u Z R^-1 restricted to positions
     return states, sx @ sx.T  # eq. 15: Sigma_x = S_u Sigma_u S_u^T
+
+
+def _original_values(prob: _Problem, block: _Block) -> np.ndarray:
+    """The block's targets before the fixed start was folded in (the batch keeps xi_1)."""
+    return block.value + _apply_fixed(block, prob.start, prob.n)
 
 
 # --------------------------------------------------------------------------------------------
@@ -806,7 +880,7 @@ def _outputs(prob: _Problem, c_free: np.ndarray) -> tuple[np.ndarray, np.ndarray
     if prob.discretisation == "zoh":
         pos = _positions(prob, c_free)
         return pos, (_positions(prob, c_free, 1) if prob.n > 1 else _first_difference(prob, pos))
-    ext = _extend(prob, c_free)  # Euler: c is the position, velocity its forward difference
+    ext = _extend(prob, c_free, with_start=True)  # Euler: c is the position, velocity its forward difference
     vel = np.diff(ext[: prob.n_steps + 1] if prob.n > 1 else ext[: prob.n_steps], axis=0) / prob.dt
     if prob.n == 1:  # first-order chain: the velocity is the control, 0 after the last step
         vel = np.vstack([vel, np.zeros((1, prob.dim))])

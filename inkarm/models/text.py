@@ -1,7 +1,8 @@
 """Text to motor plans: Hershey glyphs -> Gaussian targets -> ligatured strokes (seed 000 sec. 4.1).
 
-The glyph outlines come from the Hershey vector fonts (``hershey-fonts`` package); the script
-fonts (``scripts``, ``scriptc``) are drawn as connected handwriting. A glyph stroke is a
+The glyph outlines come from the Hershey vector fonts (``hershey-fonts`` package); the
+single-line script font ``scripts`` (the default) joins its lower-case letters like connected
+handwriting (``scriptc`` is its doubled-line cut, drawn with several passes per letter). A glyph stroke is a
 sparse polyline already, so its vertices are the target loci (seed 000 sec. 4: targets near
 curvature extrema), optionally thinned by turning angle. Letters whose pen-up gap is small
 are joined into one stroke (a ligature).
@@ -22,12 +23,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from itertools import pairwise
+from typing import NamedTuple
 
 import numpy as np
 
 from inkarm.errors import InputError
-from inkarm.models.plan import MotorPlan
-from inkarm.models.trajectory import A4_MM
+from inkarm.models.handstyles import Handstyle, get_handstyle
+from inkarm.models.plan import MotorPlan, StrokePlan
+from inkarm.models.trajectory import A4_MM, Drawing, Trajectory
 
 DEFAULT_FONT = "scripts"
 DEFAULT_HEIGHT = 10.0
@@ -69,8 +72,8 @@ def _hershey(name: str):
 class HersheyFont:
     """A Hershey font whose cap height (base line to cap line) is ``height`` [mm].
 
-    Hershey units: y grows downwards, cap line at -12, base line at 9, bottom line at 21 for
-    the Roman and script fonts; the package stores each glyph's left and right side bearings.
+    Hershey units: y grows downwards, cap line at -12, base line at 9 (so 21 units are
+    ``height``); the package stores each glyph's left and right side bearings.
     """
 
     def __init__(self, name: str = DEFAULT_FONT, height: float = DEFAULT_HEIGHT) -> None:
@@ -82,7 +85,6 @@ class HersheyFont:
         opts = font.render_options
         self._base = float(opts["base_line"])
         self._scale = self.height / (self._base - float(opts["cap_line"]))  # [mm per unit]
-        self.descent = (float(opts["bottom_line"]) - self._base) * self._scale  # [mm]
         self._glyphs = font.all_glyphs
 
     def glyph(self, char: str) -> Glyph:
@@ -90,19 +92,21 @@ class HersheyFont:
         g = self._glyphs.get(char)
         if g is None:
             raise InputError(f"font {self.name!r} has no glyph for {char!r} (U+{ord(char):04X})")
-        return _scaled_glyph(self.name, self._scale, self._base, char, g)
+        return _scaled_glyph(self._scale, self._base, char, g)
 
     def has(self, char: str) -> bool:
         return char in self._glyphs
 
 
 @lru_cache(maxsize=1024)
-def _scaled_glyph(font: str, scale: float, base: float, char: str, g) -> Glyph:
-    strokes = tuple(
-        np.column_stack([(s[:, 0] - g.left_offset) * scale, (base - s[:, 1]) * scale])
-        for s in (np.asarray(stroke, dtype=float) for stroke in g.strokes)
-    )
-    return Glyph(char, strokes, g.char_width * scale)
+def _scaled_glyph(scale: float, base: float, char: str, g) -> Glyph:
+    strokes = []
+    for stroke in g.strokes:
+        s = np.asarray(stroke, dtype=float)
+        mm = np.column_stack([(s[:, 0] - g.left_offset) * scale, (base - s[:, 1]) * scale])
+        mm.flags.writeable = False  # shared by the cache
+        strokes.append(mm)
+    return Glyph(char, tuple(strokes), g.char_width * scale)
 
 
 # -- page layout --------------------------------------------------------------------------
@@ -398,7 +402,8 @@ class TextPlan:
     Attributes:
         text: The text.
         plan: One stroke per pen-down ligature; stroke meta ``letters`` gives, per target,
-            the index in ``text`` of the letter the target came from.
+            the index in ``text`` of the letter the target came from, and ``connectors``
+            whether the path into the target is a ligature rather than the letter's outline.
         glyphs: The placed font glyphs (page [mm]).
         font: The font used.
     """
@@ -411,7 +416,7 @@ class TextPlan:
 
 def plan_text(
     text: str,
-    style,
+    style: Handstyle | str,
     height: float = DEFAULT_HEIGHT,
     font: str = DEFAULT_FONT,
     layout: PageLayout = PageLayout(),
@@ -423,7 +428,7 @@ def plan_text(
     Args:
         text: What to write (newlines allowed).
         style: The :class:`inkarm.models.handstyles.Handstyle` (covariances, thinning,
-            ligature angle, time per target).
+            ligature angle, time per target), or a preset's name.
         height: Cap height of the letters in [mm].
         font: Hershey font name (script fonts: ``scripts``, ``scriptc``).
         layout: Page, margins and line height.
@@ -431,6 +436,7 @@ def plan_text(
             (bridges most joins of the ``scripts`` lower case, never a space).
         seed: Seed or Generator for the covariance perturbation (rho > 0).
     """
+    style = get_handstyle(style) if isinstance(style, str) else style
     f = HersheyFont(font, height)
     placed = layout_text(text, f, layout)
     gap = 0.45 * f.height if ligature_gap is None else float(ligature_gap)
@@ -452,37 +458,46 @@ def plan_text(
     return TextPlan(text, MotorPlan(strokes), tuple(placed), f)
 
 
-def write_text(text: str, style, dt: float = 0.01, **kwargs):
-    """Plan and realise ``text``: returns (TextPlan, Drawing) with strokes timed one after
-    the other. Keyword arguments go to :func:`plan_text`."""
+class WrittenText(NamedTuple):
+    """What :func:`write_text` returns (unpacks as ``tp, drawing``)."""
+
+    text_plan: TextPlan
+    drawing: Drawing
+
+
+def write_text(text: str, style: Handstyle | str, dt: float = 0.01, **kwargs) -> WrittenText:
+    """Plan and realise ``text`` with ``style`` (a Handstyle or a preset's name): the plan and
+    the Drawing, strokes timed one after the other. Keyword arguments go to
+    :func:`plan_text`."""
+    style = get_handstyle(style) if isinstance(style, str) else style
     tp = plan_text(text, style, **kwargs)
     layout = kwargs.get("layout", PageLayout())
-    drawing = style.realise(tp.plan, dt=dt, page_size=layout.page_size)
-    return tp, drawing
+    return WrittenText(tp, style.realise(tp.plan, dt=dt, page_size=layout.page_size))
 
 
-def sample_letters(stroke_plan, traj) -> tuple[np.ndarray, np.ndarray]:
-    """Per sample of ``traj``: the index of the letter being drawn, and whether the pen is on
-    that letter's outline (False while it travels a connector), both (N,).
-
-    Targets are held stepwise for ``segment_time`` each (seed 000 sec. 3.3), so the sample at
-    time t (from the stroke's start) tracks target floor(t / T_s).
-    """
-    letters = np.asarray(stroke_plan.meta["letters"])
-    connectors = np.asarray(stroke_plan.meta["connectors"])
+def _active_targets(plan: StrokePlan, traj: Trajectory) -> np.ndarray:
+    """Index of the target tracked at each sample: targets are held stepwise for
+    ``segment_time`` each (seed 000 sec. 3.3), so at time t from the stroke's start it is
+    floor(t / T_s)."""
     t = traj.t - traj.t[0]
-    i = np.minimum((t / stroke_plan.segment_time + 1e-9).astype(int), len(letters) - 1)
-    return letters[i], ~connectors[i]
+    return np.minimum((t / plan.segment_time + 1e-9).astype(int), len(plan.targets) - 1)
 
 
-def outline_deviation(tp: TextPlan, drawing) -> dict[int, float]:
+def sample_letters(plan: StrokePlan, traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample of ``traj``: the index of the letter being drawn, and whether the pen is on
+    that letter's outline (False while it heads for a target along a connector), both (N,)."""
+    active = _active_targets(plan, traj)
+    return np.asarray(plan.meta["letters"])[active], ~np.asarray(plan.meta["connectors"])[active]
+
+
+def outline_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
     """Largest distance in [mm] of the written path from the font, per letter (text index).
 
-    A sample belongs to the letter of the target active at its time (see
-    :func:`sample_letters`) and is compared with the path the plan prescribes around that
-    target i: the font outlines of the letters of targets i - 1, i and i + 1 (the smooth pen
-    anticipates the next target and lags the last), plus the straight connector chords into
-    targets i and i + 1 (ligatures are not part of any letter's outline).
+    A sample belongs to the letter of the target active at its time and is compared with the
+    path the plan prescribes around that target i: the font outlines of the letters of
+    targets i - 1, i and i + 1 (the smooth pen anticipates the next target and lags the
+    last), plus the straight connector chords into targets i and i + 1 (ligatures are not
+    part of any letter's outline).
     """
     outlines = {g.index: g.strokes for g in tp.glyphs}
     worst: dict[int, float] = {}
@@ -491,12 +506,10 @@ def outline_deviation(tp: TextPlan, drawing) -> dict[int, float]:
         connectors = np.asarray(plan.meta["connectors"])
         means = plan.means
         m = len(letters)
-        t = traj.t - traj.t[0]
-        active = np.minimum((t / plan.segment_time + 1e-9).astype(int), m - 1)
+        active = _active_targets(plan, traj)
         for i in np.unique(active):
-            polylines = [
-                s for j in {max(i - 1, 0), i, min(i + 1, m - 1)} for s in outlines[letters[j]]
-            ]
+            neighbours = {max(i - 1, 0), i, min(i + 1, m - 1)}
+            polylines = [s for j in neighbours for s in outlines[letters[j]]]
             polylines += [means[[j - 1, j]] for j in (i, i + 1) if 0 < j < m and connectors[j]]
             d = _distance_to_polylines(traj.pos[active == i, :2], polylines)
             worst[int(letters[i])] = max(worst.get(int(letters[i]), 0.0), float(d.max()))

@@ -17,6 +17,7 @@ reset is disabled so that a diverging run cannot silently restart from the initi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -74,7 +75,7 @@ class MujocoPlant:
         self,
         model: mujoco.MjModel | None = None,
         config: CellConfig | None = None,
-        substeps: int = 2,
+        substeps: int = 3,
         canvas=None,
         q0=None,
         max_joint_speed: float = 50.0,
@@ -174,9 +175,11 @@ class MujocoPlant:
 
     def _tip_normal_force(self) -> float:
         d = self.data
+        if d.ncon == 0:
+            return 0.0
         force = 0.0
-        for i in range(d.ncon):
-            if self._tip_geom in d.contact.geom[i]:
+        for i, pair in enumerate(d.contact.geom):
+            if pair[0] == self._tip_geom or pair[1] == self._tip_geom:
                 mujoco.mj_contactForce(self.model, d, i, self._contact)
                 force += self._contact[0]
         return force
@@ -185,7 +188,7 @@ class MujocoPlant:
         # One dot product catches NaN/inf (the comparison fails) and runaway speed (the norm
         # bounds every joint's speed); the slow path below sorts out which.
         d = self.data
-        if float(np.dot(d.qvel, d.qvel)) <= self._max_speed_sq and np.isfinite(d.qpos[0]):
+        if float(np.dot(d.qvel, d.qvel)) <= self._max_speed_sq and math.isfinite(d.qpos[0]):
             return
         warnings = self._warning_counts()
         names = [w.name for w, a, b in zip(_DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
