@@ -13,6 +13,8 @@ from inkarm.sim.arm import (
     CellConfig,
     build_model,
     build_spec,
+    default_gains,
+    joint_ranges,
     paper_rotation,
 )
 
@@ -26,12 +28,14 @@ def dh_flange(q):
     T = np.eye(4)
     for qi, di, ai in zip(q, d, alpha):
         ct, st_, ca, sa = np.cos(qi), np.sin(qi), np.cos(ai), np.sin(ai)
-        T = T @ np.array([
-            [ct, -st_ * ca, st_ * sa, 0.0],
-            [st_, ct * ca, -ct * sa, 0.0],
-            [0.0, sa, ca, di],
-            [0.0, 0.0, 0.0, 1.0],
-        ])
+        T = T @ np.array(
+            [
+                [ct, -st_ * ca, st_ * sa, 0.0],
+                [st_, ct * ca, -ct * sa, 0.0],
+                [0.0, sa, ca, di],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        )
     return T[:3, 3], T[:3, :3]
 
 
@@ -58,22 +62,30 @@ def test_pen_is_a_sprung_slide_with_a_few_mm_of_travel():
 
 def test_only_the_pen_tip_and_the_paper_can_collide():
     def can_collide(a, b):
-        return bool(MODEL.geom_contype[a] & MODEL.geom_conaffinity[b]
-                    or MODEL.geom_contype[b] & MODEL.geom_conaffinity[a])
+        return bool(
+            MODEL.geom_contype[a] & MODEL.geom_conaffinity[b]
+            or MODEL.geom_contype[b] & MODEL.geom_conaffinity[a]
+        )
 
     pairs = {
         tuple(sorted((MODEL.geom(a).name, MODEL.geom(b).name)))
-        for a in range(MODEL.ngeom) for b in range(a + 1, MODEL.ngeom) if can_collide(a, b)
+        for a in range(MODEL.ngeom)
+        for b in range(a + 1, MODEL.ngeom)
+        if can_collide(a, b)
     }
     assert pairs == {("paper", "pen_tip")}
 
 
 def test_names_the_rest_of_inkarm_relies_on():
     for kind, name in [
-        (mujoco.mjtObj.mjOBJ_SITE, "pen_tip"), (mujoco.mjtObj.mjOBJ_SITE, "paper_origin"),
-        (mujoco.mjtObj.mjOBJ_GEOM, "pen_tip"), (mujoco.mjtObj.mjOBJ_GEOM, "paper"),
-        (mujoco.mjtObj.mjOBJ_CAMERA, "paper_top"), (mujoco.mjtObj.mjOBJ_CAMERA, "overview"),
-        (mujoco.mjtObj.mjOBJ_CAMERA, "pen_cam"), (mujoco.mjtObj.mjOBJ_KEY, "home"),
+        (mujoco.mjtObj.mjOBJ_SITE, "pen_tip"),
+        (mujoco.mjtObj.mjOBJ_SITE, "paper_origin"),
+        (mujoco.mjtObj.mjOBJ_GEOM, "pen_tip"),
+        (mujoco.mjtObj.mjOBJ_GEOM, "paper"),
+        (mujoco.mjtObj.mjOBJ_CAMERA, "paper_top"),
+        (mujoco.mjtObj.mjOBJ_CAMERA, "overview"),
+        (mujoco.mjtObj.mjOBJ_CAMERA, "pen_cam"),
+        (mujoco.mjtObj.mjOBJ_KEY, "home"),
     ]:
         assert mujoco.mj_name2id(MODEL, kind, name) >= 0, name
 
@@ -111,7 +123,9 @@ def test_home_keyframe_points_the_pen_down_above_the_paper():
 
 
 def test_paper_origin_is_the_lower_left_corner_of_the_sheet():
-    cfg = CellConfig(paper_size_mm=(148.0, 210.0), paper_centre_mm=(500.0, 50.0), paper_yaw_deg=30.0)
+    cfg = CellConfig(
+        paper_size_mm=(148.0, 210.0), paper_centre_mm=(500.0, 50.0), paper_yaw_deg=30.0
+    )
     model = build_model(cfg)
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -142,13 +156,32 @@ def test_spec_is_editable_before_compiling():
     assert spec.compile().opt.timestep == 0.001
 
 
-@pytest.mark.parametrize("field, value, message", [
-    ("timestep", 0.0, r"CellConfig.timestep: expected a positive number, got 0.0"),
-    ("pen_stiffness_n_per_mm", -1.0, r"CellConfig.pen_stiffness_n_per_mm"),
-    ("paper_size_mm", (210.0, -1.0), r"CellConfig.paper_size_mm: expected positive"),
-    ("friction", float("nan"), r"CellConfig.friction: expected a number >= 0"),
-    ("home_q", (0.0,) * 6, r"CellConfig.home_q: expected 7 joint angles, got 6"),
-])
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("timestep", 0.0, r"CellConfig.timestep: expected a positive number, got 0.0"),
+        ("pen_stiffness_n_per_mm", -1.0, r"CellConfig.pen_stiffness_n_per_mm"),
+        ("paper_size_mm", (210.0, -1.0), r"CellConfig.paper_size_mm: expected positive"),
+        ("friction", float("nan"), r"CellConfig.friction: expected a number >= 0"),
+        ("home_q", (0.0,) * 6, r"CellConfig.home_q: expected 7 joint angles, got 6"),
+    ],
+)
 def test_bad_cell_config_is_refused(field, value, message):
     with pytest.raises(InputError, match=message):
         CellConfig(**{field: value})
+
+
+def test_default_gains_cover_the_seven_joints_within_the_torque_limits():
+    g = default_gains()
+    assert g.n == 7
+    np.testing.assert_allclose(g.torque_limit, MODEL.actuator_ctrlrange[:, 1])
+    assert np.all(g.integral_limit < g.torque_limit)
+
+
+def test_joint_ranges_are_the_arm_rows():
+    np.testing.assert_allclose(joint_ranges(MODEL), MODEL.jnt_range[:7])
+    spec = build_spec()
+    spec.joint("joint7").name = "spin"
+    spec.actuator("motor7").target = "spin"
+    with pytest.raises(InputError, match="joint_ranges: the model lacks one of the joints"):
+        joint_ranges(spec.compile())

@@ -27,7 +27,7 @@ Q_TEST = np.array([0.2, 0.7, -0.3, -1.4, 0.4, 0.8, 0.5])
 
 
 def test_jacobian_matches_finite_differences():
-    p, R, Jp, Jr = KIN.jacobian(Q_TEST)
+    _p, R, Jp, Jr = KIN.jacobian(Q_TEST)
     h = 1e-6
     for j in range(KIN.n):
         dq = np.zeros(KIN.n)
@@ -65,7 +65,7 @@ def test_task_error_is_zero_on_the_goal_and_measures_tilt():
 
 def test_spin_about_the_pen_axis_is_not_part_of_the_task():
     q = Q_TEST.copy()
-    p, R, Jp, Jr = KIN.jacobian(q)
+    p, R, _Jp, _Jr = KIN.jacobian(q)
     q[6] += 0.7  # joint 7 spins the pen about its own axis
     p2, R2, Jp2, Jr2 = KIN.jacobian(q)
     e, _ = pen_task(p2, R2, Jp2, Jr2, p, R[:, 2])
@@ -108,8 +108,9 @@ def test_step_is_scaled_as_a_whole_vector():
     small, _ = dls_step(KIN, Q_TEST, goal, axis, Q_TEST, IKConfig(max_step=0.01), null_space=False)
     d_free, d_small = free - Q_TEST, small - Q_TEST
     assert np.max(np.abs(d_small)) == pytest.approx(0.01)
-    np.testing.assert_allclose(d_small / np.linalg.norm(d_small), d_free / np.linalg.norm(d_free),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        d_small / np.linalg.norm(d_small), d_free / np.linalg.norm(d_free), atol=1e-12
+    )
 
 
 def test_limit_push_only_acts_inside_the_margin():
@@ -119,8 +120,9 @@ def test_limit_push_only_acts_inside_the_margin():
 
 
 def test_track_path_follows_a_line_smoothly():
-    line = PAGE.to_robot(np.column_stack([np.linspace(60, 150, 200), np.full(200, 150.0),
-                                          np.zeros(200)]))
+    line = PAGE.to_robot(
+        np.column_stack([np.linspace(60, 150, 200), np.full(200, 150.0), np.zeros(200)])
+    )
     q0 = solve_ik(KIN, line[0], PAGE.pen_axis, HOME, HOME).q
     path = track_path(KIN, line, PAGE.pen_axis, q0, HOME, IKConfig(posture_gain=0.002))
     tips = np.array([KIN.fk(q)[0] for q in path])
@@ -132,7 +134,9 @@ def test_track_path_follows_a_line_smoothly():
 def test_track_path_names_the_first_unreachable_sample():
     points = PAGE.to_robot([[105.0, 148.0, 0.0], [105.0, 148.0, 0.0], [105.0, 2000.0, 0.0]])
     q0 = solve_ik(KIN, points[0], PAGE.pen_axis, HOME, HOME).q
-    with pytest.raises(UnreachableError, match=r"^point C: out of reach with the pen perpendicular"):
+    with pytest.raises(
+        UnreachableError, match=r"^point C: out of reach with the pen perpendicular"
+    ):
         track_path(KIN, points, PAGE.pen_axis, q0, HOME, label=lambda i: "point " + "ABC"[i])
 
 

@@ -65,10 +65,15 @@ def test_fast_solvers_match_batch_oracle(order, dim, m, seed, d, zoh, end_at_res
     rng = np.random.default_rng(seed)
     plan = _random_plan(rng, m, dim, segment_time=0.1 * rng.integers(1, 4))
     disc = "zoh" if zoh else "euler"
-    oracle = solve(plan, LQTConfig(order, 0.01, d=d, discretisation=disc, end_at_rest=end_at_rest, solver="batch"))
+    oracle = solve(
+        plan,
+        LQTConfig(order, 0.01, d=d, discretisation=disc, end_at_rest=end_at_rest, solver="batch"),
+    )
     scale = max(_extent(oracle.pos), 1.0)
     for solver in ("auto", "cholesky", "augmented"):
-        cfg = LQTConfig(order, 0.01, d=d, discretisation=disc, end_at_rest=end_at_rest, solver=solver)
+        cfg = LQTConfig(
+            order, 0.01, d=d, discretisation=disc, end_at_rest=end_at_rest, solver=solver
+        )
         fast = solve(plan, cfg)
         np.testing.assert_array_equal(fast.t, oracle.t)
         assert np.max(np.abs(fast.pos - oracle.pos)) <= 1e-6 * scale, solver
@@ -97,7 +102,7 @@ def _mp_oracle(plan, cfg, dps=110):
     mp = pytest.importorskip("mpmath")
     mp.mp.dps = dps
     n, dt = cfg.order, mp.mpf(cfg.dt)
-    per = int(round(plan.segment_time / cfg.dt))
+    per = round(plan.segment_time / cfg.dt)
     n_steps = per * len(plan.targets)
     omega = 2 * mp.pi / mp.mpf(plan.segment_time)
     r = 1 / (omega**n * mp.mpf(cfg.d)) ** 2
@@ -181,7 +186,10 @@ def test_control_weight_from_displacement():
     assert LQTConfig(order=3, d=None, r=2e-9).control_weight(0.25) == 2e-9
     # a smaller d smooths: the path passes farther from the middle target
     plan = StrokePlan.from_arrays([[0.0, 0.0], [50.0, 50.0], [100.0, 0.0]], 10.0, segment_time=0.5)
-    miss = [np.min(np.linalg.norm(solve(plan, LQTConfig(4, 0.01, d=d)).pos - [50, 50], axis=1)) for d in (1, 20)]
+    miss = [
+        np.min(np.linalg.norm(solve(plan, LQTConfig(4, 0.01, d=d)).pos - [50, 50], axis=1))
+        for d in (1, 20)
+    ]
     assert miss[0] > 5 * miss[1]
 
 
@@ -191,7 +199,9 @@ def test_flash_hogan_minimum_jerk():
     t = dt; the tied tail ends it at T + dt)."""
     amplitude, duration, n_steps = 100.0, 1.0, 201
     dt = duration / (n_steps - 1)
-    plan = StrokePlan.from_arrays([[5.0], [5.0 + amplitude]], 1e-6, segment_time=duration, keypoints=True)
+    plan = StrokePlan.from_arrays(
+        [[5.0], [5.0 + amplitude]], 1e-6, segment_time=duration, keypoints=True
+    )
     traj = solve(plan, LQTConfig(order=3, dt=dt, d=None, r=1e-15))
     assert traj.n == n_steps
     s = np.clip((traj.t - dt) / duration, 0.0, 1.0)
@@ -212,7 +222,14 @@ def test_keypoint_velocities_mimic_bezier():
     assert np.max(np.linalg.norm(traj.pos - bez, axis=1)) <= 0.01 * 100
     np.testing.assert_allclose(traj.vel[0], 3 * (cps[1] - cps[0]), rtol=0.02)
     for disc in ("euler", "zoh"):  # the moving start state agrees with the batch oracle
-        coarse = dict(order=3, dt=0.02, d=None, r=1e-9, end_at_rest=False, discretisation=disc)
+        coarse = {
+            "order": 3,
+            "dt": 0.02,
+            "d": None,
+            "r": 1e-9,
+            "end_at_rest": False,
+            "discretisation": disc,
+        }
         fast = solve(plan, LQTConfig(**coarse))
         oracle = solve(plan, LQTConfig(**coarse, solver="batch"))
         assert np.max(np.abs(fast.pos - oracle.pos)) <= 1e-6 * _extent(oracle.pos)
@@ -226,7 +243,9 @@ def test_speed_profile_has_one_peak_per_segment_when_smoothing():
     for m in range(2, 9):
         turns = np.cumsum(rng.uniform(-2.5, 2.5, m - 1))
         steps = np.stack([np.cos(turns), np.sin(turns)], 1) * rng.uniform(50, 100, (m - 1, 1))
-        plan = StrokePlan.from_arrays(np.vstack([[0, 0], np.cumsum(steps, 0)]), 100.0, segment_time=0.5)
+        plan = StrokePlan.from_arrays(
+            np.vstack([[0, 0], np.cumsum(steps, 0)]), 100.0, segment_time=0.5
+        )
         assert _speed_peaks(solve(plan, LQTConfig(4, 0.01, d=5.0))) == m - 1
 
 
@@ -255,7 +274,8 @@ def test_zoh_matches_its_state_space_definition():
 
 def test_exact_samples_match_analytic_covariance():
     plan = StrokePlan.from_arrays(
-        [[0.0, 0.0], [8.0, 5.0], [15.0, 2.0]], [1.0, np.diag([2.0, 0.5]), [[1.0, 0.3], [0.3, 0.4]]],
+        [[0.0, 0.0], [8.0, 5.0], [15.0, 2.0]],
+        [1.0, np.diag([2.0, 0.5]), [[1.0, 0.3], [0.3, 0.4]]],
         segment_time=0.1,
     )
     steps = np.arange(8, 18)  # 10 time steps
@@ -268,6 +288,26 @@ def test_exact_samples_match_analytic_covariance():
         assert np.linalg.norm(emp - cov) / np.linalg.norm(cov) <= 0.03
         mean = solve(plan, cfg).pos
         assert np.max(np.abs(draws.mean(axis=0) - mean)) <= 0.05
+
+
+@pytest.mark.parametrize("disc", ["euler", "zoh"])
+def test_perturbation_samples_of_keypoints_with_velocities(disc):
+    """Key-points (sparse observations), a moving start and ZOH go through the augmented solver's
+    perturbation sampler; its covariance is the batch one within 3 standard errors."""
+    plan = StrokePlan.from_arrays(
+        [[0.0, 0.0], [8.0, 5.0], [15.0, 2.0]],
+        [1.0, np.diag([2.0, 0.5]), [[1.0, 0.3], [0.3, 0.4]]],
+        segment_time=0.1,
+        keypoints=True,
+    )
+    vel = [[50.0, 0.0], [np.nan, np.nan], [0.0, -20.0]]
+    plan = StrokePlan(plan.targets, 0.1, True, velocities=vel, velocity_var=100.0)
+    cfg = LQTConfig(3, 0.01, d=None, r=1e-7, discretisation=disc)
+    cov = covariance(plan, cfg).reshape(42, 42)
+    draws = sample(plan, cfg, k=20000, seed=2).reshape(20000, -1)
+    stderr = np.sqrt((np.linalg.norm(cov) ** 2 + np.trace(cov) ** 2) / 20000)
+    assert np.linalg.norm(np.cov(draws.T) - cov) <= 3 * stderr
+    assert np.max(np.abs(draws.mean(axis=0) - solve(plan, cfg).pos.reshape(-1))) <= 0.01
 
 
 def test_samples_are_seeded_and_start_on_the_first_mean():
@@ -317,17 +357,17 @@ def test_semi_tied_covariances():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(order=0), "order: expected 1..7, got 0"),
-        (dict(order=8), "order: expected 1..7, got 8"),
-        (dict(order=2.5), "order: expected an integer"),
-        (dict(dt=0.0), "dt: must be a positive number"),
-        (dict(dt=float("nan")), "dt: must be a positive number"),
-        (dict(d=None), "exactly one of d .* and r"),
-        (dict(d=5.0, r=1e-6), "exactly one of d .* and r"),
-        (dict(d=-1.0), "d: must be a positive number"),
-        (dict(d=None, r=float("inf")), "r: must be a positive number"),
-        (dict(discretisation="rk4"), "discretisation: expected 'euler' or 'zoh'"),
-        (dict(solver="magic"), "solver: expected one of"),
+        ({"order": 0}, "order: expected 1..7, got 0"),
+        ({"order": 8}, "order: expected 1..7, got 8"),
+        ({"order": 2.5}, "order: expected an integer"),
+        ({"dt": 0.0}, "dt: must be a positive number"),
+        ({"dt": float("nan")}, "dt: must be a positive number"),
+        ({"d": None}, "exactly one of d .* and r"),
+        ({"d": 5.0, "r": 1e-6}, "exactly one of d .* and r"),
+        ({"d": -1.0}, "d: must be a positive number"),
+        ({"d": None, "r": float("inf")}, "r: must be a positive number"),
+        ({"discretisation": "rk4"}, "discretisation: expected 'euler' or 'zoh'"),
+        ({"solver": "magic"}, "solver: expected one of"),
     ],
 )
 def test_config_errors(kwargs, match):
@@ -378,6 +418,8 @@ def test_sample_and_semi_tied_errors():
     plan = StrokePlan.from_arrays([[0.0, 0.0], [10.0, 0.0]], 1.0, segment_time=0.2)
     with pytest.raises(InputError, match="sample k: expected a positive integer"):
         sample(plan, LQTConfig(), k=0)
+    with pytest.raises(InputError, match="sample components: expected a positive integer"):
+        sample(plan, LQTConfig(), method="eigen", components=0)
     with pytest.raises(InputError, match="sample method: expected 'exact' or 'eigen'"):
         sample(plan, LQTConfig(), method="gibbs")
     with pytest.raises(InputError, match="H: singular basis"):

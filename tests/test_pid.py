@@ -5,7 +5,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from inkarm.control.pid import JointPID, PIDGains, iiwa_gains
+from inkarm.control.pid import JointPID, PIDGains
 from inkarm.errors import InputError
 
 PENDULUM = """
@@ -86,8 +86,9 @@ def simulate(pid: JointPID, target: float, steps: int, model, data, gravity_comp
     for _ in range(steps):
         mujoco.mj_forward(model, data)
         feedforward = data.qfrc_bias.copy() if gravity_comp else None
-        data.ctrl[:] = pid.update(one(target), data.qpos.copy(), data.qvel.copy(),
-                                  feedforward=feedforward)
+        data.ctrl[:] = pid.update(
+            one(target), data.qpos.copy(), data.qvel.copy(), feedforward=feedforward
+        )
         mujoco.mj_step(model, data)
         history.append(float(data.qpos[0]))
     return history
@@ -125,12 +126,9 @@ def test_anti_windup_recovers_faster_than_a_naive_integrator():
     assert overshoot["naive"] > 3 * max(overshoot["anti-windup"], 0.05)
 
 
-def test_iiwa_gains_cover_seven_joints_within_the_torque_limits():
-    g = iiwa_gains()
-    assert g.n == 7
-    np.testing.assert_allclose(g.torque_limit, [320, 320, 176, 176, 110, 40, 40])
-    assert np.all(g.integral_limit < g.torque_limit)
-    np.testing.assert_allclose(g.scaled(2.0).kp, 2.0 * g.kp)
+def test_scaled_gains():
+    g = gains(kp=2.0, ki=3.0, kd=4.0).scaled(2.0)
+    assert (g.kp[0], g.ki[0], g.kd[0], g.torque_limit[0]) == (4.0, 6.0, 8.0, 100.0)
 
 
 def test_scalar_gains_broadcast():
@@ -138,20 +136,30 @@ def test_scalar_gains_broadcast():
     assert g.ki.shape == (3,) and g.torque_limit.tolist() == [10.0] * 3
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(kp=[1.0, 2.0], ki=[1.0, 2.0, 3.0]), r"PIDGains.ki: has 3 entries, expected 2"),
-    (dict(torque_limit=[0.0, 1.0]), r"PIDGains.torque_limit: must be > 0"),
-    (dict(integral_limit=[-1.0, 1.0]), r"PIDGains.integral_limit: must be >= 0"),
-    (dict(kd=[np.nan, 1.0]), r"PIDGains.kd: NaN or inf"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"kp": [1.0, 2.0], "ki": [1.0, 2.0, 3.0]}, r"PIDGains.ki: has 3 entries, expected 2"),
+        ({"torque_limit": [0.0, 1.0]}, r"PIDGains.torque_limit: must be > 0"),
+        ({"integral_limit": [-1.0, 1.0]}, r"PIDGains.integral_limit: must be >= 0"),
+        ({"kd": [np.nan, 1.0]}, r"PIDGains.kd: NaN or inf"),
+    ],
+)
 def test_bad_gains_are_refused(kwargs, message):
-    base = dict(kp=[1.0, 2.0], ki=[0.0, 0.0], kd=[0.1, 0.1], torque_limit=[5.0, 5.0],
-                integral_limit=[1.0, 1.0])
+    base = {
+        "kp": [1.0, 2.0],
+        "ki": [0.0, 0.0],
+        "kd": [0.1, 0.1],
+        "torque_limit": [5.0, 5.0],
+        "integral_limit": [1.0, 1.0],
+    }
     base.update(kwargs)
     with pytest.raises(InputError, match=message):
         PIDGains(**base)
 
 
 def test_bad_period_is_refused():
-    with pytest.raises(InputError, match="JointPID: dt must be a positive number of seconds, got 0"):
+    with pytest.raises(
+        InputError, match="JointPID: dt must be a positive number of seconds, got 0"
+    ):
         JointPID(gains(), 0)

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from inkarm.errors import PlanError
-from inkarm.models.plan import GaussianTarget, MotorPlan, StrokePlan, bezier_keypoints, check_covariance
+from inkarm.models.plan import (
+    GaussianTarget,
+    MotorPlan,
+    StrokePlan,
+    bezier_keypoints,
+    check_covariance,
+)
 
 
 def test_covariance_forms():

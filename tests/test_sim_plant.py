@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from inkarm.control.ik import ArmKinematics, solve_ik
-from inkarm.control.pid import JointPID, iiwa_gains
+from inkarm.control.pid import JointPID
 from inkarm.control.plant import Plant
 from inkarm.control.transform import PagePlacement
 from inkarm.errors import InputError, SimulationError
-from inkarm.sim.arm import HOME_Q, CellConfig, build_model
+from inkarm.sim.arm import HOME_Q, CellConfig, build_model, build_spec, default_gains
 from inkarm.sim.plant import MujocoPlant, SimState
 
 
@@ -30,7 +30,7 @@ class FakeCanvas:
 
 def hold(plant, kin, q_goal, steps):
     """PID with gravity compensation towards q_goal for ``steps`` periods."""
-    pid = JointPID(iiwa_gains(), plant.dt)
+    pid = JointPID(default_gains(), plant.dt)
     for _ in range(steps):
         s = plant.read()
         plant.command(torque=pid.update(q_goal, s.q, s.qd, feedforward=kin.bias(s.q, s.qd)))
@@ -74,8 +74,9 @@ def test_read_returns_copies_and_the_tip_in_page_millimetres():
     data.qpos[:7] = HOME_Q
     mujoco.mj_kinematics(plant.model, data)
     page = PagePlacement.from_model(plant.model)
-    np.testing.assert_allclose(plant.read().tip_mm, page.to_page(data.site("pen_tip").xpos),
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        plant.read().tip_mm, page.to_page(data.site("pen_tip").xpos), atol=1e-9
+    )
 
 
 def test_pressed_pen_force_follows_the_spring_and_inks_the_canvas():
@@ -93,8 +94,9 @@ def test_pressed_pen_force_follows_the_spring_and_inks_the_canvas():
     state = hold(plant, kin, pressed, 150)
     # Quasi-static balance of the pen cartridge: contact = spring + its weight along the axis.
     pen_mass = plant.model.body("pen").subtreemass[0]
-    expected = (cfg.pen_stiffness_n_per_mm * state.pen_compression_mm
-                + pen_mass * 9.81 * (page.pen_axis @ [0, 0, -1]))
+    expected = cfg.pen_stiffness_n_per_mm * state.pen_compression_mm + pen_mass * 9.81 * (
+        page.pen_axis @ [0, 0, -1]
+    )
     assert state.pen_force == pytest.approx(expected, rel=0.02)
     assert 0.5 < state.pen_force < 1.2
     touches = [c for c in canvas.calls if c[0] == "touch"]
@@ -130,10 +132,15 @@ def test_runaway_speed_is_reported_as_divergence():
         plant.step()
 
 
-def test_non_finite_state_is_reported_as_divergence():
+def test_non_finite_state_is_reported_as_divergence(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
     plant = MujocoPlant()
     plant.data.qvel[0] = np.nan
-    with pytest.raises(SimulationError, match=r"diverged at t = [0-9.]+ s: non-finite joint state"):
+    with pytest.raises(
+        SimulationError,
+        match=r"diverged at t = [0-9.]+ s: non-finite or huge joint state \(MuJoCo warned "
+        r".*mjWARN_BADQVEL",
+    ):
         plant.step()
 
 
@@ -142,3 +149,7 @@ def test_bad_arguments_are_refused():
         MujocoPlant(substeps=0)
     with pytest.raises(InputError, match=r"q0: expected 7 angles, got shape \(3,\)"):
         MujocoPlant(q0=[0.0, 0.0, 0.0])
+    spec = build_spec()
+    spec.delete(spec.site("paper_origin"))
+    with pytest.raises(InputError, match="the model needs joint pen_slide, site pen_tip"):
+        MujocoPlant(spec.compile())

@@ -19,6 +19,7 @@ step limit. Units: SI inside (m, rad), as in MuJoCo; callers in page millimetres
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -44,7 +45,8 @@ class ArmKinematics:
         self.site_id = sid
         if joint_names is None:
             joint_names = [
-                model.joint(j).name for j in range(model.njnt)
+                model.joint(j).name
+                for j in range(model.njnt)
                 if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
             ]
         ids = []
@@ -63,8 +65,6 @@ class ArmKinematics:
         self._jacr = np.zeros((3, model.nv))
         self._bias = np.zeros(model.nv)
         self._dense_mass = np.zeros((model.nv, model.nv))
-        # The kinematic copy never needs contacts; skipping them keeps every call cheap.
-        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
 
     def _set(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
         self.data.qpos[self.qpos_adr] = q
@@ -94,7 +94,8 @@ class ArmKinematics:
         )
 
     def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """Gravity + Coriolis + centrifugal + passive-free joint force c(q, qd) in [N m] (n,)."""
+        """Bias force c(q, qd) = C(q, qd) qd + g(q) in [N m] (n,): gravity, Coriolis and
+        centrifugal terms by recursive Newton-Euler (no passive spring or damper forces)."""
         self._set(q, qd)
         m, d = self.model, self.data
         mujoco.mj_kinematics(m, d)
@@ -130,7 +131,8 @@ class IKConfig:
         damping: lambda of the damped least squares, in task units ([m] ~ [rad]).
         max_step: Largest joint step per iteration in [rad]; dq is scaled as a whole.
         posture_gain: k_posture, fraction of the posture error corrected per step in the null space.
-        limit_margin: Width of the zone near each joint limit that the null space pushes out of, [rad].
+        limit_margin: Width in [rad] of the zone near each joint limit that the null space
+            pushes out of.
         limit_gain: k_limit, fraction of the intrusion into that zone removed per step.
         tol_pos: Convergence tolerance on the tip position in [m].
         tol_tilt: Convergence tolerance on the pen axis tilt in [rad].
@@ -159,7 +161,11 @@ class IKResult:
 
 
 def pen_task(
-    p: np.ndarray, R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray, p_goal: np.ndarray,
+    p: np.ndarray,
+    R: np.ndarray,
+    Jp: np.ndarray,
+    Jr: np.ndarray,
+    p_goal: np.ndarray,
     axis_goal: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The 5-D error e and Jacobian J5 of the pen task (module docstring)."""
@@ -178,7 +184,9 @@ def pen_task(
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     # np.cross spends most of its time on axis bookkeeping for 3-vectors.
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
@@ -187,33 +195,55 @@ def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: floa
 
 
 def dls_step(
-    kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray,
-    q_posture: np.ndarray, cfg: IKConfig, null_space: bool = True,
+    kin: ArmKinematics,
+    q: np.ndarray,
+    p_goal: np.ndarray,
+    axis_goal: np.ndarray,
+    q_posture: np.ndarray,
+    cfg: IKConfig,
+    null_space: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``."""
     p, R, Jp, Jr = kin.jacobian(q)
     e, J = pen_task(p, R, Jp, Jr, p_goal, axis_goal)
     JJt = J @ J.T
     JJt.flat[::6] += cfg.damping**2
-    dq = J.T @ np.linalg.solve(JJt, e)
     if null_space:
         dq0 = cfg.posture_gain * (q_posture - q) + cfg.limit_gain * limit_push(
             q, kin.lower, kin.upper, cfg.limit_margin
         )
-        dq += dq0 - J.T @ np.linalg.solve(JJt, J @ dq0)
-    biggest = np.max(np.abs(dq))
+        # One solve for both right-hand sides: the task and the projection of dq0.
+        y = np.linalg.solve(JJt, np.column_stack([e, J @ dq0]))
+        dq = J.T @ (y[:, 0] - y[:, 1]) + dq0
+    else:
+        dq = J.T @ np.linalg.solve(JJt, e)
+    biggest = float(np.abs(dq).max())
     if biggest > cfg.max_step:
         dq *= cfg.max_step / biggest
-    return np.clip(q + dq, kin.lower, kin.upper), e
+    return np.minimum(np.maximum(q + dq, kin.lower), kin.upper), e
 
 
 def task_error(e: np.ndarray) -> tuple[float, float]:
     """(position error [m], tilt error [rad]) of a pen-task error vector."""
-    return float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
+    return math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2), math.sqrt(e[3] ** 2 + e[4] ** 2)
+
+
+def pose_error(kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray):
+    """(position error [m], tilt error [rad]) at ``q`` from forward kinematics alone (cheaper
+    than a Jacobian): |p* - p| and |z_s x a|, the sine of the pen's tilt from ``axis_goal``."""
+    p, R = kin.fk(q)
+    d = p_goal - p
+    w = _cross(R[:, 2], axis_goal)
+    return math.sqrt(d @ d), math.sqrt(w @ w)
 
 
 def solve_ik(
-    kin: ArmKinematics, p_goal, axis_goal, q0, q_posture=None, cfg: IKConfig = IKConfig(),
+    kin: ArmKinematics,
+    p_goal,
+    axis_goal,
+    q0,
+    q_posture=None,
+    cfg: IKConfig = IKConfig(),
 ) -> IKResult:
     """Iterate :func:`dls_step` from ``q0`` until the tip is within tolerance of ``p_goal`` [m]
     and the pen points along ``axis_goal`` (unit, 3,). Never raises on failure: check
@@ -237,8 +267,13 @@ def solve_ik(
 
 
 def track_path(
-    kin: ArmKinematics, points: np.ndarray, axis_goal, q0, q_posture,
-    cfg: IKConfig = IKConfig(), label: Callable[[int], str] | None = None,
+    kin: ArmKinematics,
+    points: np.ndarray,
+    axis_goal,
+    q0,
+    q_posture,
+    cfg: IKConfig = IKConfig(),
+    label: Callable[[int], str] | None = None,
 ) -> np.ndarray:
     """Joint path (N, n) [rad] through ``points`` (N, 3) [m], warm-started from ``q0``.
 
@@ -256,12 +291,12 @@ def track_path(
     for i, p_goal in enumerate(points):
         q, _ = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=True)
         for _ in range(20):
-            # e is the error before this step, so it bounds the error of the q kept.
-            q, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=False)
-            pos_err, tilt_err = task_error(e)
+            pos_err, tilt_err = pose_error(kin, q, p_goal, axis_goal)
             if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
                 break
-        pos_err, tilt_err = task_error(e)
+            q, _ = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=False)
+        else:
+            pos_err, tilt_err = pose_error(kin, q, p_goal, axis_goal)
         at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
         if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or at_limit.any():
             where = label(i) if label is not None else f"sample {i}"

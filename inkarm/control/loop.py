@@ -8,24 +8,31 @@ Why inverse kinematics runs ahead of time, with feedback online
 ---------------------------------------------------------------
 Seed 001's sensory-motor model inverts kinematics inside the loop, from the sensed state. Here
 the kinematic inversion is solved once, before the run, on the controller's own kinematic model
-(closed-loop IK along the whole reference, :func:`inkarm.control.ik.track_path`), and the loop
-closes on the senses every control period:
+(closed-loop IK on knots every ``ik_period_s`` along the whole reference,
+:func:`inkarm.control.ik.track_path`, joined by a clamped cubic spline), and the loop closes on
+the senses every control period:
 
-* the joint PID acts on the measured q, qd against the precomputed q*(t), qd*(t), with gravity
-  and Coriolis compensation c(q, qd) evaluated at the *measured* state on the kinematic model,
-  the inertial feed-forward M(q*) qdd*(t), and the measured contact force cancelled through
-  J(q*)^T n;
+* the joint PID acts on the measured q, qd against the planned q*(t), qd*(t), with gravity and
+  Coriolis compensation c(q, qd) evaluated at the *measured* state on the kinematic model, the
+  inertial feed-forward M(q*) qdd*(t), and, while pressing, the planned contact force carried
+  through J(q*)^T f with f = F* (mu u - n): the set-point force into the paper plus the nib's
+  Coulomb drag along the planned direction of motion u (the measured force is not fed forward:
+  with one period of delay, cancelling it exactly is a positive feedback on the contact);
 * the pen force is regulated online: an integrator moves the pen reference along the paper
-  normal, dz/dt = k_F (F* - F), mapped to joints through the precomputed direction J5^+ n.
-  It learns where the paper really is, and the descent waits until F has settled at F*.
+  normal, dz/dt = k_F (F* - F), mapped to joints through the planned direction J5^+ (-n). It
+  learns where the paper really is, and each descent holds until F has settled at F*.
 
 Reasons: (1) an unreachable point or a joint limit is found before anything moves, naming the
-point, which a real arm needs; (2) the per-tick cost drops to a PID and one bias evaluation
-(tens of microseconds), which is what lets the simulation run at >= 30x real time on one core
-and a Python loop keep a 250 Hz hardware period; (3) because the kinematic model is exact, an
-online IK would only re-solve the same equations from a state that differs from the plan by the
-tracking error, which joint feedback already removes. What online IK would add, adapting the
-path itself to sensed surprises, is here limited to the pen-normal force loop.
+point, which a real arm needs; (2) the per-period cost drops to a PID and one bias evaluation,
+which is what lets the simulation run at >= 30x real time on one core (about 38x measured for
+a 60 mm script letter at the default 6 ms control period, planning included) and a Python loop
+keep a hardware period; (3) the kinematic model is exact, so an online IK would only re-solve
+the same equations from a state that differs from the plan by the tracking error, which joint
+feedback already removes. What online IK would add, bending the path itself to sensed
+surprises, is here limited to the pen-normal force loop.
+
+Stroke samples are interpolated onto the control grid with a cubic spline (Hermite when the
+stroke carries velocities), so the reference is as smooth as the curve the arm draws.
 
 Units: page [mm] and [s] at this module's surface; the page-to-robot transform
 (:class:`inkarm.control.transform.PagePlacement`) converts once to SI for the kinematics.
@@ -39,7 +46,6 @@ from dataclasses import dataclass, fields
 
 import mujoco
 import numpy as np
-
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from inkarm.control.ik import ArmKinematics, IKConfig, pen_task, solve_ik, track_path
@@ -49,6 +55,11 @@ from inkarm.errors import InputError, SimulationError, UnreachableError
 from inkarm.models.trajectory import Drawing
 
 PHASES = ("approach", "descend", "draw", "lift", "travel", "home")
+# Spacing in [s] of the evaluations of the terms that vary with the pose only (inertia matrix,
+# normal direction in joint space), linearly interpolated in between.
+SLOW_TERMS_PERIOD_S = 0.04
+# Speed in [mm/s] below which the nib-drag feed-forward fades out (u = v / sqrt(|v|^2 + v0^2)).
+DRAG_SPEED_MM_S = 5.0
 APPROACH, DESCEND, DRAW, LIFT, TRAVEL, HOME = range(len(PHASES))
 
 
@@ -65,6 +76,8 @@ class LoopConfig:
         lift_s: Duration of the lift back to hover height.
         travel_speed_mm_s: Peak speed of the minimum-jerk travel between strokes.
         joint_speed_rad_s: Peak joint speed of the joint-space approach and home moves.
+        nib_friction: Nib-paper friction coefficient of the drag feed-forward; read from the
+            kinematic model's ``pen_tip`` and ``paper`` geoms when None.
         force_gain_mm_per_ns: k_F of the force integrator dz/dt = k_F (F* - F), in [mm/(N s)].
         correction_limit_mm: Bound of the force loop's correction along the normal.
         settle_tol_n: |F - F*| below which the descent counts as settled.
@@ -85,6 +98,7 @@ class LoopConfig:
     lift_s: float = 0.2
     travel_speed_mm_s: float = 150.0
     joint_speed_rad_s: float = 0.8
+    nib_friction: float | None = None
     force_gain_mm_per_ns: float = 40.0
     correction_limit_mm: float = 3.0
     settle_tol_n: float = 0.05
@@ -92,7 +106,7 @@ class LoopConfig:
     settle_timeout_s: float = 0.6
     contact_threshold_n: float = 0.02
     posture_rate: float = 0.5
-    ik_period_s: float = 0.04
+    ik_period_s: float = 0.012
     go_home: bool = True
     command: str = "torque"
 
@@ -101,12 +115,34 @@ class LoopConfig:
             value = getattr(self, f.name)
             if isinstance(value, float) and not np.isfinite(value):
                 raise InputError(f"LoopConfig.{f.name}: expected a finite number, got {value}")
-        for name in ("force_n", "hover_mm", "descend_s", "lift_s", "travel_speed_mm_s",
-                     "joint_speed_rad_s"):
+        for name in (
+            "force_n",
+            "hover_mm",
+            "descend_s",
+            "lift_s",
+            "travel_speed_mm_s",
+            "joint_speed_rad_s",
+            "ik_period_s",
+        ):
             if getattr(self, name) <= 0:
                 raise InputError(f"LoopConfig.{name}: expected > 0, got {getattr(self, name)}")
+        for name in (
+            "force_gain_mm_per_ns",
+            "correction_limit_mm",
+            "settle_tol_n",
+            "settle_s",
+            "settle_timeout_s",
+            "contact_threshold_n",
+            "posture_rate",
+        ):
+            if getattr(self, name) < 0:
+                raise InputError(f"LoopConfig.{name}: expected >= 0, got {getattr(self, name)}")
+        if self.nib_friction is not None and not self.nib_friction >= 0:
+            raise InputError(f"LoopConfig.nib_friction: expected >= 0, got {self.nib_friction}")
         if self.command not in ("torque", "position"):
-            raise InputError(f"LoopConfig.command: expected 'torque' or 'position', got {self.command!r}")
+            raise InputError(
+                f"LoopConfig.command: expected 'torque' or 'position', got {self.command!r}"
+            )
 
 
 @dataclass
@@ -121,8 +157,9 @@ class DrawLog:
         force: Measured pen contact force in [N], (K,) (NaN when the plant cannot sense it).
         reference: Planned pen tip (x, y, z) in page [mm], (K, 3); z < 0 while pressing.
         phase: Index into :data:`PHASES`, (K,).
-        stroke: Stroke index, -1 outside strokes (approach, home), (K,).
-        wall_s: Wall-clock duration of the run in [s].
+        stroke: Stroke index (during travel: the stroke travelled to), -1 during approach
+            and home, (K,).
+        wall_s: Wall-clock duration of the run in [s], planning included.
     """
 
     time: np.ndarray
@@ -139,17 +176,30 @@ class DrawLog:
     @staticmethod
     def empty(capacity: int, n: int) -> DrawLog:
         return DrawLog(
-            time=np.zeros(capacity), q=np.zeros((capacity, n)), qd=np.zeros((capacity, n)),
-            torque=np.zeros((capacity, n)), tip=np.zeros((capacity, 3)), force=np.zeros(capacity),
-            reference=np.zeros((capacity, 3)), phase=np.zeros(capacity, dtype=np.int8),
+            time=np.zeros(capacity),
+            q=np.zeros((capacity, n)),
+            qd=np.zeros((capacity, n)),
+            torque=np.zeros((capacity, n)),
+            tip=np.zeros((capacity, 3)),
+            force=np.zeros(capacity),
+            reference=np.zeros((capacity, 3)),
+            phase=np.zeros(capacity, dtype=np.int8),
             stroke=np.zeros(capacity, dtype=np.int32),
         )
 
     def truncated(self, k: int) -> DrawLog:
         """The first ``k`` rows."""
         return DrawLog(
-            self.time[:k], self.q[:k], self.qd[:k], self.torque[:k], self.tip[:k],
-            self.force[:k], self.reference[:k], self.phase[:k], self.stroke[:k], self.wall_s,
+            self.time[:k],
+            self.q[:k],
+            self.qd[:k],
+            self.torque[:k],
+            self.tip[:k],
+            self.force[:k],
+            self.reference[:k],
+            self.phase[:k],
+            self.stroke[:k],
+            self.wall_s,
         )
 
     def __len__(self) -> int:
@@ -172,8 +222,9 @@ class DrawLog:
         return np.linalg.norm(self.tip[mask, :2] - self.reference[mask, :2], axis=1)
 
     def to_npz(self, path) -> None:
-        np.savez(path, **{f.name: getattr(self, f.name) for f in fields(self)},
-                 phases=np.array(PHASES))
+        np.savez(
+            path, **{f.name: getattr(self, f.name) for f in fields(self)}, phases=np.array(PHASES)
+        )
 
 
 @dataclass
@@ -182,7 +233,8 @@ class Reference:
 
     q, qd, qdd: joint reference [rad, rad/s, rad/s^2], (K, n); page_mm: planned tip in page
     [mm], (K, 3); phase, stroke: as in DrawLog; normal_q: J5^+ (-n), joint motion per metre of
-    pen pressed into the paper, (K, n); normal_tau: J^T n, (K, n); inertia: M(q) qdd
+    pen pressed into the paper, (K, n); contact_tau: J^T f, the joint torque that pushes the
+    planned contact force f on the paper while pressing, (K, n); inertia: M(q) qdd
     feed-forward in [N m], (K, n); settle: rows after which the loop waits for the force to
     settle (ends of descents).
     """
@@ -194,7 +246,7 @@ class Reference:
     phase: np.ndarray
     stroke: np.ndarray
     normal_q: np.ndarray
-    normal_tau: np.ndarray
+    contact_tau: np.ndarray
     inertia: np.ndarray
     settle: frozenset[int]
 
@@ -223,7 +275,9 @@ def pen_depth_mm(kin_model: mujoco.MjModel, config: LoopConfig) -> float:
     elif jid >= 0 and kin_model.jnt_stiffness[jid] > 0:
         stiffness = float(kin_model.jnt_stiffness[jid]) / 1000.0
     else:
-        raise InputError("LoopConfig.pen_stiffness_n_per_mm: needed, the model has no sprung pen_slide")
+        raise InputError(
+            "LoopConfig.pen_stiffness_n_per_mm: needed, the model has no sprung pen_slide"
+        )
     if stiffness <= 0:
         raise InputError(f"LoopConfig.pen_stiffness_n_per_mm: expected > 0, got {stiffness}")
     depth = config.force_n / stiffness
@@ -235,6 +289,18 @@ def pen_depth_mm(kin_model: mujoco.MjModel, config: LoopConfig) -> float:
                 f"more than 80% of its {travel:.1f} mm travel"
             )
     return depth
+
+
+def nib_friction(kin_model: mujoco.MjModel, config: LoopConfig) -> float:
+    """Nib-paper sliding friction coefficient: the configured one, else the kinematic model's
+    (the larger of the ``pen_tip`` and ``paper`` geoms', as MuJoCo combines them), else 0."""
+    if config.nib_friction is not None:
+        return float(config.nib_friction)
+    ids = [
+        mujoco.mj_name2id(kin_model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        for name in ("pen_tip", "paper")
+    ]
+    return max((float(kin_model.geom_friction[g][0]) for g in ids if g >= 0), default=0.0)
 
 
 def home_posture(kin: ArmKinematics) -> np.ndarray:
@@ -254,8 +320,9 @@ def _stroke_points(drawing: Drawing, k: int, dt: float) -> np.ndarray:
     s = drawing.strokes[k]
     if s.dim == 1:
         raise InputError(f"drawing stroke {k}: 1-D positions cannot be drawn on a page")
-    n = max(1, int(np.floor(s.duration / dt + 1e-9)) + 1)
-    t = s.t[0] + dt * np.arange(n)
+    # Whole periods covering the stroke, the last one clamped onto its end point.
+    n = max(1, int(np.ceil(s.duration / dt - 1e-9)) + 1)
+    t = np.minimum(s.t[0] + dt * np.arange(n), s.t[-1])
     pts = np.zeros((n, 3))
     if s.n >= 4 and s.vel is not None:
         pts[:, : s.dim] = CubicHermiteSpline(s.t, s.pos, s.vel, axis=0)(t)
@@ -268,15 +335,19 @@ def _stroke_points(drawing: Drawing, k: int, dt: float) -> np.ndarray:
 
 
 def check_reachable(
-    drawing: Drawing, placement: PagePlacement, kin_model: mujoco.MjModel,
-    config: LoopConfig = LoopConfig(), spacing_mm: float = 10.0, kin: ArmKinematics | None = None,
+    drawing: Drawing,
+    placement: PagePlacement,
+    kin_model: mujoco.MjModel,
+    config: LoopConfig = LoopConfig(),
+    spacing_mm: float = 10.0,
+    kin: ArmKinematics | None = None,
 ) -> None:
     """Refuse, before any simulation, a drawing that the arm cannot draw at ``placement``.
 
     Checks that every stroke lies on the sheet and solves IK statically (pen perpendicular,
-    pressed to the nominal compression, and at hover height) at the stroke ends and at points
-    about ``spacing_mm`` apart along each stroke. Raises UnreachableError naming the stroke and
-    the point in page [mm].
+    pressed to the nominal compression) at the stroke ends and at points about ``spacing_mm``
+    apart along each stroke, each solve warm-started from the previous one. Raises
+    UnreachableError naming the stroke and the point in page [mm].
     """
     if not drawing.strokes:
         raise InputError("drawing: no strokes to draw")
@@ -296,23 +367,28 @@ def check_reachable(
                 f"{placement.size_mm[1]:.0f} mm sheet"
             )
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))])
-        picks = np.unique(np.searchsorted(arc, np.arange(0.0, arc[-1], spacing_mm)).tolist() + [len(pos) - 1])
+        picks = np.unique(
+            np.searchsorted(arc, np.arange(0.0, arc[-1], spacing_mm)).tolist() + [len(pos) - 1]
+        )
         for i in picks:
-            for height in (-depth,):
-                goal = placement.to_robot([pos[i, 0], pos[i, 1], height])
-                result = solve_ik(kin, goal, placement.pen_axis, q, posture, cfg)
-                if not result.converged:
-                    raise UnreachableError(
-                        f"stroke {k}, point ({pos[i, 0]:.1f}, {pos[i, 1]:.1f}) mm: out of reach "
-                        f"with the pen perpendicular to the paper (closest tip "
-                        f"{1000 * result.pos_error:.1f} mm away)"
-                    )
-                q = result.q
+            goal = placement.to_robot([pos[i, 0], pos[i, 1], -depth])
+            result = solve_ik(kin, goal, placement.pen_axis, q, posture, cfg)
+            if not result.converged:
+                raise UnreachableError(
+                    f"stroke {k}, point ({pos[i, 0]:.1f}, {pos[i, 1]:.1f}) mm: out of reach "
+                    f"with the pen perpendicular to the paper (closest tip "
+                    f"{1000 * result.pos_error:.1f} mm away)"
+                )
+            q = result.q
 
 
 def plan_reference(
-    drawing: Drawing, kin: ArmKinematics, placement: PagePlacement, config: LoopConfig,
-    q_start: np.ndarray, dt: float,
+    drawing: Drawing,
+    kin: ArmKinematics,
+    placement: PagePlacement,
+    config: LoopConfig,
+    q_start: np.ndarray,
+    dt: float,
 ) -> Reference:
     """The whole run on the control grid of period ``dt`` [s], joint references included."""
     depth = pen_depth_mm(kin.model, config)
@@ -327,7 +403,8 @@ def plan_reference(
         above = np.array([start[0], start[1], hover])
         if previous is not None:
             distance = float(np.linalg.norm(above[:2] - previous[:2]))
-            n = _ticks(1.875 * distance / config.travel_speed_mm_s, dt)  # seed 002: Vmax = 1.875 A/tf
+            # Minimum jerk peaks at 1.875 A / t_f (seed 002, eq. 3.1).
+            n = _ticks(1.875 * distance / config.travel_speed_mm_s, dt)
             segments.append((TRAVEL, k, previous + minimum_jerk(n)[:, None] * (above - previous)))
         n = _ticks(config.descend_s, dt)
         segments.append((DESCEND, k, above + minimum_jerk(n)[:, None] * (start - above)))
@@ -355,17 +432,23 @@ def plan_reference(
 
     # IK on knots every ik_period_s, a clamped cubic spline in between (the Cartesian part
     # starts and ends at rest): the joint path is smooth, and the interpolation error is far
-    # below the tracking error (about (omega h)^4 / 384 of the radius of a curve).
-    stride = max(1, int(round(config.ik_period_s / dt)))
+    # below the tracking error where the pen turns smoothly (about (omega h)^4 / 384 of the
+    # radius of a curve); at cusps, where a script letter brakes hard, knots much further
+    # apart than 12 ms round the corner off (0.7 mm more error at 40 ms on a 60 mm "a").
+    stride = max(1, round(config.ik_period_s / dt))
     knots = _knots(len(page), stride)
 
     def label(j: int) -> str:
         i = knots[j]
-        return (f"stroke {stroke[i]} ({PHASES[phase[i]]}), point ({page[i, 0]:.1f}, "
-                f"{page[i, 1]:.1f}) mm")
+        return (
+            f"stroke {stroke[i]} ({PHASES[phase[i]]}), point ({page[i, 0]:.1f}, "
+            f"{page[i, 1]:.1f}) mm"
+        )
 
     ik_cfg = IKConfig(posture_gain=config.posture_rate * dt * stride, limit_gain=0.5)
-    q_knots = track_path(kin, placement.to_robot(page[knots]), axis, first.q, posture, ik_cfg, label)
+    q_knots = track_path(
+        kin, placement.to_robot(page[knots]), axis, first.q, posture, ik_cfg, label
+    )
     if len(knots) > 1:
         q_cart = CubicSpline(knots, q_knots, axis=0, bc_type="clamped")(np.arange(len(page)))
     else:
@@ -393,33 +476,48 @@ def plan_reference(
     qd = np.gradient(q, dt, axis=0)
     qdd = np.gradient(qd, dt, axis=0)
 
-    # Slowly varying terms on knots, linear in between.
+    # Slowly varying terms on knots SLOW_TERMS_PERIOD_S apart, linear in between.
     normal = placement.normal
     press = np.concatenate([-normal, [0.0, 0.0]])
     damping = IKConfig().damping
-    all_knots = _knots(len(q), stride)
+    all_knots = _knots(len(q), max(1, round(SLOW_TERMS_PERIOD_S / dt)))
     page_k = np.empty((len(all_knots), 3))
     normal_q_k = np.empty((len(all_knots), kin.n))
-    normal_tau_k = np.empty((len(all_knots), kin.n))
+    jac_k = np.empty((len(all_knots), kin.n * 3))
     mass_k = np.empty((len(all_knots), kin.n * kin.n))
     for j, i in enumerate(all_knots):
         p, R, Jp, Jr = kin.jacobian(q[i])
         page_k[j] = placement.to_page(p)
-        normal_tau_k[j] = Jp.T @ normal
-        _, J5 = pen_task(p, R, Jp, Jr, p, -R[:, 2])
+        jac_k[j] = Jp.T.ravel()
+        _, J5 = pen_task(p, R, Jp, Jr, p, R[:, 2])  # only the Jacobian is wanted
         JJt = J5 @ J5.T
         JJt.flat[::6] += damping**2
         normal_q_k[j] = J5.T @ np.linalg.solve(JJt, press)
         mass_k[j] = kin.mass(q[i]).ravel()
     mass = _lerp_rows(all_knots, mass_k, len(q)).reshape(len(q), kin.n, kin.n)
+    jac_t = _lerp_rows(all_knots, jac_k, len(q)).reshape(len(q), kin.n, 3)
     page_all = _lerp_rows(all_knots, page_k, len(q))
     offset = len(approach)
-    page_all[offset: offset + len(page)] = page  # the exact plan where there is one
+    page_all[offset : offset + len(page)] = page  # the exact plan where there is one
+
+    # Contact feed-forward while pressing: hold F* against the paper's push F* n, and, while
+    # drawing, the nib's Coulomb drag mu F* opposite the planned velocity (smoothed near rest).
+    velocity = np.gradient(page_all[:, :2], dt, axis=0) @ placement.rotation[:, :2].T
+    speed = np.linalg.norm(velocity, axis=1, keepdims=True)
+    sliding = velocity / np.sqrt(speed**2 + DRAG_SPEED_MM_S**2)
+    sliding[np.concatenate(parts_phase) != DRAW] = 0.0
+    mu = nib_friction(kin.model, config)
+    contact_force = config.force_n * (mu * sliding - normal)  # what the arm must push with
+    contact_tau = np.einsum("kij,kj->ki", jac_t, contact_force)
     return Reference(
-        q=q, qd=qd, qdd=qdd, page_mm=page_all,
-        phase=np.concatenate(parts_phase), stroke=np.concatenate(parts_stroke),
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        page_mm=page_all,
+        phase=np.concatenate(parts_phase),
+        stroke=np.concatenate(parts_stroke),
         normal_q=_lerp_rows(all_knots, normal_q_k, len(q)),
-        normal_tau=_lerp_rows(all_knots, normal_tau_k, len(q)),
+        contact_tau=contact_tau,
         inertia=np.einsum("kij,kj->ki", mass, qdd),
         settle=frozenset(offset + r for r in settle),
     )
@@ -431,7 +529,8 @@ def _knots(n: int, stride: int) -> np.ndarray:
 
 
 def _lerp_rows(knots: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """Rows ``values`` (len(knots), m) given at indices ``knots``, linearly interpolated to (n, m)."""
+    """Rows ``values`` (len(knots), m) given at indices ``knots``, linearly interpolated to
+    (n, m)."""
     if len(knots) == 1:
         return np.repeat(values, n, axis=0)
     i = np.arange(n)
@@ -463,6 +562,7 @@ def run_drawing(
     and SimulationError (with the log so far in its ``log`` attribute) when the plant diverges.
     ``progress(fraction, phase)`` is called about ten times per simulated second.
     """
+    wall0 = _time.perf_counter()
     kin = ArmKinematics(kin_model)
     if gains.n != kin.n:
         raise InputError(f"gains: {gains.n} joints, but the kinematic model has {kin.n}")
@@ -472,28 +572,27 @@ def run_drawing(
     ref = plan_reference(drawing, kin, placement, config, state.q, dt)
     pid = JointPID(gains, dt)
 
-    settle_ticks = int(round(config.settle_s / dt))
-    timeout_ticks = int(round(config.settle_timeout_s / dt))
+    settle_ticks = round(config.settle_s / dt)
+    timeout_ticks = round(config.settle_timeout_s / dt)
     log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + 1, kin.n)
     k_force = config.force_gain_mm_per_ns / 1000.0 * dt  # [m/N] per period
     z_limit = config.correction_limit_mm / 1000.0
     f_star = config.force_n
     torque_mode = config.command == "torque"
-    report_every = max(1, int(round(0.1 / dt)))
+    report_every = max(1, round(0.1 / dt))
     settle_at = np.zeros(len(ref), dtype=bool)
     settle_at[list(ref.settle)] = True
     senses_force = getattr(state, "pen_force", None) is not None
     senses_tip = getattr(state, "tip_mm", None) is not None
     # Local names: this loop runs once per control period and its Python cost is the budget.
     q_ref, qd_ref, inertia, normal_q = ref.q, ref.qd, ref.inertia, ref.normal_q
-    press_tau = f_star * ref.normal_tau
+    contact_tau = ref.contact_tau
     phases, bias, update = ref.phase, kin.bias, pid.update
     nan_torque = np.full(kin.n, np.nan)
 
     z_corr = 0.0  # force-loop correction along the normal, [m] (positive = deeper)
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
-    wall0 = _time.perf_counter()
     try:
         while i < n_ref:
             state = plant.read()
@@ -507,7 +606,7 @@ def run_drawing(
             if torque_mode:
                 feedforward = bias(state.q, state.qd) + inertia[i]
                 if pressing:
-                    feedforward -= press_tau[i]
+                    feedforward += contact_tau[i]
                 tau = update(q_goal, state.q, state.qd, qd_ref[i], feedforward)
                 plant.command(torque=tau)
             else:
@@ -547,6 +646,12 @@ def run_drawing(
 
 
 __all__ = [
-    "PHASES", "DrawLog", "LoopConfig", "Reference", "check_reachable", "minimum_jerk",
-    "plan_reference", "run_drawing",
+    "PHASES",
+    "DrawLog",
+    "LoopConfig",
+    "Reference",
+    "check_reachable",
+    "minimum_jerk",
+    "plan_reference",
+    "run_drawing",
 ]

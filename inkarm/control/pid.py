@@ -62,7 +62,9 @@ class PIDGains:
                 raise InputError(f"PIDGains.{name}: has {arr.size} entries, expected {n}")
             object.__setattr__(self, name, arr)
         if np.any(self.torque_limit <= 0):
-            raise InputError(f"PIDGains.torque_limit: must be > 0, got {self.torque_limit.tolist()}")
+            raise InputError(
+                f"PIDGains.torque_limit: must be > 0, got {self.torque_limit.tolist()}"
+            )
         if np.any(self.integral_limit < 0):
             raise InputError(
                 f"PIDGains.integral_limit: must be >= 0, got {self.integral_limit.tolist()}"
@@ -75,22 +77,12 @@ class PIDGains:
     def scaled(self, factor: float) -> PIDGains:
         """The same gains with K_p, K_i, K_d multiplied by ``factor``."""
         return PIDGains(
-            self.kp * factor, self.ki * factor, self.kd * factor, self.torque_limit,
+            self.kp * factor,
+            self.ki * factor,
+            self.kd * factor,
+            self.torque_limit,
             self.integral_limit,
         )
-
-
-def iiwa_gains() -> PIDGains:
-    """Gains for the simulated iiwa 14 at a 2 to 8 ms control period: about 45 rad/s of closed-loop
-    bandwidth on each joint's inertia at the drawing pose, damping ratio near 1, integral time
-    0.1 s, saturation at the iiwa 14 torque limits."""
-    kp = np.array([4000.0, 4000.0, 1500.0, 1500.0, 400.0, 250.0, 100.0])
-    kd = np.array([160.0, 160.0, 60.0, 60.0, 16.0, 10.0, 4.0])
-    return PIDGains(
-        kp=kp, ki=10.0 * kp, kd=kd,
-        torque_limit=np.array([320.0, 320.0, 176.0, 176.0, 110.0, 40.0, 40.0]),
-        integral_limit=np.array([30.0, 30.0, 15.0, 15.0, 8.0, 4.0, 4.0]),
-    )
 
 
 class JointPID:
@@ -109,7 +101,11 @@ class JointPID:
         self.integral[:] = 0.0
 
     def update(
-        self, q_ref: np.ndarray, q: np.ndarray, qd: np.ndarray, qd_ref: np.ndarray | None = None,
+        self,
+        q_ref: np.ndarray,
+        q: np.ndarray,
+        qd: np.ndarray,
+        qd_ref: np.ndarray | None = None,
         feedforward: np.ndarray | None = None,
     ) -> np.ndarray:
         """Saturated torque (n,) in [N m] for this period; advances the integrator."""
@@ -129,7 +125,8 @@ class JointPID:
         moving = (saturated == tau) | (error * tau <= 0.0)
         integral = self.integral + self._ki_dt * error
         self.integral = np.where(
-            moving, np.minimum(np.maximum(integral, -g.integral_limit), g.integral_limit),
+            moving,
+            np.minimum(np.maximum(integral, -g.integral_limit), g.integral_limit),
             self.integral,
         )
         return saturated

@@ -41,19 +41,27 @@ class PagePlacement:
         rot = np.asarray(self.rotation, dtype=float)
         if origin.shape != (3,) or not np.all(np.isfinite(origin)):
             raise InputError(f"PagePlacement.origin_m: expected 3 finite numbers, got {origin}")
-        if rot.shape != (3, 3) or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6) or (
-            np.linalg.det(rot) < 0
+        if (
+            rot.shape != (3, 3)
+            or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6)
+            or (np.linalg.det(rot) < 0)
         ):
-            raise InputError(f"PagePlacement.rotation: expected a (3, 3) rotation, got {rot.tolist()}")
+            raise InputError(
+                f"PagePlacement.rotation: expected a (3, 3) rotation, got {rot.tolist()}"
+            )
         w, h = (float(v) for v in self.size_mm)
         if not (w > 0 and h > 0):
-            raise InputError(f"PagePlacement.size_mm: expected positive (width, height), got {self.size_mm}")
+            raise InputError(
+                f"PagePlacement.size_mm: expected positive (width, height), got {self.size_mm}"
+            )
         object.__setattr__(self, "origin_m", origin)
         object.__setattr__(self, "rotation", rot)
         object.__setattr__(self, "size_mm", (w, h))
 
     @staticmethod
-    def from_model(model: mujoco.MjModel, site: str = "paper_origin", geom: str = "paper") -> PagePlacement:
+    def from_model(
+        model: mujoco.MjModel, site: str = "paper_origin", geom: str = "paper"
+    ) -> PagePlacement:
         """The placement of the sheet in a cell model: the pose of ``site`` and the size of the
         box ``geom``."""
         sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
@@ -64,7 +72,8 @@ class PagePlacement:
         mujoco.mj_kinematics(model, data)
         size = 2.0 * MM_PER_M * model.geom_size[gid][:2]
         return PagePlacement(
-            data.site_xpos[sid].copy(), data.site_xmat[sid].reshape(3, 3).copy(),
+            data.site_xpos[sid].copy(),
+            data.site_xmat[sid].reshape(3, 3).copy(),
             (float(size[0]), float(size[1])),
         )
 
@@ -95,6 +104,8 @@ class PagePlacement:
         p = np.atleast_2d(np.asarray(p_mm, dtype=float))
         w, h = self.size_mm
         return (
-            (p[:, 0] >= margin_mm) & (p[:, 0] <= w - margin_mm)
-            & (p[:, 1] >= margin_mm) & (p[:, 1] <= h - margin_mm)
+            (p[:, 0] >= margin_mm)
+            & (p[:, 0] <= w - margin_mm)
+            & (p[:, 1] >= margin_mm)
+            & (p[:, 1] <= h - margin_mm)
         )

@@ -17,9 +17,11 @@ How it is solved (our formulation, equivalent to eq. 13 but banded):
   the very same ``u_t = (Delta^n c)_t / dt^n`` and the state at step t is a short stencil of
   ``c_t .. c_{t+n-1}`` (B-spline values and derivatives at the knots). Both make the cost a banded
   least-squares problem in ``c`` with bandwidth n+1 steps.
-* Start at rest on the first mean (xi_1 = (mu_1, 0, ..., 0)) pins ``c_0 = ... = c_{n-1} = mu_1``;
-  end at rest (zero derivatives at the last step, GI sec. 4.1, imposed exactly here instead of the
-  paper's precision of 1e10) ties ``c_{N-1} = ... = c_{N+n-2}``.
+* Start at rest on the first mean (xi_1 = (mu_1, 0, ..., 0)) pins ``c_0 = ... = c_{n-1} = mu_1``
+  (a first key-point with a prescribed velocity pins them to that moving state instead); end at
+  rest (zero derivatives at the last step, GI sec. 4.1, imposed exactly here instead of the
+  paper's precision of 1e10) ties ``c_{N-1} = ... = c_{N+n-2}``. With Euler the positions lag the
+  continuous-time optimum by (n - 1) / 2 steps (the n pinned positions centre on t = (n-1) dt / 2).
 * Two linear-time solvers: ``"cholesky"`` forms the banded normal equations (LAPACK pbtrf), fast,
   followed by one step of iterative refinement whose residual is computed from differences of the
   solution (not from the rounded normal matrix); ``"augmented"`` solves Bjorck's augmented system,
@@ -32,12 +34,12 @@ How it is solved (our formulation, equivalent to eq. 13 but banded):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from math import comb
 
 import numpy as np
-from scipy.linalg import eig_banded, expm, lapack, lstsq, null_space, solve_triangular
 from scipy.interpolate import BSpline
+from scipy.linalg import eig_banded, expm, lapack, lstsq, null_space, solve_triangular
 
 from inkarm.errors import InputError, PlanError, SolverError
 from inkarm.models.plan import StrokePlan, check_covariance
@@ -77,7 +79,9 @@ class LQTConfig:
 
     def __post_init__(self) -> None:
         if isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer)):
-            raise InputError(f"LQTConfig order: expected an integer 1..{MAX_ORDER}, got {self.order!r}")
+            raise InputError(
+                f"LQTConfig order: expected an integer 1..{MAX_ORDER}, got {self.order!r}"
+            )
         if not 1 <= self.order <= MAX_ORDER:
             raise InputError(f"LQTConfig order: expected 1..{MAX_ORDER}, got {self.order}")
         if not _positive_number(self.dt):
@@ -161,18 +165,48 @@ def velocity_direction_reference(v, weight: float = 1.0) -> Reference:
 # the banded problem
 
 
-@dataclass(frozen=True)
 class _Block:
-    """Rows sqrt(P_t) (sum_j a_tj c_{t+j} / dt^k - v_t) of the least-squares problem."""
+    """Rows sqrt(P_t) (sum_j a_tj c_{t+j} / dt^k - v_t) of the least-squares problem.
 
-    derivative: int  # k: the rows observe x^(k)
-    steps: np.ndarray  # (T,) time steps t
-    coef: np.ndarray  # (T, S) stencil on c_t .. c_{t+S-1}, already divided by dt^k, merged at the end
-    precision: np.ndarray | None  # (T, D, D); None = identity
-    value: np.ndarray | None  # (T, D), shifted so that c_0 = 0
-    weighted: np.ndarray | None = None  # (T, D) P_t v_t, when known in advance
+    Attributes:
+        derivative: k, the rows observe x^(k).
+        steps: (T,) time steps t.
+        coef: (T, S) stencil on c_t .. c_{t+S-1} / dt^k, tail merged (see _merged).
+        repeat: Each given precision / value holds for ``repeat`` consecutive rows (stepwise
+            targets, eq. 6); ``precision``, ``value`` and ``weighted`` expand them on demand.
+        targets_precision, targets_value: (T / repeat, D, D) and (T / repeat, D); the values
+            relative to the origin; precision None = identity.
+    """
 
-    @property
+    def __init__(self, derivative, steps, coef, precision, value, weighted=None, repeat=1):
+        self.derivative, self.steps, self.coef, self.repeat = derivative, steps, coef, repeat
+        self.targets_precision, self.targets_value = precision, value
+        self._weighted = weighted
+
+    def _expand(self, a: np.ndarray) -> np.ndarray:
+        return a if self.repeat == 1 else np.repeat(a, self.repeat, axis=0)
+
+    @cached_property
+    def precision(self) -> np.ndarray | None:
+        """(T, D, D) P_t."""
+        p = self.targets_precision
+        return None if p is None else self._expand(p)
+
+    @cached_property
+    def value(self) -> np.ndarray | None:
+        """(T, D) v_t, shifted so that c_0 = 0."""
+        v = self.targets_value
+        return None if v is None else self._expand(v)
+
+    @cached_property
+    def weighted(self) -> np.ndarray:
+        """(T, D) P_t v_t."""
+        w = self._weighted
+        if w is None:
+            w = (self.targets_precision @ self.targets_value[:, :, None])[:, :, 0]
+        return self._expand(w)
+
+    @cached_property
     def start(self) -> int:
         """steps[0] when the steps are consecutive (slices instead of fancy indexing), else -1."""
         t = self.steps
@@ -215,7 +249,7 @@ def _state_stencils(n: int, discretisation: str) -> tuple[np.ndarray, ...]:
     out = []
     for k in range(n):
         values = spline.derivative(k)(at) if k else spline(at)
-        out.append(np.nan_to_num(np.asarray(values, dtype=float)))
+        out.append(np.asarray(values, dtype=float))
     return tuple(out)
 
 
@@ -239,6 +273,13 @@ def _merged(steps: np.ndarray, stencil: np.ndarray, n_coef: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=32)
+def _arange(count: int) -> np.ndarray:
+    steps = np.arange(count)
+    steps.flags.writeable = False
+    return steps
+
+
+@lru_cache(maxsize=32)
 def _ones(count: int) -> np.ndarray:
     ones = np.ones((count, 1))
     ones.flags.writeable = False
@@ -247,7 +288,7 @@ def _ones(count: int) -> np.ndarray:
 
 def _time_grid(stroke: StrokePlan, cfg: LQTConfig) -> tuple[int, int]:
     """(steps per segment, N)."""
-    per = int(round(stroke.segment_time / cfg.dt))
+    per = round(stroke.segment_time / cfg.dt)
     if per < 1:
         raise PlanError(
             f"stroke segment_time: {stroke.segment_time} s is shorter than dt = {cfg.dt} s"
@@ -268,7 +309,7 @@ def _time_grid(stroke: StrokePlan, cfg: LQTConfig) -> tuple[int, int]:
     return per, n_steps
 
 
-def _as_steps(name: str, value, n_steps: int, shape: tuple[int, ...], count: int) -> np.ndarray:
+def _as_steps(name: str, value, shape: tuple[int, ...], count: int) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if arr.shape == shape:
         arr = np.broadcast_to(arr, (count, *shape))
@@ -288,19 +329,23 @@ def _reference_block(i: int, ref: Reference, prob_args: dict) -> _Block:
         raise InputError(f"{where}: expected a Reference, got {type(ref).__name__}")
     k = ref.derivative
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < n:
-        raise InputError(f"{where} derivative: expected an integer 0..{n - 1} (order - 1), got {k!r}")
+        raise InputError(
+            f"{where} derivative: expected an integer 0..{n - 1} (order - 1), got {k!r}"
+        )
     steps = np.arange(n_steps) if ref.steps is None else np.asarray(ref.steps)
     if steps.ndim != 1 or steps.size == 0 or steps.dtype.kind not in "iu":
         raise InputError(f"{where} steps: expected a non-empty 1-D array of integers")
     if steps.min() < 0 or steps.max() >= n_steps:
-        raise InputError(f"{where} steps: must lie in 0..{n_steps - 1}, got {steps.min()}..{steps.max()}")
-    prec = _as_steps(f"{where} precision", ref.precision, n_steps, (dim, dim), steps.size)
+        raise InputError(
+            f"{where} steps: must lie in 0..{n_steps - 1}, got {steps.min()}..{steps.max()}"
+        )
+    prec = _as_steps(f"{where} precision", ref.precision, (dim, dim), steps.size)
     if np.max(np.abs(prec - np.swapaxes(prec, 1, 2))) > 1e-9 * max(np.max(np.abs(prec)), 1e-300):
         raise InputError(f"{where} precision: not symmetric")
     if np.min(np.linalg.eigvalsh(prec)) < -1e-9 * max(np.max(np.abs(prec)), 1e-300):
         raise InputError(f"{where} precision: not positive semi-definite")
     value = np.zeros(dim) if ref.value is None else ref.value
-    value = _as_steps(f"{where} value", value, n_steps, (dim,), steps.size)
+    value = _as_steps(f"{where} value", value, (dim,), steps.size)
     if k == 0:
         value = value - prob_args["origin"]
     coef = _merged(steps, stencils[k], n_coef) / dt**k
@@ -322,25 +367,34 @@ def _problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> _Problem:
     m = len(means)
     if stroke.keypoints:  # GI eq. 6-7: each key-point weighs at a single step
         steps = np.arange(m) * per
-        which = np.arange(m)
     else:  # seed 000 eq. 6: target i held for per steps, s = {1, 1, 2, 2, ...}
-        steps = np.arange(n_steps)
-        which = np.repeat(np.arange(m), per)
+        steps = _arange(n_steps)
     coef = _merged(steps, stencils[0], n_coef) if stencils[0].size > 1 else _ones(steps.size)
     shifted = means - origin
     weighted = (precisions @ shifted[:, :, None])[:, :, 0]
-    blocks = [_Block(0, steps, coef, precisions[which], shifted[which], weighted[which])]
+    repeat = 1 if stroke.keypoints else per  # eq. 6: target i held for per steps
+    blocks = [_Block(0, steps, coef, precisions, shifted, weighted, repeat)]
     vel = getattr(stroke, "velocities", None)
     if vel is not None:  # GI sec. 4.3: key-points augmented with velocities (Bezier mimicking)
         if n < 2:
-            raise PlanError("stroke velocities: need order >= 2 (velocity must be part of the state)")
+            raise PlanError(
+                "stroke velocities: need order >= 2 (velocity must be part of the state)"
+            )
         known = np.flatnonzero(np.all(np.isfinite(vel), axis=1))
         if known.size:
             vsteps = np.minimum(known * per, n_steps - 1)
             vprec = np.broadcast_to(np.eye(dim) / stroke.velocity_var, (known.size, dim, dim))
             vcoef = _merged(vsteps, stencils[1], n_coef) / dt
             blocks.append(_Block(1, vsteps, vcoef, vprec.copy(), vel[known]))
-    args = dict(n=n, dim=dim, n_steps=n_steps, n_coef=n_coef, dt=dt, stencils=stencils, origin=origin)
+    args = {
+        "n": n,
+        "dim": dim,
+        "n_steps": n_steps,
+        "n_coef": n_coef,
+        "dt": dt,
+        "stencils": stencils,
+        "origin": origin,
+    }
     for i, ref in enumerate(references):
         blocks.append(_reference_block(i, ref, args))
     r = cfg.control_weight(stroke.segment_time)
@@ -356,8 +410,20 @@ def _problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> _Problem:
     floor = 1.0 / np.max(covs.trace(axis1=1, axis2=2)) if everywhere else 0.0
     ceiling = np.abs(precisions).sum(axis=1).max() if len(blocks) == 1 else np.nan
     return _Problem(
-        n, dim, n_steps, n_coef, dt, origin, control, tuple(blocks), cfg.discretisation,
-        cfg.end_at_rest, floor, ceiling, start, control_target,
+        n,
+        dim,
+        n_steps,
+        n_coef,
+        dt,
+        origin,
+        control,
+        tuple(blocks),
+        cfg.discretisation,
+        cfg.end_at_rest,
+        floor,
+        ceiling,
+        start,
+        control_target,
     )
 
 
@@ -461,7 +527,9 @@ def _control_rows(n: int, n_steps: int, n_coef: int) -> np.ndarray:
 def _control_band(n: int, dim: int, n_steps: int, n_coef: int) -> np.ndarray:
     """Lower band of (Delta^n)^T Delta^n (x) I_D on the free unknowns, unscaled."""
     ab = np.zeros(((n + 1) * dim, (n_coef - n) * dim))
-    _band_add(ab, _Block(n, np.arange(n_steps - 1), _control_rows(n, n_steps, n_coef), None, None), n, dim)
+    _band_add(
+        ab, _Block(n, np.arange(n_steps - 1), _control_rows(n, n_steps, n_coef), None, None), n, dim
+    )
     ab.flags.writeable = False
     return ab
 
@@ -470,6 +538,14 @@ def _obs_band(prob: _Problem) -> np.ndarray:
     """Lower band of the tracking part sum_blocks A^T P A, bandwidth of the widest stencil."""
     width = max(b.coef.shape[1] for b in prob.blocks)
     ab = np.zeros((width * prob.dim, prob.n_free * prob.dim))
+    first = prob.blocks[0]
+    if len(prob.blocks) == 1 and width == 1 and first.start == 0:  # Euler, every step tracked
+        count = prob.n_steps - prob.n
+        rows = ab.reshape(prob.dim, prob.n_free, prob.dim)
+        for off in range(prob.dim):  # ab[off, t D + d] = P_t[d + off, d]
+            diagonal = np.diagonal(first.targets_precision, -off, 1, 2)
+            rows[off, :count, : prob.dim - off] = np.repeat(diagonal, first.repeat, 0)[prob.n :]
+        return ab
     for block in prob.blocks:
         _band_add(ab, block, prob.n, prob.dim)
     return ab
@@ -479,10 +555,13 @@ def _rhs(prob: _Problem, noise: tuple | None = None) -> np.ndarray:
     """A^T b, (n_free, D); with noise (rng, K): (K, n_free, D) for perturbed targets."""
     shape = (prob.n_free, prob.dim) if noise is None else (noise[1], prob.n_free, prob.dim)
     rhs = np.zeros(shape)
-    for block in prob.blocks:
+    blocks = prob.blocks
+    first = blocks[0]
+    if noise is None and first.coef.shape[1] == 1 and first.start == 0:  # Euler, every step
+        rhs[: prob.n_steps - prob.n] = first.weighted[prob.n :]  # c_t = x_t: A^T b = P_t v_t
+        blocks = blocks[1:]
+    for block in blocks:
         g = block.weighted
-        if g is None:
-            g = (block.precision @ block.value[:, :, None])[:, :, 0]
         if noise is not None:
             rng, k = noise
             # y_t ~ N(v_t, P_t^-1): P_t y_t = P_t v_t + L_t z with P_t = L_t L_t^T
@@ -490,13 +569,6 @@ def _rhs(prob: _Problem, noise: tuple | None = None) -> np.ndarray:
             g = g + np.swapaxes(_psd_sqrt(block.precision) @ z, 0, 2).swapaxes(1, 2)
         _rhs_add(rhs, block, g, prob.n)
     return rhs
-
-
-def _control_rhs(prob: _Problem) -> np.ndarray:
-    """(control Delta^n)^T applied to the control targets (zero when starting at rest)."""
-    if prob.control_target is None:
-        return 0.0
-    return _control_adjoint(prob, prob.control_target)
 
 
 def _psd_sqrt(prec: np.ndarray) -> np.ndarray:
@@ -545,8 +617,8 @@ def _normal_residual(prob: _Problem, obs: np.ndarray, rhs: np.ndarray, c: np.nda
     for off in range(1, obs.shape[0]):
         hc[..., off:] += obs[off, :-off] * flat[..., :-off]
         hc[..., :-off] += obs[off, :-off] * flat[..., off:]
-    e = prob.control * _differences(_extend(prob, c), prob.n)
-    return rhs - hc.reshape(c.shape) - _control_adjoint(prob, e)
+    e = _differences(_extend(prob, c), prob.n)
+    return rhs - hc.reshape(c.shape) - prob.control * _control_adjoint(prob, e)
 
 
 def _differences(a: np.ndarray, n: int) -> np.ndarray:
@@ -577,6 +649,13 @@ def _precision_loss(prob: _Problem, obs: np.ndarray) -> float:
     return _EPS * (4.0**prob.n * prob.control**2 + ceiling) / prob.floor
 
 
+def _normal_band(prob: _Problem, obs: np.ndarray) -> np.ndarray:
+    """Lower band of the normal matrix H = control^2 (Delta^n)^T Delta^n + tracking part."""
+    band = prob.control**2 * _control_band(prob.n, prob.dim, prob.n_steps, prob.n_coef)
+    band[: obs.shape[0]] += obs
+    return band
+
+
 class _Factor:
     """A factorisation of the banded problem, reused for the mean and every sample."""
 
@@ -596,15 +675,11 @@ class _Factor:
 
     # normal equations ------------------------------------------------------------------------
     def _factor_cholesky(self) -> None:
-        p = self.prob
-        ctrl = _control_band(p.n, p.dim, p.n_steps, p.n_coef)
-        ab = p.control**2 * ctrl
-        ab[: self.obs.shape[0]] += self.obs
-        chol, info = lapack.dpbtrf(ab, lower=1)
+        chol, info = lapack.dpbtrf(_normal_band(self.prob, self.obs), lower=1)
         if info != 0:
             raise SolverError(
-                f"LQT normal equations not positive definite (pbtrf info {info}); "
-                "try solver='augmented'"
+                f"LQT normal equations not positive definite (pbtrf info {info}): too "
+                "ill-conditioned for them; use solver='augmented' (and method='exact' to sample)"
             )
         self.chol = chol
 
@@ -619,7 +694,8 @@ class _Factor:
     def _factor_augmented(self) -> None:
         p = self.prob
         diag = self.obs[0][self.obs[0] > 0]
-        # Bjorck's scaling: the control residuals' weight beta^2 near the tracking precisions
+        # Bjorck's scaling: beta^2, the weight of the control residuals, at the geometric mean of
+        # the extreme tracking precisions keeps K about as well conditioned as the stacked rows
         self.beta = float(np.sqrt(np.min(diag) * np.max(diag))) ** 0.5 if diag.size else 1.0
         s = _augmented_structure(p.n, p.dim, p.n_steps, p.n_coef, self.obs.shape[0] // p.dim)
         vals = np.concatenate(
@@ -627,7 +703,7 @@ class _Factor:
                 self.obs[s.obs_mask],
                 self.obs[s.obs_mask_upper],
                 self.beta * p.control * s.ctrl_values,
-                np.full(s.n_y, -self.beta**2),
+                np.full(s.n_y, -(self.beta**2)),
             ]
         )
         ab = np.zeros((2 * s.kl + s.ku + 1, s.size))
@@ -656,7 +732,9 @@ class _Factor:
         """Free coefficients (n_free, D) of the optimum."""
         if self.method == "augmented":
             return self._aug_solve(_rhs(self.prob), self.prob.control_target)
-        rhs = _rhs(self.prob) + _control_rhs(self.prob)
+        rhs = _rhs(self.prob)
+        if self.prob.control_target is not None:
+            rhs += _control_adjoint(self.prob, self.prob.control_target)
         c = self._chol_solve(rhs)
         if self.refine:  # one step of iterative refinement with an accurately computed residual
             c += self._chol_solve(_normal_residual(self.prob, self.obs, rhs, c))
@@ -698,7 +776,9 @@ class _AugStructure:
 
 
 @lru_cache(maxsize=32)
-def _augmented_structure(n: int, dim: int, n_steps: int, n_coef: int, obs_width: int) -> _AugStructure:
+def _augmented_structure(
+    n: int, dim: int, n_steps: int, n_coef: int, obs_width: int
+) -> _AugStructure:
     """Index structure of K = [[H_obs, beta E^T], [beta E, -beta^2 I]] in LAPACK gb storage.
 
     Unknowns: the free coefficients x_i (i = n..L-1) and the whitened control residuals y_t
@@ -739,8 +819,16 @@ def _augmented_structure(n: int, dim: int, n_steps: int, n_coef: int, obs_width:
     ku = int(max(np.max(c_all - r_all), 0))
     flat = (kl + ku + r_all - c_all) * size + c_all
     return _AugStructure(
-        size, kl, ku, flat, obs_mask, upper, np.concatenate([ctrl_values, ctrl_values]),
-        y_pos.size, x_pos, y_pos,
+        size,
+        kl,
+        ku,
+        flat,
+        obs_mask,
+        upper,
+        np.concatenate([ctrl_values, ctrl_values]),
+        y_pos.size,
+        x_pos,
+        y_pos,
     )
 
 
@@ -766,7 +854,9 @@ def _positions(prob: _Problem, c_free: np.ndarray, derivative: int = 0) -> np.nd
 # batch oracle (eq. 10-13 in square-root least-squares form)
 
 
-def system_matrices(order: int, dim: int, dt: float, discretisation: str = "euler") -> tuple[np.ndarray, np.ndarray]:
+def system_matrices(
+    order: int, dim: int, dt: float, discretisation: str = "euler"
+) -> tuple[np.ndarray, np.ndarray]:
     """Discrete A (nD, nD) and B (nD, D) of the integrator chain (eq. 3-4, or zero-order hold)."""
     n = order
     a_bar = np.kron(np.eye(n, k=1), np.eye(dim))
@@ -852,7 +942,8 @@ def _original_values(prob: _Problem, block: _Block) -> np.ndarray:
 def solve(stroke: StrokePlan, cfg: LQTConfig = LQTConfig(), references=()) -> Trajectory:
     """The optimal (mean) trajectory of ``stroke``: t from 0 in [s], pos (N, D) in [mm], vel [mm/s].
 
-    N = m * segment_time / dt steps (key-points: (m - 1) * segment_time / dt + 1). The movement
+    Each target is held round(segment_time / dt) steps, so N = m * segment_time / dt (key-points:
+    (m - 1) * segment_time / dt + 1, one key-point every segment_time). The movement
     starts at rest on the first mean and, with ``cfg.end_at_rest``, ends at rest. With wide
     covariances (e.g. variance 100 mm^2 and d = 5 mm at order 4) the path smooths through the
     targets with about one speed peak per segment; with tight covariances it stops at every target
@@ -872,7 +963,15 @@ def solve(stroke: StrokePlan, cfg: LQTConfig = LQTConfig(), references=()) -> Tr
     else:
         pos, vel = _outputs(prob, _Factor(prob, cfg.solver).mean())
     _check_finite(pos)
-    return Trajectory(t=np.arange(prob.n_steps) * prob.dt, pos=pos, vel=vel)
+    return Trajectory(t=_times(prob.n_steps, prob.dt), pos=pos, vel=vel)
+
+
+@lru_cache(maxsize=32)
+def _times(n_steps: int, dt: float) -> np.ndarray:
+    """The time grid t_k = k dt in [s] (shared, read-only)."""
+    t = np.arange(n_steps) * dt
+    t.flags.writeable = False
+    return t
 
 
 def _outputs(prob: _Problem, c_free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -880,7 +979,9 @@ def _outputs(prob: _Problem, c_free: np.ndarray) -> tuple[np.ndarray, np.ndarray
     if prob.discretisation == "zoh":
         pos = _positions(prob, c_free)
         return pos, (_positions(prob, c_free, 1) if prob.n > 1 else _first_difference(prob, pos))
-    ext = _extend(prob, c_free, with_start=True)  # Euler: c is the position, velocity its forward difference
+    ext = _extend(
+        prob, c_free, with_start=True
+    )  # Euler: c is the position, velocity its forward difference
     vel = np.diff(ext[: prob.n_steps + 1] if prob.n > 1 else ext[: prob.n_steps], axis=0) / prob.dt
     if prob.n == 1:  # first-order chain: the velocity is the control, 0 after the last step
         vel = np.vstack([vel, np.zeros((1, prob.dim))])
@@ -895,7 +996,7 @@ def _first_difference(prob: _Problem, pos: np.ndarray) -> np.ndarray:
 
 
 def _check_finite(arr: np.ndarray) -> None:
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr.sum()):  # NaN and inf propagate into the sum
         raise SolverError("LQT produced non-finite positions (ill-posed plan or overflow)")
 
 
@@ -939,17 +1040,21 @@ def sample(
         c = factor.samples(int(k), rng)
         out = _positions(prob, c)
     else:
+        if components is not None and (
+            isinstance(components, bool)
+            or not isinstance(components, (int, np.integer))
+            or components < 1
+        ):
+            raise InputError(
+                f"sample components: expected a positive integer or None, got {components!r}"
+            )
         factor = _Factor(prob, "cholesky")
-        mean = factor.mean()
-        ab = p_band = prob.control**2 * _control_band(prob.n, prob.dim, prob.n_steps, prob.n_coef)
-        ab[: factor.obs.shape[0]] += factor.obs
-        size = p_band.shape[1]
-        count = size if components is None else min(int(components), size)
-        if count < 1:
-            raise InputError(f"sample components: expected a positive integer, got {components!r}")
-        lam, vec = eig_banded(ab, lower=True, select="i", select_range=(0, count - 1))
+        band = _normal_band(prob, factor.obs)
+        count = band.shape[1] if components is None else min(int(components), band.shape[1])
+        # eq. 17: the largest covariance eigenpairs are the smallest of the banded precision
+        lam, vec = eig_banded(band, lower=True, select="i", select_range=(0, count - 1))
         z = rng.standard_normal((int(k), count))
-        draws = mean.reshape(-1) + (z / np.sqrt(lam)) @ vec.T  # eq. 16, covariance eigvals 1/lam
+        draws = factor.mean().reshape(-1) + (z / np.sqrt(lam)) @ vec.T  # eq. 16
         out = _positions(prob, draws.reshape(int(k), prob.n_free, prob.dim))
     _check_finite(out)
     return out
@@ -979,7 +1084,9 @@ def semi_tied_covariances(m: int, H, h, rho: float = 0.0, seed=None) -> np.ndarr
         raise InputError(f"semi_tied_covariances m: expected a positive integer, got {m!r}")
     basis = np.asarray(H, dtype=float)
     if basis.ndim != 2 or basis.shape[0] != basis.shape[1] or not 1 <= basis.shape[0] <= 3:
-        raise InputError(f"semi_tied_covariances H: expected a square (D, D) matrix, D in 1..3, got shape {basis.shape}")
+        raise InputError(
+            f"semi_tied_covariances H: expected a square (D, D) matrix, D in 1..3, got shape {basis.shape}"
+        )
     if not np.all(np.isfinite(basis)):
         raise InputError("semi_tied_covariances H: contains NaN or inf")
     if np.linalg.matrix_rank(basis) < basis.shape[0]:
@@ -1002,7 +1109,9 @@ def semi_tied_covariances(m: int, H, h, rho: float = 0.0, seed=None) -> np.ndarr
                 break
             mags[bad] = rng.normal(h, np.sqrt(rho), int(bad.sum()))
         else:
-            raise InputError(f"semi_tied_covariances: h = {h} with rho = {rho} gives no positive draws")
+            raise InputError(
+                f"semi_tied_covariances: h = {h} with rho = {rho} gives no positive draws"
+            )
     covs = mags[:, None, None] * (basis @ basis.T)[None]
     for i, c in enumerate(covs):
         check_covariance(c, basis.shape[0], f"semi-tied covariance {i}")

@@ -25,7 +25,9 @@ def check_covariance(cov, dim: int, where: str) -> np.ndarray:
         c = np.eye(dim) * c
     elif c.ndim == 1:
         if c.shape[0] != dim:
-            raise PlanError(f"{where}: diagonal covariance has {c.shape[0]} entries, expected {dim}")
+            raise PlanError(
+                f"{where}: diagonal covariance has {c.shape[0]} entries, expected {dim}"
+            )
         c = np.diag(c)
     if c.shape != (dim, dim):
         raise PlanError(f"{where}: covariance has shape {c.shape}, expected ({dim}, {dim})")
@@ -94,7 +96,9 @@ class StrokePlan:
             raise PlanError("stroke: no targets")
         for i, tg in enumerate(targets):
             if not isinstance(tg, GaussianTarget):
-                raise PlanError(f"stroke target {i}: expected a GaussianTarget, got {type(tg).__name__}")
+                raise PlanError(
+                    f"stroke target {i}: expected a GaussianTarget, got {type(tg).__name__}"
+                )
         dims = [tg.dim for tg in targets]
         if len(set(dims)) > 1:
             i = next(i for i, d in enumerate(dims) if d != dims[0])
@@ -103,7 +107,9 @@ class StrokePlan:
             )
         st = float(self.segment_time)
         if not np.isfinite(st) or st <= 0:
-            raise PlanError(f"stroke segment_time: must be a positive number of seconds, got {self.segment_time}")
+            raise PlanError(
+                f"stroke segment_time: must be a positive number of seconds, got {self.segment_time}"
+            )
         object.__setattr__(self, "targets", targets)
         object.__setattr__(self, "segment_time", st)
         if self.velocities is not None:
@@ -121,7 +127,9 @@ class StrokePlan:
             object.__setattr__(self, "velocities", vel)
         vv = float(self.velocity_var)
         if not np.isfinite(vv) or vv <= 0:
-            raise PlanError(f"stroke velocity_var: must be a positive variance in (mm/s)^2, got {self.velocity_var}")
+            raise PlanError(
+                f"stroke velocity_var: must be a positive variance in (mm/s)^2, got {self.velocity_var}"
+            )
         object.__setattr__(self, "velocity_var", vv)
 
     @property
@@ -145,12 +153,14 @@ class StrokePlan:
         return _frozen(0.5 * (p + np.swapaxes(p, 1, 2)))
 
     @staticmethod
-    def from_arrays(means, covs, segment_time: float = 0.5, keypoints: bool = False) -> "StrokePlan":
+    def from_arrays(means, covs, segment_time: float = 0.5, keypoints: bool = False) -> StrokePlan:
         """Build from (m, D) means and covariances given per target as scalars, diagonals or matrices."""
         means = np.asarray(means, dtype=float)
         if means.ndim != 2:
             raise PlanError(f"stroke means: expected shape (m, D), got {means.shape}")
-        if isinstance(covs, (int, float, np.number)) or (isinstance(covs, np.ndarray) and covs.ndim == 0):
+        if isinstance(covs, (int, float, np.number)) or (
+            isinstance(covs, np.ndarray) and covs.ndim == 0
+        ):
             covs = [covs] * len(means)
         if len(covs) != len(means):
             raise PlanError(f"stroke: {len(means)} means but {len(covs)} covariances")
@@ -159,7 +169,9 @@ class StrokePlan:
             try:
                 targets.append(GaussianTarget(m, c))
             except PlanError as e:
-                raise PlanError(f"stroke target {i}: {str(e).removeprefix('target: ').removeprefix('target ')}") from None
+                raise PlanError(
+                    f"stroke target {i}: {str(e).removeprefix('target: ').removeprefix('target ')}"
+                ) from None
         return StrokePlan(tuple(targets), segment_time, keypoints)
 
 
@@ -186,7 +198,9 @@ def bezier_keypoints(
     """
     cps = np.asarray(control_points, dtype=float)
     if cps.ndim != 2 or cps.shape[0] < 4 or (cps.shape[0] - 1) % 3:
-        raise PlanError(f"bezier control_points: expected (3k + 1, D) points, got shape {cps.shape}")
+        raise PlanError(
+            f"bezier control_points: expected (3k + 1, D) points, got shape {cps.shape}"
+        )
     if not np.all(np.isfinite(cps)):
         raise PlanError("bezier control_points: NaN or inf")
     ends = cps[::3]
@@ -195,7 +209,9 @@ def bezier_keypoints(
     vel[-1] = 3.0 * (cps[-1] - cps[-2]) / segment_time
     vel[1:-1] = 3.0 * (cps[3:-1:3] - cps[2:-2:3]) / segment_time
     plan = StrokePlan.from_arrays(ends, variance, segment_time=segment_time, keypoints=True)
-    return StrokePlan(plan.targets, plan.segment_time, True, velocities=vel, velocity_var=velocity_var)
+    return StrokePlan(
+        plan.targets, plan.segment_time, True, velocities=vel, velocity_var=velocity_var
+    )
 
 
 @dataclass(frozen=True)

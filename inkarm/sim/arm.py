@@ -18,6 +18,14 @@ the holder (compression), a linear spring of ``pen_stiffness`` pushes it back ag
 at 0, and a small sphere ``pen_tip`` at its end is the only geom that touches anything: it
 collides with the paper only (contype/conaffinity bit 2).
 
+Contact. The paper is a box whose top face is the sheet and which reaches 5 mm down into the
+table, so a pressed tip cannot tunnel through a sheet-thin box. Friction cones are elliptic and
+the contact is soft (solref time constant 10 ms, at least twice the time step as the MuJoCo docs
+ask; solimp 0.1 to 0.5 over 1 mm): the paper behaves as a sheet on a felt underlay, sinking
+about 0.5 mm under 1 N. Stiffer settings (MuJoCo's defaults, or pyramidal cones) make the light,
+spring-preloaded pen cartridge chatter on the paper while it slides: it loses contact for a
+step, falls tens of microns in that step, and the force jumps between 0 and about 2 N.
+
 Frames: the world frame is the robot base frame (base on the table top, z up). The page frame
 (site ``paper_origin``) sits at the paper's lower-left corner on its top surface, x to the
 right, y up the page, z out of the paper. With ``paper_yaw_deg = 0`` the page's y axis points
@@ -34,14 +42,13 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from inkarm.control.pid import PIDGains
 from inkarm.errors import InputError
 
 JOINT_NAMES = tuple(f"joint{i}" for i in range(1, 8))
 ACTUATOR_NAMES = tuple(f"motor{i}" for i in range(1, 8))
 JOINT_RANGES_DEG = (170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0)
 TORQUE_LIMITS_NM = (320.0, 320.0, 176.0, 176.0, 110.0, 40.0, 40.0)
-# iiwa 14 joint speed limits in [deg/s] (datasheet), used by IK velocity scaling.
-VELOCITY_LIMITS_DEG_S = (85.0, 85.0, 100.0, 75.0, 130.0, 135.0, 135.0)
 
 # Body offsets along the parent link axis in [m] and joint axes, zero pose straight up.
 _LINK_OFFSETS_M = (0.1575, 0.2025, 0.2045, 0.2155, 0.1845, 0.2155, 0.081)
@@ -115,7 +122,8 @@ class CellConfig:
         w, h = self.paper_size_mm
         if not (np.isfinite(w) and np.isfinite(h) and w > 0 and h > 0):
             raise InputError(
-                f"CellConfig.paper_size_mm: expected positive (width, height), got {self.paper_size_mm}"
+                "CellConfig.paper_size_mm: expected positive (width, height), "
+                f"got {self.paper_size_mm}"
             )
         for name in ("pen_damping_ns_per_mm", "friction"):
             value = getattr(self, name)
@@ -165,8 +173,13 @@ def build_spec(config: CellConfig | None = None) -> mujoco.MjSpec:
 
     world.add_light(name="sun", pos=[0.3, 0.0, 2.5], dir=[0.0, 0.0, -1.0], diffuse=[0.8] * 3)
     world.add_geom(
-        name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.65, 0.6, 0.02],
-        pos=[0.35, 0.0, -0.02], rgba=[0.55, 0.45, 0.35, 1.0], contype=0, conaffinity=0,
+        name="table",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[0.65, 0.6, 0.02],
+        pos=[0.35, 0.0, -0.02],
+        rgba=[0.55, 0.45, 0.35, 1.0],
+        contype=0,
+        conaffinity=0,
     )
     _add_paper(world, cfg)
     _add_arm(spec, world, cfg)
@@ -176,11 +189,15 @@ def build_spec(config: CellConfig | None = None) -> mujoco.MjSpec:
     height = 0.6
     half = 0.55 * max(cfg.paper_size_mm) / 1000.0
     world.add_camera(
-        name="paper_top", pos=centre + [0.0, 0.0, height], quat=_quat(rot),
+        name="paper_top",
+        pos=centre + [0.0, 0.0, height],
+        quat=_quat(rot),
         fovy=float(np.rad2deg(2.0 * np.arctan(half / height))),
     )
     world.add_camera(
-        name="overview", pos=[1.7, -1.3, 1.2], quat=_look_at([1.7, -1.3, 1.2], [0.45, 0.0, 0.45]),
+        name="overview",
+        pos=[1.7, -1.3, 1.2],
+        quat=_look_at([1.7, -1.3, 1.2], [0.45, 0.0, 0.45]),
         fovy=45.0,
     )
     spec.add_key(name="home", qpos=[*cfg.home_q, 0.0])
@@ -197,10 +214,16 @@ def _add_paper(world, cfg: CellConfig) -> None:
     # sheet-thin box lets a pressed tip tunnel through it once the penetration exceeds the
     # thickness.
     paper.add_geom(
-        name="paper", type=mujoco.mjtGeom.mjGEOM_BOX, size=[w / 2, h / 2, _PAPER_DEPTH_M / 2],
-        pos=[0.0, 0.0, thick - _PAPER_DEPTH_M / 2], rgba=[0.97, 0.97, 0.94, 1.0],
-        contype=PEN_COLLISION_BIT, conaffinity=PEN_COLLISION_BIT, condim=3,
-        friction=[cfg.friction, 0.005, 0.0001], solref=_contact_solref(cfg),
+        name="paper",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[w / 2, h / 2, _PAPER_DEPTH_M / 2],
+        pos=[0.0, 0.0, thick - _PAPER_DEPTH_M / 2],
+        rgba=[0.97, 0.97, 0.94, 1.0],
+        contype=PEN_COLLISION_BIT,
+        conaffinity=PEN_COLLISION_BIT,
+        condim=3,
+        friction=[cfg.friction, 0.005, 0.0001],
+        solref=_contact_solref(cfg),
         solimp=[*cfg.contact_solimp, 0.5, 2.0],
     )
     paper.add_site(name="paper_origin", pos=[-w / 2, -h / 2, thick], size=[0.003] * 3)
@@ -214,22 +237,36 @@ def _contact_solref(cfg: CellConfig) -> list[float]:
 def _add_arm(spec: mujoco.MjSpec, world, cfg: CellConfig) -> None:
     grey, orange = [0.85, 0.85, 0.85, 1.0], [1.0, 0.45, 0.05, 1.0]
     world.add_geom(
-        name="base", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.1, _LINK_OFFSETS_M[0] / 2, 0],
-        pos=[0.0, 0.0, _LINK_OFFSETS_M[0] / 2], rgba=grey, contype=0, conaffinity=0,
+        name="base",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[0.1, _LINK_OFFSETS_M[0] / 2, 0],
+        pos=[0.0, 0.0, _LINK_OFFSETS_M[0] / 2],
+        rgba=grey,
+        contype=0,
+        conaffinity=0,
     )
     parent = world
     for i in range(7):
         body = parent.add_body(name=f"link{i + 1}", pos=[0.0, 0.0, _LINK_OFFSETS_M[i]])
         limit = np.deg2rad(JOINT_RANGES_DEG[i])
         body.add_joint(
-            name=JOINT_NAMES[i], type=mujoco.mjtJoint.mjJNT_HINGE, axis=_JOINT_AXES[i],
-            range=[-limit, limit], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            armature=_ARMATURE[i], damping=[_DAMPING[i], 0.0, 0.0],
+            name=JOINT_NAMES[i],
+            type=mujoco.mjtJoint.mjJNT_HINGE,
+            axis=_JOINT_AXES[i],
+            range=[-limit, limit],
+            limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            armature=_ARMATURE[i],
+            damping=[_DAMPING[i], 0.0, 0.0],
         )
         body.add_geom(
-            name=f"link{i + 1}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=[0, 0, 0, 0, 0, _LINK_LENGTHS_M[i]], size=[_LINK_RADII_M[i], 0, 0],
-            mass=_LINK_MASSES_KG[i], rgba=orange if i % 2 else grey, contype=0, conaffinity=0,
+            name=f"link{i + 1}",
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=[0, 0, 0, 0, 0, _LINK_LENGTHS_M[i]],
+            size=[_LINK_RADII_M[i], 0, 0],
+            mass=_LINK_MASSES_KG[i],
+            rgba=orange if i % 2 else grey,
+            contype=0,
+            conaffinity=0,
         )
         act = spec.add_actuator(name=ACTUATOR_NAMES[i], target=JOINT_NAMES[i])
         act.set_to_motor()
@@ -244,35 +281,61 @@ def _add_pen(link7, cfg: CellConfig) -> None:
     link7.add_site(name="flange", pos=[0.0, 0.0, _FLANGE_OFFSET_M], size=[0.005] * 3)
     holder_top = _FLANGE_OFFSET_M
     link7.add_geom(
-        name="pen_holder", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-        fromto=[0, 0, holder_top, 0, 0, holder_top + _PEN_HOLDER_M], size=[0.012, 0, 0],
-        mass=0.1, rgba=[0.2, 0.2, 0.2, 1.0], contype=0, conaffinity=0,
+        name="pen_holder",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        fromto=[0, 0, holder_top, 0, 0, holder_top + _PEN_HOLDER_M],
+        size=[0.012, 0, 0],
+        mass=0.1,
+        rgba=[0.2, 0.2, 0.2, 1.0],
+        contype=0,
+        conaffinity=0,
     )
     link7.add_camera(
-        name="pen_cam", pos=[0.12, 0.0, 0.06],
-        quat=_look_at([0.12, 0.0, 0.06], [0.0, 0.0, holder_top + _PEN_HOLDER_M + _PEN_SHAFT_M],
-                      up=(0.0, 0.0, -1.0)),
+        name="pen_cam",
+        pos=[0.12, 0.0, 0.06],
+        quat=_look_at(
+            [0.12, 0.0, 0.06],
+            [0.0, 0.0, holder_top + _PEN_HOLDER_M + _PEN_SHAFT_M],
+            up=(0.0, 0.0, -1.0),
+        ),
         fovy=50.0,
     )
     pen = link7.add_body(name="pen", pos=[0.0, 0.0, holder_top + _PEN_HOLDER_M])
     travel = cfg.pen_travel_mm / 1000.0
     pen.add_joint(
-        name="pen_slide", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, -1.0],
-        range=[0.0, travel], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        stiffness=[cfg.pen_stiffness_n_per_mm * 1000.0, 0.0, 0.0], springref=0.0,
-        damping=[cfg.pen_damping_ns_per_mm * 1000.0, 0.0, 0.0], armature=0.03,
+        name="pen_slide",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=[0.0, 0.0, -1.0],
+        range=[0.0, travel],
+        limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        stiffness=[cfg.pen_stiffness_n_per_mm * 1000.0, 0.0, 0.0],
+        springref=0.0,
+        damping=[cfg.pen_damping_ns_per_mm * 1000.0, 0.0, 0.0],
+        armature=0.03,
     )
     radius = cfg.pen_tip_radius_mm / 1000.0
     pen.add_geom(
-        name="pen_shaft", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-        fromto=[0, 0, -0.02, 0, 0, _PEN_SHAFT_M - radius], size=[0.005, 0, 0],
-        mass=cfg.pen_mass_kg, rgba=[0.1, 0.2, 0.7, 1.0], contype=0, conaffinity=0,
+        name="pen_shaft",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        fromto=[0, 0, -0.02, 0, 0, _PEN_SHAFT_M - radius],
+        size=[0.005, 0, 0],
+        mass=cfg.pen_mass_kg,
+        rgba=[0.1, 0.2, 0.7, 1.0],
+        contype=0,
+        conaffinity=0,
     )
     pen.add_geom(
-        name="pen_tip", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0],
-        pos=[0.0, 0.0, _PEN_SHAFT_M], mass=1e-4, rgba=[0.05, 0.05, 0.05, 1.0],
-        contype=PEN_COLLISION_BIT, conaffinity=PEN_COLLISION_BIT, condim=3,
-        friction=[cfg.friction, 0.005, 0.0001], solref=_contact_solref(cfg),
+        name="pen_tip",
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[radius, 0, 0],
+        pos=[0.0, 0.0, _PEN_SHAFT_M],
+        mass=1e-4,
+        rgba=[0.05, 0.05, 0.05, 1.0],
+        contype=PEN_COLLISION_BIT,
+        conaffinity=PEN_COLLISION_BIT,
+        condim=3,
+        friction=[cfg.friction, 0.005, 0.0001],
+        solref=_contact_solref(cfg),
         solimp=[*cfg.contact_solimp, 0.5, 2.0],
     )
     pen.add_site(name="pen_tip", pos=[0.0, 0.0, _PEN_SHAFT_M + radius], size=[0.001] * 3)
@@ -283,3 +346,29 @@ def build_model(config: CellConfig | None = None) -> mujoco.MjModel:
     kinematic model for the controller."""
     return build_spec(config).compile()
 
+
+def default_gains() -> PIDGains:
+    """Joint PID gains for this arm at a control period of 2 to 6 ms: 40 to 75 rad/s of
+    closed-loop bandwidth, integral time 0.1 s, saturation at the iiwa 14 torque limits.
+
+    The limit is the sampled derivative term on the lightest coupled mode (joints 1 and 3
+    turning against each other, their inertias coupled by M_13 ~ M_33): T max eig(M^-1 K_d)
+    must stay well below about 2 (explicit damping). Over the sheet it is at most 1.04 at
+    T = 6 ms and 0.70 at 4 ms, hence the low K_d of joints 1 and 3; the gains still draw when
+    doubled at 6 ms."""
+    kp = np.array([4000.0, 4000.0, 1500.0, 1500.0, 250.0, 150.0, 100.0])
+    return PIDGains(
+        kp=kp,
+        ki=10.0 * kp,
+        kd=np.array([120.0, 160.0, 30.0, 60.0, 10.0, 6.0, 4.0]),
+        torque_limit=np.array(TORQUE_LIMITS_NM),
+        integral_limit=np.array([30.0, 30.0, 15.0, 15.0, 8.0, 4.0, 4.0]),
+    )
+
+
+def joint_ranges(model: mujoco.MjModel) -> np.ndarray:
+    """Ranges (7, 2) in [rad], rows (lower, upper), of the arm joints ``joint1..joint7``."""
+    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in JOINT_NAMES]
+    if min(ids) < 0:
+        raise InputError(f"joint_ranges: the model lacks one of the joints {JOINT_NAMES}")
+    return model.jnt_range[ids].copy()
