@@ -164,6 +164,7 @@ def test_spec_is_editable_before_compiling():
         ("paper_size_mm", (210.0, -1.0), r"CellConfig.paper_size_mm: expected positive"),
         ("friction", float("nan"), r"CellConfig.friction: expected a number >= 0"),
         ("home_q", (0.0,) * 6, r"CellConfig.home_q: expected 7 joint angles, got 6"),
+        ("contact_solimp", (0.9, 0.5, 0.001), r"CellConfig.contact_solimp: expected \(d0"),
     ],
 )
 def test_bad_cell_config_is_refused(field, value, message):

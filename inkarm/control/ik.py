@@ -228,7 +228,9 @@ def task_error(e: np.ndarray) -> tuple[float, float]:
     return math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2), math.sqrt(e[3] ** 2 + e[4] ** 2)
 
 
-def pose_error(kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray):
+def pose_error(
+    kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray
+) -> tuple[float, float]:
     """(position error [m], tilt error [rad]) at ``q`` from forward kinematics alone (cheaper
     than a Jacobian): |p* - p| and |z_s x a|, the sine of the pen's tilt from ``axis_goal``."""
     p, R = kin.fk(q)

@@ -560,7 +560,8 @@ def run_drawing(
     ``kin_model`` is the controller's own model (never the plant's): IK, the bias forces and the
     inertia come from it. Raises UnreachableError before moving when a point is out of reach,
     and SimulationError (with the log so far in its ``log`` attribute) when the plant diverges.
-    ``progress(fraction, phase)`` is called about ten times per simulated second.
+    ``progress(fraction, phase)`` is called about ten times per simulated second. The plant is
+    left as it is at the end (the caller closes it).
     """
     wall0 = _time.perf_counter()
     kin = ArmKinematics(kin_model)
@@ -651,7 +652,10 @@ __all__ = [
     "LoopConfig",
     "Reference",
     "check_reachable",
+    "home_posture",
     "minimum_jerk",
+    "nib_friction",
+    "pen_depth_mm",
     "plan_reference",
     "run_drawing",
 ]

@@ -89,6 +89,9 @@ class CellConfig:
         friction: Tip-paper sliding friction coefficient.
         contact_timeconst: Contact solref time constant in [s]; raised to 2 * timestep if lower
             (MuJoCo's stability rule for soft constraints).
+        contact_solimp: MuJoCo solimp (d0, d_width, width [m]) of the tip-paper contact: the
+            softness of the paper's underlay (module docstring).
+        home_q: Home pose of the arm joints in [rad] (the ``home`` keyframe).
     """
 
     timestep: float = 0.002
@@ -129,6 +132,12 @@ class CellConfig:
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise InputError(f"CellConfig.{name}: expected a number >= 0, got {value}")
+        d0, d_width, width = self.contact_solimp
+        if not (0 < d0 <= d_width < 1 and width > 0):
+            raise InputError(
+                "CellConfig.contact_solimp: expected (d0, d_width, width) with "
+                f"0 < d0 <= d_width < 1 and width > 0, got {self.contact_solimp}"
+            )
         if len(self.home_q) != 7:
             raise InputError(f"CellConfig.home_q: expected 7 joint angles, got {len(self.home_q)}")
 

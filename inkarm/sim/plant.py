@@ -31,7 +31,6 @@ _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQVEL,
     mujoco.mjtWarning.mjWARN_BADQACC,
 )
-_WARNING_IDS = np.array([int(w) for w in _DIVERGENCE_WARNINGS])
 
 
 def _index(addresses: list[int]) -> slice | np.ndarray:
@@ -123,8 +122,13 @@ class MujocoPlant:
             self.data.qpos[self._qpos_adr] = q0
         mujoco.mj_forward(m, self.data)
         # The paper is static: its frame is fixed once the model is evaluated.
-        self._page_origin = self.data.site_xpos[origin_site].copy()
-        self._page_rotation = self.data.site_xmat[origin_site].reshape(3, 3).copy()
+        # page [mm] = (x - o) R 1000 = x (1000 R) - o (1000 R), as two operations per read.
+        self._to_page = 1000.0 * self.data.site_xmat[origin_site].reshape(3, 3)
+        self._page_offset = self.data.site_xpos[origin_site] @ self._to_page
+        # Views into MjData (its arrays never move), so that reading costs no look-ups.
+        self._tip_xpos = self.data.site_xpos[self._tip_site]
+        self._qvel = self.data.qvel
+        self._warning_stats = [self.data.warning[w] for w in _DIVERGENCE_WARNINGS]
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
 
@@ -134,12 +138,10 @@ class MujocoPlant:
         return self.substeps * self.model.opt.timestep
 
     def _warning_counts(self) -> np.ndarray:
-        return self.data.warning.number[_WARNING_IDS]
+        return np.array([w.number for w in self._warning_stats])
 
     def _tip_mm(self) -> np.ndarray:
-        return (
-            (self.data.site_xpos[self._tip_site] - self._page_origin) @ self._page_rotation * 1000.0
-        )
+        return self._tip_xpos @ self._to_page - self._page_offset
 
     def read(self) -> SimState:
         """The state at the current time (tip from the current kinematics, force from the last
@@ -188,9 +190,9 @@ class MujocoPlant:
         d = self.data
         if d.ncon == 0:
             return 0.0
-        force = 0.0
-        for i, pair in enumerate(d.contact.geom):
-            if pair[0] == self._tip_geom or pair[1] == self._tip_geom:
+        force, geom, tip = 0.0, d.contact.geom, self._tip_geom
+        for i in range(d.ncon):
+            if geom[i, 0] == tip or geom[i, 1] == tip:
                 mujoco.mj_contactForce(self.model, d, i, self._contact)
                 force += self._contact[0]
         return force
@@ -199,13 +201,14 @@ class MujocoPlant:
         # Cheap tests first: one dot product catches NaN/inf (the comparison fails) and runaway
         # speed (the norm bounds every joint's speed), one sum any new MuJoCo warning about a
         # bad qpos/qvel/qacc; the slow path sorts out which.
-        d = self.data
-        warnings = self._warning_counts()
+        qvel, stats = self._qvel, self._warning_stats
         if (
-            float(np.dot(d.qvel, d.qvel)) <= self._max_speed_sq
-            and int(warnings.sum()) == self._warning_total
+            float(qvel @ qvel) <= self._max_speed_sq
+            and stats[0].number + stats[1].number + stats[2].number == self._warning_total
         ):
             return
+        d = self.data
+        warnings = self._warning_counts()
         names = [w.name for w, a, b in zip(_DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
         where = f"simulation diverged at t = {d.time:.4f} s"
         why = "unstable gains, too large a time step or absurd torques"
