@@ -337,6 +337,8 @@ def run(
     out_dir: str | Path,
     progress=None,
     video: str | Path | None = None,
+    fps: float = 30.0,
+    camera: str = "overview",
 ) -> RunResult:
     """Draw ``scenario`` with the simulated arm; write its pictures and logs into ``out_dir``.
 
@@ -348,7 +350,7 @@ def run(
     from inkarm.control.transform import PagePlacement
     from inkarm.metrics import compute_metrics
     from inkarm.report import report_figure
-    from inkarm.sim.arm import CellConfig, build_model, default_gains
+    from inkarm.sim.arm import CellConfig, build_model, default_gains, joint_ranges
     from inkarm.sim.canvas import Canvas, make_ink
     from inkarm.sim.plant import MujocoPlant
 
@@ -382,8 +384,6 @@ def run(
         plant.close()
     log.to_npz(files["trace"])
     canvas.to_png(files["canvas"])
-    from inkarm.sim.arm import joint_ranges
-
     metrics = compute_metrics(
         times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
         drawing=log.drawing, q=log.q, joint_range=joint_ranges(kin_model), wall_time_s=log.wall_s,
@@ -395,5 +395,9 @@ def run(
                   plan_strokes=[s.pos[:, :2] for s in drawing.strokes], metrics=metrics,
                   title=scenario.title)
     if video is not None:
-        files["video"] = Path(video)
+        from inkarm.sim.render import render_log_video
+
+        files["video"] = render_log_video(kin_model, log, cell.paper_size_mm, scenario.px_per_mm,
+                                          make_ink(scenario.ink_model, **scenario.ink), video,
+                                          fps=fps, camera=camera)
     return RunResult(metrics=metrics, files=files, drawing=drawing)

@@ -1,0 +1,86 @@
+"""``inkarm draw [SCENARIO.toml] [--out DIR]``: draw a scenario with the simulated arm."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "draw",
+        help="draw a scenario with the simulated 7-DOF arm (the embedded default without one)",
+        description="Build the scenario's drawing, check the arm can reach it, simulate the arm "
+        "tracking it in MuJoCo and write canvas.png, trace.npz, metrics.json, report.png and "
+        "reference.csv into --out. Schema: see inkarm.scenarios.",
+    )
+    p.add_argument("scenario", nargs="?", default=None,
+                   help="scenario file (TOML); default: the embedded letter N")
+    p.add_argument("--out", default="out/draw", help="output folder (default out/draw)")
+    p.add_argument("--video", metavar="FILE.mp4", default=None,
+                   help="also render an offscreen video (MUJOCO_GL=egl, else osmesa)")
+    p.add_argument("--fps", type=float, default=30.0, help="video frame rate (default 30)")
+    p.add_argument("--camera", default="overview",
+                   help="video camera: overview, paper_top or pen_cam (default overview)")
+    p.add_argument("--viewer", action="store_true",
+                   help="open MuJoCo's viewer on the finished run (needs a display)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr, redrawn at most 10 times a second."""
+
+    def __init__(self, label: str, stream=sys.stderr, width: int = 30):
+        self.label, self.stream, self.width = label, stream, width
+        self._last = 0.0
+        self._t0 = time.perf_counter()
+
+    def __call__(self, fraction: float, phase: str) -> None:
+        now = time.perf_counter()
+        if now - self._last < 0.1 and fraction < 1.0:
+            return
+        self._last = now
+        filled = int(round(self.width * min(max(fraction, 0.0), 1.0)))
+        bar = "#" * filled + "-" * (self.width - filled)
+        self.stream.write(f"\r{self.label} [{bar}] {100 * fraction:5.1f}% {phase:<8} "
+                          f"{now - self._t0:5.1f}s")
+        self.stream.flush()
+
+    def close(self) -> None:
+        self.stream.write("\n")
+        self.stream.flush()
+
+
+def run(args: argparse.Namespace) -> int:
+    from inkarm.scenarios import load_scenario, run as run_scenario
+
+    scenario = load_scenario(args.scenario)
+    bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r}")
+    try:
+        result = run_scenario(scenario, args.out, progress=bar, video=args.video,
+                              fps=args.fps, camera=args.camera)
+    finally:
+        if bar is not None:
+            bar.close()
+    m = result.metrics
+    print(
+        f"tracking RMS {m['tracking_rms_mm']:.3f} mm, max {m['tracking_max_mm']:.3f} mm; "
+        f"ink chamfer {m['ink_chamfer_mm']:.3f} mm; gaps {m['gap_mm']:.2f} mm; "
+        f"force {m['contact_force_mean_n']:.2f} +- {m['contact_force_std_n']:.3f} N; "
+        f"joint margin {m['joint_limit_margin_rad']:.2f} rad; "
+        f"real-time factor {m['realtime_factor']:.1f}"
+    )
+    out = Path(args.out)
+    print(f"pictures: {out / 'canvas.png'} (ink), {out / 'report.png'} (ink over plan, "
+          f"tracking error, force, speed)")
+    print(f"data: {out / 'metrics.json'}, {out / 'trace.npz'}, {out / 'reference.csv'}")
+    if "video" in result.files:
+        print(f"video: {result.files['video']}")
+    if args.viewer:
+        from inkarm.sim.render import open_viewer
+
+        open_viewer(result)
+    return 0
