@@ -15,7 +15,8 @@ Schema (lengths [mm], times [s], forces [N], angles [deg]; every key optional un
     file = "plans/N_samples.toml"  # plan, trajectory (CSV t,x,y[,stroke]), trace (CSV or SVG);
                                    # relative to the scenario file
     sample = 2                     # plan: draw this sample of the trajectory distribution
-                                   # (0-based) instead of the mean
+                                   # (0-based) instead of the mean; a list of samples draws
+    spacing_mm = 60.0              # one copy of each, spaced along x by spacing_mm
     plan = { strokes = [...] }     # plan: an inline plan (the plan-file schema) instead of file
     text = "inkarm"                # text: the words to write
     style = "faithful"             # text, tag, trace: a handstyle preset
@@ -62,14 +63,13 @@ from inkarm.tomlreader import TomlReader, load_toml
 SOURCE_KINDS = ("plan", "trajectory", "text", "tag", "trace")
 TOP_KEYS = ("title", "seed", "source", "placement", "cell", "controller", "ink")
 SOURCE_KEYS = {
-    "plan": ("kind", "file", "plan", "sample"),
+    "plan": ("kind", "file", "plan", "sample", "spacing_mm"),
     "trajectory": ("kind", "file"),
     "text": ("kind", "text", "style", "height_mm"),
     "tag": ("kind", "style"),
     "trace": ("kind", "file", "style", "compression"),
 }
 PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale")
-INK_MODELS = ("marker", "brush", "pencil")
 DEFAULT_SCENARIO = Path(__file__).parent / "data" / "default.toml"
 
 
@@ -140,7 +140,9 @@ def _dataclass_table(rd: TomlReader, table: dict, key: str, cls) -> dict:
     try:
         cls(**out)
     except InputError as e:
-        raise rd.error(key, str(e).split(": ", 1)[-1]) from None
+        field_name, _, message = str(e).partition(": ")
+        name = field_name.removeprefix(f"{cls.__name__}.")
+        raise rd.error(f"{key}.{name}" if name in fields else key, message or str(e)) from None
     return out
 
 
@@ -164,7 +166,15 @@ def _source(rd: TomlReader, raw, base_dir: Path) -> dict:
     if "plan" in table:
         out["plan"] = rd.table(table["plan"], "source.plan")
     if "sample" in table:
-        out["sample"] = rd.integer(table["sample"], "source.sample", 0)
+        raw_samples = table["sample"] if isinstance(table["sample"], list) else [table["sample"]]
+        if not raw_samples:
+            raise rd.error("source.sample", "expected a sample index or a non-empty list of them")
+        out["sample"] = [rd.integer(v, f"source.sample[{i}]" if isinstance(table["sample"], list)
+                                    else "source.sample", 0) for i, v in enumerate(raw_samples)]
+    if "spacing_mm" in table:
+        if len(out.get("sample", [])) < 2:
+            raise rd.error("source.spacing_mm", "only with a list of several samples")
+        out["spacing_mm"] = rd.number(table["spacing_mm"], "source.spacing_mm", 0.0)
     if kind == "text":
         if "text" not in table:
             raise rd.error("source.text", "required")
@@ -207,6 +217,7 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
     from inkarm.control.loop import LoopConfig
     from inkarm.control.pid import PIDGains
     from inkarm.sim.arm import CellConfig
+    from inkarm.sim.canvas import INK_MODELS
 
     rd = TomlReader(source)
     rd.keys(data, TOP_KEYS, "")
@@ -222,10 +233,9 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
         for k, v in gains.items()
     }
     ink = dict(rd.table(data.get("ink", {}), "ink"))
-    ink_model = rd.choice(ink.pop("model", "marker"), "ink.model", INK_MODELS)
+    ink_model = rd.choice(ink.pop("model", "marker"), "ink.model", tuple(INK_MODELS))
     px_per_mm = rd.number(ink.pop("px_per_mm", 10.0), "ink.px_per_mm", 0.0, strict=True)
-    ink = {k: rd.number(v, f"ink.{k}") for k, v in ink.items()}
-    _check_ink(rd, ink_model, ink)
+    ink = _dataclass_table(rd, ink, "ink", INK_MODELS[ink_model])
     return Scenario(
         path=source,
         base_dir=base_dir,
@@ -240,17 +250,6 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
         ink_model=ink_model,
         px_per_mm=px_per_mm,
     )
-
-
-def _check_ink(rd: TomlReader, model: str, params: dict) -> None:
-    from inkarm.sim.canvas import make_ink
-
-    try:
-        make_ink(model, **params)
-    except TypeError as e:
-        raise rd.error("ink", f"{model} ink: {e}") from None
-    except InputError as e:
-        raise rd.error("ink", str(e)) from None
 
 
 # -- the drawing -----------------------------------------------------------------------------------
@@ -271,9 +270,12 @@ def source_drawing(scenario: Scenario) -> Drawing:
                 plan = parse_plan(src["plan"], source=f"{scenario.path}: source.plan", seed=scenario.seed)
             if "sample" not in src:
                 return realise_plan(plan, samples=0).drawing
-            k = src["sample"]
-            result = realise_plan(plan, samples=k + 1)
-            strokes = [Trajectory(t=r.mean.t, pos=r.samples[k]) for r in result.strokes]
+            result = realise_plan(plan, samples=max(src["sample"]) + 1)
+            strokes = []
+            for copy, k in enumerate(src["sample"]):
+                shift = np.zeros(plan.dim)
+                shift[0] = copy * src.get("spacing_mm", 0.0)
+                strokes += [Trajectory(t=r.mean.t, pos=r.samples[k] + shift) for r in result.strokes]
             return Drawing(strokes).sequential(pause=plan.pause)
         if kind == "trajectory":
             return Drawing.from_csv(src["file"])
@@ -325,7 +327,8 @@ def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, flo
 
 @dataclass
 class RunResult:
-    """What a run produced: its metrics and the files written (name -> path)."""
+    """What a run produced: its metrics, the files written (file name -> path) and the placed
+    drawing (page [mm])."""
 
     metrics: dict
     files: dict[str, Path]
@@ -339,14 +342,15 @@ def run(
     video: str | Path | None = None,
     fps: float = 30.0,
     camera: str = "overview",
+    report: bool = True,
 ) -> RunResult:
     """Draw ``scenario`` with the simulated arm; write its pictures and logs into ``out_dir``.
 
-    ``progress(fraction, phase)`` is called during the simulation. On divergence the partial
-    trace and canvas are written before :class:`SimulationError` propagates.
+    ``progress(fraction, phase)`` is called during the simulation; ``report=False`` skips
+    report.png. On divergence the partial trace and canvas are written before
+    :class:`SimulationError` propagates.
     """
     from inkarm.control.loop import LoopConfig, run_drawing
-    from inkarm.control.pid import PIDGains
     from inkarm.control.transform import PagePlacement
     from inkarm.metrics import compute_metrics
     from inkarm.report import report_figure
@@ -358,42 +362,43 @@ def run(
     out.mkdir(parents=True, exist_ok=True)
     cell = CellConfig(**scenario.cell)
     drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
-    plant_model = build_model(cell)
-    kin_model = build_model(cell)
+    kin_model = build_model(cell)  # the controller's own model; the plant gets a twin
     placement = PagePlacement.from_model(kin_model)
-    gains = dataclasses.replace(default_gains(), **scenario.gains) if scenario.gains else default_gains()
-    if not isinstance(gains, PIDGains):
-        raise InputError("controller.gains: could not build PID gains")
-    loop = LoopConfig(**scenario.controller)
+    try:
+        gains = dataclasses.replace(default_gains(), **scenario.gains)
+    except InputError as e:
+        raise ScenarioError(f"{scenario.path}: controller.gains: {e}") from None
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.px_per_mm,
                     ink=make_ink(scenario.ink_model, **scenario.ink))
-    plant = MujocoPlant(plant_model, canvas=canvas)
-    files = {"canvas": out / "canvas.png", "trace": out / "trace.npz",
-             "metrics": out / "metrics.json", "report": out / "report.png"}
-    drawing.to_csv(out / "reference.csv")
-    files["reference"] = out / "reference.csv"
+    plant = MujocoPlant(build_model(cell), canvas=canvas)
+    files = {name: out / name for name in ("reference.csv", "trace.npz", "canvas.png", "metrics.json")}
+    drawing.to_csv(files["reference.csv"])
     try:
-        log = run_drawing(drawing, plant, kin_model, gains, placement, loop, progress=progress)
+        log = run_drawing(drawing, plant, kin_model, gains, placement,
+                          LoopConfig(**scenario.controller), progress=progress)
     except SimulationError as e:
         partial = getattr(e, "log", None)
         if partial is not None:
-            partial.to_npz(files["trace"])
-        canvas.to_png(files["canvas"])
+            partial.to_npz(files["trace.npz"])
+        canvas.to_png(files["canvas.png"])
         raise SimulationError(f"{e} (partial trace and canvas kept in {out})") from None
     finally:
         plant.close()
-    log.to_npz(files["trace"])
-    canvas.to_png(files["canvas"])
+    log.to_npz(files["trace.npz"])
+    canvas.to_png(files["canvas.png"])
+    plan_strokes = [s.pos[:, :2] for s in drawing.strokes]
     metrics = compute_metrics(
         times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
         drawing=log.drawing, q=log.q, joint_range=joint_ranges(kin_model), wall_time_s=log.wall_s,
-        canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
+        canvas=canvas, plan_strokes=plan_strokes,
     )
-    files["metrics"].write_text(json.dumps(metrics, indent=2, sort_keys=True) + "\n")
-    report_figure(files["report"], canvas=canvas, times_s=log.time, reference_mm=log.reference,
-                  tip_mm=log.tip, force_n=log.force, drawing=log.drawing,
-                  plan_strokes=[s.pos[:, :2] for s in drawing.strokes], metrics=metrics,
-                  title=scenario.title)
+    files["metrics.json"].write_text(json.dumps(metrics, indent=2, sort_keys=True) + "\n")
+    if report:
+        files["report.png"] = out / "report.png"
+        report_figure(files["report.png"], canvas=canvas, times_s=log.time,
+                      reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+                      drawing=log.drawing, plan_strokes=plan_strokes, metrics=metrics,
+                      title=scenario.title)
     if video is not None:
         from inkarm.sim.render import render_log_video
 

@@ -47,6 +47,10 @@ PAPER_TEXTURE = "paper_ink"
 PAPER_RGB = (246, 244, 236)  # off-white paper
 INK_RGB = (20, 22, 48)  # blue-black ink
 GL_BACKENDS = ("egl", "osmesa")
+GL_ADVICE = (
+    "Set MUJOCO_GL=egl (Debian packages libegl1 libegl-mesa0 libgl1-mesa-dri) or "
+    "MUJOCO_GL=osmesa (libosmesa6) in the environment before starting Python"
+)
 
 _PROBE = (
     "import mujoco\n"
@@ -108,7 +112,8 @@ def configure_gl(backends: Iterable[str] = GL_BACKENDS) -> str:
     raise RenderError(
         "no offscreen OpenGL backend works here: "
         + "; ".join(reasons)
-        + ". Install libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
+        + ". Install libegl1 libegl-mesa0 libgl1-mesa-dri (MUJOCO_GL=egl) or libosmesa6 "
+        "(MUJOCO_GL=osmesa)"
     )
 
 
@@ -185,6 +190,52 @@ def texture_pixels(
     return (paper + d[..., None] * (ink - paper) + 0.5).astype(np.uint8)
 
 
+def write_texture(
+    model,
+    canvas,
+    *,
+    full: bool = False,
+    ink_rgb: tuple[int, int, int] = INK_RGB,
+    paper_rgb: tuple[int, int, int] = PAPER_RGB,
+    caller: str = "write_texture",
+) -> int | None:
+    """Copy the part of ``canvas`` changed since the last call (everything when ``full``) into
+    the paper texture in ``model.tex_data``; return the texture id when anything changed (the
+    texture then needs uploading to the GPU), else None.
+
+    Consumes the canvas's dirty box (:meth:`Canvas.take_dirty_box`): use one writer per canvas
+    (one :class:`Renderer`, switching cameras, rather than several)."""
+    import mujoco
+
+    tex_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXTURE, PAPER_TEXTURE)
+    if tex_id < 0:
+        raise RenderError(
+            f"{caller}: the model has no texture {PAPER_TEXTURE!r}; call "
+            "inkarm.sim.render.add_paper_texture(spec, canvas) before compiling it"
+        )
+    height, width = int(model.tex_height[tex_id]), int(model.tex_width[tex_id])
+    long_texels = height if canvas.shape[0] >= canvas.shape[1] else width
+    block = _block_size(canvas.shape, long_texels)
+    if (math.ceil(canvas.shape[0] / block), math.ceil(canvas.shape[1] / block)) != (height, width):
+        raise RenderError(
+            f"{caller}: the model's paper texture is {height} x {width} texels, which no block "
+            f"size maps onto the canvas's {canvas.shape[0]} x {canvas.shape[1]} pixels; "
+            "build the texture with add_paper_texture(spec, canvas) from this canvas"
+        )
+    box = canvas.take_dirty_box()
+    if full:
+        box = (0, canvas.shape[0], 0, canvas.shape[1])
+    if box is None:
+        return None
+    r0, r1 = box[0] // block, math.ceil(box[1] / block)
+    c0, c1 = box[2] // block, math.ceil(box[3] / block)
+    darkness = canvas.image[r0 * block : r1 * block, c0 * block : c1 * block]
+    adr = int(model.tex_adr[tex_id])
+    texels = model.tex_data[adr : adr + height * width * 3].reshape(height, width, 3)
+    texels[r0:r1, c0:c1] = texture_pixels(darkness, block, ink_rgb, paper_rgb)
+    return tex_id
+
+
 def upload(
     model,
     context,
@@ -194,40 +245,15 @@ def upload(
     ink_rgb: tuple[int, int, int] = INK_RGB,
     paper_rgb: tuple[int, int, int] = PAPER_RGB,
 ) -> bool:
-    """Copy the part of ``canvas`` changed since the last call (everything when ``full``) into
-    the paper texture of ``model`` and upload it to the MjrContext ``context``, whose OpenGL
-    context must be current. Returns whether anything was uploaded.
-
-    Consumes the canvas's dirty box (:meth:`Canvas.take_dirty_box`): use one uploader per
-    canvas (one :class:`Renderer`, switching cameras, rather than several)."""
+    """:func:`write_texture`, then upload the changed texture to the MjrContext ``context``,
+    whose OpenGL context must be current. Returns whether anything was uploaded."""
     import mujoco
 
-    tex_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXTURE, PAPER_TEXTURE)
-    if tex_id < 0:
-        raise RenderError(
-            f"upload: the model has no texture {PAPER_TEXTURE!r}; call "
-            "inkarm.sim.render.add_paper_texture(spec, canvas) before compiling it"
-        )
-    height, width = int(model.tex_height[tex_id]), int(model.tex_width[tex_id])
-    long_texels = height if canvas.shape[0] >= canvas.shape[1] else width
-    block = _block_size(canvas.shape, long_texels)
-    if (math.ceil(canvas.shape[0] / block), math.ceil(canvas.shape[1] / block)) != (height, width):
-        raise RenderError(
-            f"upload: the model's paper texture is {height} x {width} texels, which no block "
-            f"size maps onto the canvas's {canvas.shape[0]} x {canvas.shape[1]} pixels; "
-            "build the texture with add_paper_texture(spec, canvas) from this canvas"
-        )
-    box = canvas.take_dirty_box()
-    if full:
-        box = (0, canvas.shape[0], 0, canvas.shape[1])
-    if box is None:
+    tex_id = write_texture(
+        model, canvas, full=full, ink_rgb=ink_rgb, paper_rgb=paper_rgb, caller="upload"
+    )
+    if tex_id is None:
         return False
-    r0, r1 = box[0] // block, math.ceil(box[1] / block)
-    c0, c1 = box[2] // block, math.ceil(box[3] / block)
-    darkness = canvas.image[r0 * block : r1 * block, c0 * block : c1 * block]
-    adr = int(model.tex_adr[tex_id])
-    texels = model.tex_data[adr : adr + height * width * 3].reshape(height, width, 3)
-    texels[r0:r1, c0:c1] = texture_pixels(darkness, block, ink_rgb, paper_rgb)
     mujoco.mjr_uploadTexture(model, context, tex_id)
     return True
 
@@ -287,8 +313,7 @@ class Renderer:
         except Exception as err:  # the GL backends raise assorted types
             raise RenderError(
                 f"Renderer: offscreen OpenGL failed (MUJOCO_GL="
-                f"{os.environ.get('MUJOCO_GL', '<unset>')}): {err}. See inkarm.sim.render's "
-                "docstring for the packages each backend needs"
+                f"{os.environ.get('MUJOCO_GL', '<unset>')}): {err}. {GL_ADVICE}"
             ) from err
         self.model = model
         self.canvas = canvas
@@ -321,17 +346,24 @@ class Renderer:
         self.close()
 
 
-def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = 30.0) -> Path:
-    """Encode RGB frames (each (H, W, 3) uint8, all the same size) as an H.264 MP4 at ``fps``
-    frames per second and return the path. An odd height or width is padded by one row or
-    column (yuv420p needs even sizes). Needs the optional ``imageio-ffmpeg`` package."""
+def require_ffmpeg(caller: str = "write_video"):
+    """The optional ``imageio_ffmpeg`` module (its ffmpeg binary encodes the video), or a
+    RenderError saying how to install it."""
     try:
         import imageio_ffmpeg
     except ImportError:
         raise RenderError(
-            "write_video needs the optional package imageio-ffmpeg: "
+            f"{caller} needs the optional package imageio-ffmpeg: "
             "pip install 'inkarm[video]' (or pip install imageio-ffmpeg)"
         ) from None
+    return imageio_ffmpeg
+
+
+def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = 30.0) -> Path:
+    """Encode RGB frames (each (H, W, 3) uint8, all the same size) as an H.264 MP4 at ``fps``
+    frames per second and return the path. An odd height or width is padded by one row or
+    column (yuv420p needs even sizes). Needs the optional ``imageio-ffmpeg`` package."""
+    imageio_ffmpeg = require_ffmpeg("write_video")
     if not fps > 0:
         raise InputError(f"write_video: fps must be > 0, got {fps}")
     path = Path(path)
