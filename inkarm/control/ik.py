@@ -65,11 +65,20 @@ class ArmKinematics:
         self._jacr = np.zeros((3, model.nv))
         self._bias = np.zeros(model.nv)
         self._dense_mass = np.zeros((model.nv, model.nv))
+        # Views into MjData and the Jacobian buffers (their memory never moves): an attribute
+        # look-up on MjData builds a new array object each time, which the per-period calls
+        # (bias, IK iterations) would pay for again and again.
+        self._qpos = self.data.qpos
+        self._qvel = self.data.qvel
+        self._site_xpos = self.data.site_xpos[sid]
+        self._site_xmat = self.data.site_xmat[sid].reshape(3, 3)
+        self._jacp_arm = self._jacp[:, self.dof_adr]
+        self._jacr_arm = self._jacr[:, self.dof_adr]
 
     def _set(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
-        self.data.qpos[self.qpos_adr] = q
+        self._qpos[self.qpos_adr] = q
         if qd is not None:
-            self.data.qvel[self.dof_adr] = qd
+            self._qvel[self.dof_adr] = qd
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Site position (3,) in [m] and orientation (3, 3) (columns: site axes) at ``q``."""
@@ -82,16 +91,21 @@ class ArmKinematics:
 
     def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(p, R, Jp, Jr): site pose and its translational/rotational Jacobians (3, n)."""
+        return tuple(a.copy() for a in self.jacobian_views(q))
+
+    def jacobian_views(
+        self, q: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`jacobian` without the copies: views into this object's buffers, valid until
+        its next evaluation (for the IK iterations, which use them at once)."""
+        m, d = self.model, self.data
         self._set(q)
-        mujoco.mj_kinematics(self.model, self.data)
-        mujoco.mj_comPos(self.model, self.data)
-        mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self.site_id)
-        return (
-            self.data.site_xpos[self.site_id].copy(),
-            self.data.site_xmat[self.site_id].reshape(3, 3).copy(),
-            self._jacp[:, self.dof_adr].copy(),
-            self._jacr[:, self.dof_adr].copy(),
-        )
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.site_id)
+        if isinstance(self.dof_adr, slice):
+            return self._site_xpos, self._site_xmat, self._jacp_arm, self._jacr_arm
+        return self._site_xpos, self._site_xmat, self._jacp[:, self.dof_adr], self._jacr[:, self.dof_adr]
 
     def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Bias force c(q, qd) = C(q, qd) qd + g(q) in [N m] (n,): gravity, Coriolis and

@@ -35,13 +35,18 @@ import math
 import os
 import subprocess
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
 from inkarm.errors import InkarmError, InputError
+
+if TYPE_CHECKING:  # mujoco must not be imported before configure_gl() has run
+    from inkarm.control.loop import DrawLog
+    from inkarm.sim.arm import CellConfig
+    from inkarm.sim.canvas import InkModel
 
 PAPER_TEXTURE = "paper_ink"
 PAPER_RGB = (246, 244, 236)  # off-white paper
@@ -402,3 +407,320 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = 30.
     if shape is None:
         raise InputError("write_video: no frames")
     return path
+
+
+# -- replaying a logged run ----------------------------------------------------------------------
+
+
+def replay_model(
+    cell: CellConfig | None,
+    canvas,
+    *,
+    width: int = 640,
+    height: int = 480,
+    max_texture_px: int = 1024,
+):
+    """The drawing cell of ``cell`` (default :class:`CellConfig`) compiled with its paper
+    textured for ``canvas`` and an offscreen buffer of at least width x height pixels."""
+    from inkarm.sim.arm import build_spec
+
+    spec = build_spec(cell)
+    add_paper_texture(spec, canvas, max_texture_px=max_texture_px)
+    set_offscreen_size(spec, width, height)
+    return spec.compile()
+
+
+def camera_id(model, name: str, caller: str = "camera_id") -> int:
+    """The id of the camera ``name`` in ``model``; the error lists the cameras there are."""
+    import mujoco
+
+    cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, str(name))
+    if cam < 0:
+        names = ", ".join(model.camera(i).name for i in range(model.ncam)) or "none"
+        raise RenderError(f"{caller}: unknown camera {name!r}; the cell's cameras are {names}")
+    return cam
+
+
+class LogReplay:
+    """A logged run played back into the cell's MjData and onto a fresh canvas.
+
+    :meth:`seek` to a time t in [s] shows the last log row at or before t:
+
+    * arm joints: the logged q;
+    * pen slide: the static deflection of the pen spring under the logged contact force,
+      compression = F / k [mm] (Hooke's law, k the cell's
+      ``pen_stiffness_n_per_mm``), clipped to the pen's travel; 0 where F is NaN;
+    * ink: every row up to t is fed to the canvas in order, ``touch(tip[:2], F, time)`` while
+      F > ``contact_threshold_n`` and ``lift()`` otherwise, so the ink appears behind the pen.
+
+    The log holds one row per control period (3 physics steps in the default cell) where the
+    plant inked every physics step: the replayed ink is the same path joined by capsules three
+    times longer, a chord error of (v T)^2 / (8 R), 0.02 mm at 100 mm/s on a 2 mm radius.
+    Time only moves forwards: seeking back keeps the ink already laid.
+
+    Args:
+        model: A cell model (:func:`replay_model`) with joints ``joint1..7`` and ``pen_slide``.
+        log: The run's :class:`inkarm.control.loop.DrawLog` (time, q, tip, force are used).
+        canvas: The canvas the ink goes to (blank at first).
+        pen_stiffness_n_per_mm: Pen spring rate k in [N/mm].
+        contact_threshold_n: Force in [N] above which the pen counts as touching.
+    """
+
+    def __init__(
+        self,
+        model,
+        log: DrawLog,
+        canvas,
+        *,
+        pen_stiffness_n_per_mm: float,
+        contact_threshold_n: float = 0.02,
+    ):
+        import mujoco
+
+        from inkarm.sim.arm import JOINT_NAMES
+
+        _check_log(log)
+        if not pen_stiffness_n_per_mm > 0:
+            raise InputError(
+                f"LogReplay: pen_stiffness_n_per_mm must be > 0, got {pen_stiffness_n_per_mm}"
+            )
+        joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in JOINT_NAMES]
+        slide = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")
+        if min(joints) < 0 or slide < 0:
+            raise InputError(
+                f"LogReplay: the model needs the joints {', '.join(JOINT_NAMES)} and pen_slide"
+            )
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.log = log
+        self.canvas = canvas
+        self.contact_threshold_n = float(contact_threshold_n)
+        self._qpos_adr = np.array([model.jnt_qposadr[j] for j in joints])
+        self._slide_adr = int(model.jnt_qposadr[slide])
+        force = np.nan_to_num(np.asarray(log.force, float), nan=0.0)
+        travel_m = float(model.jnt_range[slide][1]) if model.jnt_limited[slide] else np.inf
+        # Hooke: compression [mm] = F / k, in [m] for MuJoCo.
+        self._slide_m = np.clip(force / pen_stiffness_n_per_mm / 1000.0, 0.0, travel_m)
+        self._touching = np.asarray(log.force, float) > self.contact_threshold_n
+        self._next_row = 0  # the first row not yet fed to the canvas
+        key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        if key >= 0:
+            mujoco.mj_resetDataKeyframe(model, self.data, key)
+
+    def seek(self, t: float):
+        """Pose and ink at time ``t`` in [s] (clamped to the log); returns the MjData."""
+        import mujoco
+
+        log = self.log
+        row = max(0, int(np.searchsorted(log.time, t, side="right")) - 1)
+        for i in range(self._next_row, row + 1):
+            if self._touching[i]:
+                self.canvas.touch(log.tip[i, :2], float(log.force[i]), float(log.time[i]))
+            else:
+                self.canvas.lift()
+        self._next_row = max(self._next_row, row + 1)
+        if self._next_row == len(log):  # the run is over: finish the last stroke
+            self.canvas.lift()
+        self.data.qpos[self._qpos_adr] = log.q[row]
+        self.data.qpos[self._slide_adr] = self._slide_m[row]
+        self.data.time = float(log.time[row])
+        mujoco.mj_forward(self.model, self.data)
+        return self.data
+
+
+def _check_log(log: DrawLog) -> None:
+    n = len(np.asarray(log.time))
+    if n < 1:
+        raise InputError("DrawLog: the log has no rows")
+    expected = {"time": (n,), "q": (n, 7), "tip": (n, 3), "force": (n,)}
+    for name, shape in expected.items():
+        got = np.shape(getattr(log, name))
+        if got != shape:
+            raise InputError(f"DrawLog.{name}: expected shape {shape}, got {got}")
+    time = np.asarray(log.time, float)
+    if not np.isfinite(time).all() or np.any(np.diff(time) < 0):
+        raise InputError("DrawLog.time: expected finite, non-decreasing times")
+
+
+def frame_times(time_s: np.ndarray, fps: float) -> np.ndarray:
+    """Times in [s] shown by the frames of a video of a run logged at ``time_s``: frame k shows
+    the end of its interval, t0 + (k + 1) / fps clamped to the end of the log, for
+    k < ceil(duration fps) (at least one frame), so that the video lasts the run, rounded up
+    to a whole frame, and its last frame shows the finished page."""
+    if not fps > 0:
+        raise InputError(f"fps must be > 0, got {fps}")
+    t0, t1 = float(time_s[0]), float(time_s[-1])
+    count = max(1, math.ceil((t1 - t0) * fps - 1e-9))
+    return np.minimum(t0 + np.arange(1, count + 1) / fps, t1)
+
+
+def render_log_video(
+    log: DrawLog,
+    path: str | Path,
+    cell: CellConfig | None = None,
+    *,
+    px_per_mm: float = 10.0,
+    ink: InkModel | str = "marker",
+    fps: float = 30.0,
+    camera: str = "overview",
+    width: int = 640,
+    height: int = 480,
+    contact_threshold_n: float = 0.02,
+    progress: Callable[[float, str], None] | None = None,
+) -> Path:
+    """Render the logged run ``log`` of the cell ``cell`` offscreen as an H.264 MP4 at ``path``
+    and return the path.
+
+    The run is replayed after the fact (:class:`LogReplay`) into a fresh cell model whose paper
+    shows a fresh canvas of ``px_per_mm`` [px/mm] with ``ink``, so each frame has the ink laid
+    so far. ``fps`` frames per simulated second (:func:`frame_times`), seen from the cell's
+    camera ``camera`` (``overview``, ``paper_top`` or ``pen_cam``), width x height pixels (an
+    odd size is padded by a pixel, see :func:`write_video`). ``progress(fraction, "video")``
+    is called after each frame.
+
+    Needs offscreen OpenGL (``MUJOCO_GL=egl`` or ``osmesa`` set before ``mujoco`` is
+    imported: :func:`configure_gl`) and the optional ``imageio-ffmpeg``.
+    """
+    from inkarm.sim.arm import CellConfig
+    from inkarm.sim.canvas import Canvas
+
+    path = Path(path)
+    if path.suffix.lower() != ".mp4":
+        raise InputError(f"render_log_video: {path}: expected a .mp4 file name")
+    if not fps > 0:
+        raise InputError(f"render_log_video: fps must be > 0, got {fps}")
+    if int(width) < 1 or int(height) < 1:
+        raise InputError(f"render_log_video: frame size must be >= 1 x 1, got {width} x {height}")
+    require_ffmpeg("render_log_video")
+    _check_log(log)
+    cell = cell or CellConfig()
+    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=px_per_mm, ink=ink)
+    model = replay_model(cell, canvas, width=width, height=height)
+    cam = camera_id(model, camera, "render_log_video")
+    replay = LogReplay(
+        model,
+        log,
+        canvas,
+        pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
+        contact_threshold_n=contact_threshold_n,
+    )
+    times = frame_times(np.asarray(log.time, float), fps)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with Renderer(model, canvas, height=int(height), width=int(width), camera=cam) as renderer:
+
+        def frames():
+            for k, t in enumerate(times):
+                yield renderer.render(replay.seek(t))
+                if progress is not None:
+                    progress((k + 1) / len(times), "video")
+
+        return write_video(frames(), path, fps)
+
+
+# -- the interactive viewer ----------------------------------------------------------------------
+
+_GLFW_PROBE = "import sys, glfw\nsys.exit(0 if glfw.init() else 1)\n"
+VIEWER_PERIOD_S = 1.0 / 60.0
+
+
+def require_display(timeout_s: float = 30.0) -> None:
+    """Raise RenderError unless a window can be opened here: ``DISPLAY`` or ``WAYLAND_DISPLAY``
+    must be set and GLFW (MuJoCo's viewer) must initialise on it, checked in a subprocess
+    (mujoco's passive viewer waits forever when GLFW fails in its thread)."""
+    shown = [
+        f"{name}={os.environ[name]}"
+        for name in ("DISPLAY", "WAYLAND_DISPLAY")
+        if os.environ.get(name)
+    ]
+    if not shown:
+        raise RenderError(
+            "open_viewer: no display here (neither DISPLAY nor WAYLAND_DISPLAY is set: a "
+            "server, container or SSH session without X forwarding); render a video instead "
+            "(inkarm draw --video FILE.mp4)"
+        )
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _GLFW_PROBE],
+            check=False,
+            capture_output=True,
+            text=True,
+            timeout=timeout_s,
+        )
+    except subprocess.TimeoutExpired:
+        reason = f"GLFW did not initialise in {timeout_s} s"
+    else:
+        if done.returncode == 0:
+            return
+        lines = [line for line in done.stderr.strip().splitlines() if "GLFWError" in line]
+        reason = lines[0].split("GLFWError:", 1)[1].strip() if lines else "glfw.init() failed"
+    raise RenderError(
+        f"open_viewer: {', '.join(shown)} is set but GLFW cannot open a window there: "
+        f"{reason}; render a video instead (inkarm draw --video FILE.mp4)"
+    )
+
+
+def open_viewer(
+    log: DrawLog,
+    cell: CellConfig | None = None,
+    *,
+    px_per_mm: float = 10.0,
+    ink: InkModel | str = "marker",
+    contact_threshold_n: float = 0.02,
+    speed: float = 1.0,
+) -> None:
+    """Replay the logged run ``log`` of the cell ``cell`` in MuJoCo's passive viewer at
+    ``speed`` times real time, the ink appearing on the paper as in
+    :func:`render_log_video`; the last pose stays on screen. Returns when the window is
+    closed. Needs a display (:func:`require_display`)."""
+    import time as _time
+
+    import mujoco
+    import mujoco.viewer
+
+    from inkarm.sim.arm import CellConfig
+    from inkarm.sim.canvas import Canvas
+
+    if not speed > 0:
+        raise InputError(f"open_viewer: speed must be > 0, got {speed}")
+    _check_log(log)
+    require_display()
+    cell = cell or CellConfig()
+    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=px_per_mm, ink=ink)
+    model = replay_model(cell, canvas)
+    replay = LogReplay(
+        model,
+        log,
+        canvas,
+        pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
+        contact_threshold_n=contact_threshold_n,
+    )
+    t0, t1 = float(log.time[0]), float(log.time[-1])
+    data = replay.seek(t0)
+    write_texture(model, canvas, full=True)
+    with mujoco.viewer.launch_passive(
+        model, data, show_left_ui=False, show_right_ui=False
+    ) as viewer:
+        with viewer.lock():
+            _aim_at_cell(model, data, viewer.cam)
+        start = _time.perf_counter()
+        while viewer.is_running():
+            t = min(t0 + speed * (_time.perf_counter() - start), t1)
+            with viewer.lock():
+                replay.seek(t)
+                tex_id = write_texture(model, canvas, caller="open_viewer")
+            if tex_id is not None:
+                viewer.update_texture(tex_id)
+            viewer.sync()
+            _time.sleep(VIEWER_PERIOD_S)
+
+
+def _aim_at_cell(model, data, camera) -> None:
+    """Point the free MjvCamera ``camera`` at the arm and the paper, from the front left."""
+    import mujoco
+
+    paper = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "paper")
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    camera.lookat[:] = 0.5 * data.geom_xpos[paper] + [0.0, 0.0, 0.3]
+    camera.distance = 1.9
+    camera.azimuth = 135.0
+    camera.elevation = -25.0
