@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy.linalg.lapack import dposv as _cholesky_solve
 
-from inkarm.errors import InputError, UnreachableError
+from inkarm.errors import InputError, SolverError, UnreachableError
 
 
 class ArmKinematics:
@@ -72,8 +73,6 @@ class ArmKinematics:
         self._qvel = self.data.qvel
         self._site_xpos = self.data.site_xpos[sid]
         self._site_xmat = self.data.site_xmat[sid].reshape(3, 3)
-        self._jacp_arm = self._jacp[:, self.dof_adr]
-        self._jacr_arm = self._jacr[:, self.dof_adr]
 
     def _set(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
         self._qpos[self.qpos_adr] = q
@@ -103,9 +102,12 @@ class ArmKinematics:
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.site_id)
-        if isinstance(self.dof_adr, slice):
-            return self._site_xpos, self._site_xmat, self._jacp_arm, self._jacr_arm
-        return self._site_xpos, self._site_xmat, self._jacp[:, self.dof_adr], self._jacr[:, self.dof_adr]
+        return (
+            self._site_xpos,
+            self._site_xmat,
+            self._jacp[:, self.dof_adr],
+            self._jacr[:, self.dof_adr],
+        )
 
     def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Bias force c(q, qd) = C(q, qd) qd + g(q) in [N m] (n,): gravity, Coriolis and
@@ -174,6 +176,29 @@ class IKResult:
     iterations: int
 
 
+def pen_error(
+    p: np.ndarray, R: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray
+) -> np.ndarray:
+    """The 5-D task error e = [p* - p ; x_s . w ; y_s . w] with w = z_s x a (module docstring).
+
+    In a right-handed frame the triple products reduce to x_s . (z_s x a) = -y_s . a and
+    y_s . (z_s x a) = x_s . a, so no cross product is needed."""
+    xa, ya = (axis_goal @ R[:, :2]).tolist()
+    e = np.empty(5)
+    e[:3] = p_goal - p
+    e[3] = -ya
+    e[4] = xa
+    return e
+
+
+def pen_jacobian(R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray) -> np.ndarray:
+    """The 5 x n task Jacobian J5 = [Jp ; x_s^T Jr ; y_s^T Jr] (module docstring)."""
+    J5 = np.empty((5, Jp.shape[1]))
+    J5[:3] = Jp
+    J5[3:] = R[:, :2].T @ Jr
+    return J5
+
+
 def pen_task(
     p: np.ndarray,
     R: np.ndarray,
@@ -183,29 +208,56 @@ def pen_task(
     axis_goal: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The 5-D error e and Jacobian J5 of the pen task (module docstring)."""
-    x_s, y_s, z_s = R[:, 0], R[:, 1], R[:, 2]
-    w = _cross(z_s, axis_goal)
-    e = np.empty(5)
-    e[:3] = p_goal - p
-    e[3] = x_s @ w
-    e[4] = y_s @ w
-    J5 = np.empty((5, Jp.shape[1]))
-    J5[:3] = Jp
-    J5[3] = x_s @ Jr
-    J5[4] = y_s @ Jr
-    return e, J5
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    # np.cross spends most of its time on axis bookkeeping for 3-vectors.
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+    return pen_error(p, R, p_goal, axis_goal), pen_jacobian(R, Jp, Jr)
 
 
 def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
     """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits."""
     return np.maximum(lower + margin - q, 0.0) - np.maximum(q - (upper - margin), 0.0)
+
+
+def null_space_motion(
+    q: np.ndarray, q_posture: np.ndarray, lower: np.ndarray, upper: np.ndarray, cfg: IKConfig
+) -> np.ndarray:
+    """dq_0 = k_posture (q_posture - q) + k_limit * limit_push(q) in [rad]."""
+    return cfg.posture_gain * (q_posture - q) + cfg.limit_gain * limit_push(
+        q, lower, upper, cfg.limit_margin
+    )
+
+
+def dls_update(
+    q: np.ndarray,
+    e: np.ndarray,
+    J: np.ndarray,
+    dq0: np.ndarray | None,
+    cfg: IKConfig,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> np.ndarray:
+    """q + dq, the step of the module docstring from the task error ``e`` and Jacobian ``J``
+    at ``q`` (task only when ``dq0`` is None), scaled to ``cfg.max_step`` and clipped to the
+    limits.
+
+    The task and null-space terms share one solve, by linearity:
+    J^T A^-1 e + (I - J^T A^-1 J) dq0 = J^T A^-1 (e - J dq0) + dq0 with A = J J^T + lambda^2 I,
+    solved by Cholesky (A is symmetric positive definite)."""
+    A = J @ J.T
+    A.flat[:: A.shape[0] + 1] += cfg.damping**2
+    rhs = e if dq0 is None else e - J @ dq0
+    _, y, info = _cholesky_solve(A, rhs)
+    if info != 0:  # only non-finite joint angles get here (A >= lambda^2 I otherwise)
+        raise SolverError(
+            f"IK: J J^T + lambda^2 I is not positive definite (LAPACK dposv info {info}) at "
+            f"q = {q.tolist()}; expected finite joint angles"
+        )
+    dq = J.T @ y
+    if dq0 is not None:
+        dq += dq0
+    # (a max over a Python list: a numpy reduction costs more than the whole list on 7 numbers)
+    biggest = max(map(abs, dq.tolist()))
+    if biggest > cfg.max_step:
+        dq *= cfg.max_step / biggest
+    return np.minimum(np.maximum(q + dq, lower), upper)
 
 
 def dls_step(
@@ -218,28 +270,18 @@ def dls_step(
     null_space: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``."""
-    p, R, Jp, Jr = kin.jacobian(q)
-    e, J = pen_task(p, R, Jp, Jr, p_goal, axis_goal)
-    JJt = J @ J.T
-    JJt.flat[::6] += cfg.damping**2
-    if null_space:
-        dq0 = cfg.posture_gain * (q_posture - q) + cfg.limit_gain * limit_push(
-            q, kin.lower, kin.upper, cfg.limit_margin
-        )
-        # One solve for both right-hand sides: the task and the projection of dq0.
-        y = np.linalg.solve(JJt, np.column_stack([e, J @ dq0]))
-        dq = J.T @ (y[:, 0] - y[:, 1]) + dq0
-    else:
-        dq = J.T @ np.linalg.solve(JJt, e)
-    biggest = float(np.abs(dq).max())
-    if biggest > cfg.max_step:
-        dq *= cfg.max_step / biggest
-    return np.minimum(np.maximum(q + dq, kin.lower), kin.upper), e
+    p, R, Jp, Jr = kin.jacobian_views(q)
+    e = pen_error(p, R, p_goal, axis_goal)
+    J = pen_jacobian(R, Jp, Jr)
+    dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg) if null_space else None
+    return dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper), e
 
 
 def task_error(e: np.ndarray) -> tuple[float, float]:
-    """(position error [m], tilt error [rad]) of a pen-task error vector."""
-    return math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2), math.sqrt(e[3] ** 2 + e[4] ** 2)
+    """(position error [m], tilt error [rad]) of a pen-task error vector; the tilt error is
+    |z_s x a|, the sine of the pen's tilt from the goal axis."""
+    ex, ey, ez, tx, ty = e.tolist()
+    return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(tx * tx + ty * ty)
 
 
 def pose_error(
@@ -248,9 +290,7 @@ def pose_error(
     """(position error [m], tilt error [rad]) at ``q`` from forward kinematics alone (cheaper
     than a Jacobian): |p* - p| and |z_s x a|, the sine of the pen's tilt from ``axis_goal``."""
     p, R = kin.fk(q)
-    d = p_goal - p
-    w = _cross(R[:, 2], axis_goal)
-    return math.sqrt(d @ d), math.sqrt(w @ w)
+    return task_error(pen_error(p, R, p_goal, axis_goal))
 
 
 def solve_ik(
@@ -274,12 +314,66 @@ def solve_ik(
         null_space = it <= cfg.max_iter // 2
         q_next, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=null_space)
         pos_err, tilt_err = task_error(e)
-        settled = not null_space or np.max(np.abs(q_next - q)) < 1e-4
-        if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt and settled:
-            return IKResult(q, True, pos_err, tilt_err, it)
+        if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
+            # (the largest joint move, as a list max: cheaper than numpy's on 7 numbers)
+            if not null_space or max(map(abs, (q_next - q).tolist())) < 1e-4:
+                return IKResult(q, True, pos_err, tilt_err, it)
         q = q_next
     pos_err, tilt_err = task_error(e)
     return IKResult(q, False, pos_err, tilt_err, cfg.max_iter)
+
+
+class PathTracker:
+    """Closed-loop inverse kinematics along a path, one goal at a time (:func:`track_path`).
+
+    :meth:`step` takes one null-space step towards the goal (the posture drift is then the same
+    at every goal and the joint path stays smooth), then task-only steps until the tip is
+    within tolerance (at most ``max_refine``). The Jacobian at the joint angles reached for
+    one goal serves the first step towards the next, so each step costs one evaluation.
+
+    Args:
+        kin: The controller's kinematics.
+        axis_goal: Pen direction (3,) in the robot frame (normalised here).
+        q0: Starting joint angles [rad].
+        q_posture: Posture the null space pulls towards [rad].
+        cfg: Solver settings; pass posture and limit gains that are rates times the goal
+            spacing.
+    """
+
+    def __init__(
+        self, kin: ArmKinematics, axis_goal, q0, q_posture, cfg: IKConfig = IKConfig(),
+        max_refine: int = 20,
+    ):
+        self.kin = kin
+        self.cfg = cfg
+        self.max_refine = int(max_refine)
+        self.axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
+        self.q_posture = np.asarray(q_posture, float)
+        self.q = np.asarray(q0, float).copy()
+        self._evaluate()
+
+    def _evaluate(self) -> None:
+        p, R, Jp, Jr = self.kin.jacobian_views(self.q)
+        self._p, self._R = p.copy(), R.copy()
+        self._J = pen_jacobian(R, Jp, Jr)
+
+    def step(self, p_goal: np.ndarray) -> tuple[float, float]:
+        """Move ``q`` towards ``p_goal`` (3,) in [m]; returns (tip error [m], tilt error
+        [rad]) at the new ``q``."""
+        kin, cfg, axis = self.kin, self.cfg, self.axis_goal
+        lower, upper = kin.lower, kin.upper
+        e = pen_error(self._p, self._R, p_goal, axis)
+        dq0 = null_space_motion(self.q, self.q_posture, lower, upper, cfg)
+        self.q = dls_update(self.q, e, self._J, dq0, cfg, lower, upper)
+        self._evaluate()
+        for _ in range(self.max_refine):
+            e = pen_error(self._p, self._R, p_goal, axis)
+            pos_err, tilt_err = task_error(e)
+            if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
+                return pos_err, tilt_err
+            self.q = dls_update(self.q, e, self._J, None, cfg, lower, upper)
+            self._evaluate()
+        return task_error(pen_error(self._p, self._R, p_goal, axis))
 
 
 def track_path(
@@ -293,28 +387,24 @@ def track_path(
 ) -> np.ndarray:
     """Joint path (N, n) [rad] through ``points`` (N, 3) [m], warm-started from ``q0``.
 
-    Closed-loop inverse kinematics: one null-space step per sample (so the posture drift is the
-    same at every sample and the joint path stays smooth: pass a ``cfg`` whose posture and
-    limit gains are rates times the sample period), then task-only steps until the tip is
-    within tolerance. Raises UnreachableError naming the first sample (``label(i)`` when
-    given) whose tip error stays above ``100 * tol_pos`` or which sits at a joint limit.
+    Closed-loop inverse kinematics (:class:`PathTracker`): one null-space step per sample (so
+    the posture drift is the same at every sample and the joint path stays smooth: pass a
+    ``cfg`` whose posture and limit gains are rates times the sample period), then task-only
+    steps until the tip is within tolerance. Raises UnreachableError naming the first sample
+    (``label(i)`` when given) whose tip error stays above ``100 * tol_pos`` or which sits at a
+    joint limit.
     """
     points = np.asarray(points, float)
-    axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
-    q_posture = np.asarray(q_posture, float)
-    q = np.asarray(q0, float).copy()
+    tracker = PathTracker(kin, axis_goal, q0, q_posture, cfg)
+    near_lower, near_upper = kin.lower + 1e-9, kin.upper - 1e-9
     path = np.empty((points.shape[0], kin.n))
     for i, p_goal in enumerate(points):
-        q, _ = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=True)
-        for _ in range(20):
-            pos_err, tilt_err = pose_error(kin, q, p_goal, axis_goal)
-            if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
-                break
-            q, _ = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=False)
-        else:
-            pos_err, tilt_err = pose_error(kin, q, p_goal, axis_goal)
-        at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
-        if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or at_limit.any():
+        pos_err, tilt_err = tracker.step(p_goal)
+        q = tracker.q
+        if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or not (
+            (near_lower < q) & (q < near_upper)
+        ).all():
+            at_limit = (q <= near_lower) | (q >= near_upper)
             where = label(i) if label is not None else f"sample {i}"
             why = (
                 f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"

@@ -21,7 +21,7 @@ def _as_array(name: str, value, ndim: int) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if arr.ndim != ndim:
         raise InputError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise InputError(f"{name}: non-finite value (NaN or inf) at index {tuple(int(i) for i in bad)}")
     return arr
@@ -55,8 +55,8 @@ class Trajectory:
             raise InputError(f"trajectory pos: expected 1 to 3 columns, got {pos.shape[1]}")
         if t.shape[0] == 0:
             raise InputError("trajectory: no samples")
-        if t.shape[0] > 1 and np.any(np.diff(t) <= 0):
-            i = int(np.argmax(np.diff(t) <= 0))
+        if t.shape[0] > 1 and not (t[1:] > t[:-1]).all():
+            i = int(np.argmax(t[1:] <= t[:-1]))
             raise InputError(
                 f"trajectory t: must be strictly increasing, but t[{i + 1}] = {t[i + 1]} "
                 f"<= t[{i}] = {t[i]}"

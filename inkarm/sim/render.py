@@ -412,6 +412,9 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = 30.
 # -- replaying a logged run ----------------------------------------------------------------------
 
 
+DRAWING_CAMERA = "drawing"
+
+
 def replay_model(
     cell: CellConfig | None,
     canvas,
@@ -419,15 +422,74 @@ def replay_model(
     width: int = 640,
     height: int = 480,
     max_texture_px: int = 1024,
+    drawing_box_mm: tuple[float, float, float, float] | None = None,
 ):
     """The drawing cell of ``cell`` (default :class:`CellConfig`) compiled with its paper
-    textured for ``canvas`` and an offscreen buffer of at least width x height pixels."""
-    from inkarm.sim.arm import build_spec
+    textured for ``canvas``, an offscreen buffer of at least width x height pixels and a
+    camera :data:`DRAWING_CAMERA` framing ``drawing_box_mm`` (:func:`add_drawing_camera`)."""
+    from inkarm.sim.arm import CellConfig, build_spec
 
+    cell = cell or CellConfig()
     spec = build_spec(cell)
     add_paper_texture(spec, canvas, max_texture_px=max_texture_px)
+    add_drawing_camera(spec, cell, drawing_box_mm)
     set_offscreen_size(spec, width, height)
     return spec.compile()
+
+
+def ink_box_mm(
+    log: DrawLog, contact_threshold_n: float
+) -> tuple[float, float, float, float] | None:
+    """(x_min, y_min, x_max, y_max) in page [mm] of the tip where ``log`` says the pen touched
+    (force > ``contact_threshold_n``), or None when it never did."""
+    touching = np.asarray(log.force, float) > contact_threshold_n
+    if not touching.any():
+        return None
+    tip = np.asarray(log.tip, float)[touching, :2]
+    return (*tip.min(axis=0).tolist(), *tip.max(axis=0).tolist())
+
+
+def add_drawing_camera(
+    spec,
+    cell: CellConfig,
+    box_mm: tuple[float, float, float, float] | None = None,
+    *,
+    elevation_deg: float = 60.0,
+    fovy_deg: float = 45.0,
+    margin: float = 1.6,
+) -> None:
+    """Add the camera :data:`DRAWING_CAMERA` to the cell's MjSpec: it looks down at
+    ``elevation_deg`` above the page onto the centre of ``box_mm`` (page [mm]; the whole page
+    when None) from the page's +x side, its image up along the page's +y so that writing reads
+    upright, at the distance where ``margin`` times the box (at least 40 mm) fits its field of
+    view. From the side, the arm's wrist and pen lean away from the ink they have just laid
+    instead of covering it as in a top-down view."""
+    from inkarm.sim.arm import paper_rotation
+
+    width_mm, height_mm = cell.paper_size_mm
+    x0, y0, x1, y1 = box_mm if box_mm is not None else (0.0, 0.0, width_mm, height_mm)
+    centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0])
+    span = margin * max(x1 - x0, y1 - y0, 40.0)
+    distance = span / (2.0 * math.tan(math.radians(fovy_deg) / 2.0))
+    elevation = math.radians(elevation_deg)
+    back = np.array([math.cos(elevation), 0.0, math.sin(elevation)])  # page frame, unit
+    up = np.array([0.0, 1.0, 0.0])
+    right = np.cross(up, back)
+    rotation = paper_rotation(cell.paper_yaw_deg)  # page axes -> robot base frame
+    offset = np.array([width_mm / 2, height_mm / 2, -cell.paper_thickness_mm])
+    eye_mm = centre + distance * back - offset  # relative to the paper's centre
+    world_centre = np.array([*cell.paper_centre_mm, 0.0])
+    camera_axes = rotation @ np.column_stack([right, up, back])  # MuJoCo cameras look along -z
+    quat = np.zeros(4)
+    import mujoco
+
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(camera_axes).ravel())
+    spec.worldbody.add_camera(
+        name=DRAWING_CAMERA,
+        pos=(world_centre + rotation @ eye_mm) / 1000.0,
+        quat=quat,
+        fovy=fovy_deg,
+    )
 
 
 def camera_id(model, name: str, caller: str = "camera_id") -> int:
@@ -595,7 +657,8 @@ def render_log_video(
     _check_log(log)
     cell = cell or CellConfig()
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=px_per_mm, ink=ink)
-    model = replay_model(cell, canvas, width=width, height=height)
+    box = ink_box_mm(log, contact_threshold_n)
+    model = replay_model(cell, canvas, width=width, height=height, drawing_box_mm=box)
     cam = camera_id(model, camera, "render_log_video")
     replay = LogReplay(
         model,
@@ -686,7 +749,7 @@ def open_viewer(
     require_display()
     cell = cell or CellConfig()
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=px_per_mm, ink=ink)
-    model = replay_model(cell, canvas)
+    model = replay_model(cell, canvas, drawing_box_mm=ink_box_mm(log, contact_threshold_n))
     replay = LogReplay(
         model,
         log,
