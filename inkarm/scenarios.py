@@ -34,6 +34,8 @@ Schema (lengths [mm], times [s], forces [N], angles [deg]; every key optional un
     paper_size_mm = [210.0, 297.0]
     paper_centre_mm = [600.0, 0.0] # robot base frame
     timestep = 0.002
+    arm = "builtin"                # or "iiwa14", "panda": MuJoCo Menagerie models, read from
+                                   # the local copy named by the variable MENAGERIE_ROOT
 
     [controller]                   # inkarm.control.loop.LoopConfig fields, e.g.
     force_n = 1.0
@@ -365,7 +367,7 @@ def run(
     kin_model = build_model(cell)  # the controller's own model; the plant gets a twin
     placement = PagePlacement.from_model(kin_model)
     try:
-        gains = dataclasses.replace(default_gains(), **scenario.gains)
+        gains = dataclasses.replace(default_gains(cell.arm), **scenario.gains)
     except InputError as e:
         raise ScenarioError(f"{scenario.path}: controller.gains: {e}") from None
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.px_per_mm,

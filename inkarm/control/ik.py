@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 from scipy.linalg.lapack import dposv as _cholesky_solve
 
-from inkarm.errors import InputError, SolverError, UnreachableError
+from inkarm.errors import InputError, UnreachableError
 
 
 class ArmKinematics:
@@ -176,6 +176,9 @@ class IKResult:
     iterations: int
 
 
+_EYE5 = np.eye(5)
+
+
 def pen_error(
     p: np.ndarray, R: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray
 ) -> np.ndarray:
@@ -183,7 +186,7 @@ def pen_error(
 
     In a right-handed frame the triple products reduce to x_s . (z_s x a) = -y_s . a and
     y_s . (z_s x a) = x_s . a, so no cross product is needed."""
-    xa, ya = (axis_goal @ R[:, :2]).tolist()
+    xa, ya, _ = (R.T @ axis_goal).tolist()
     e = np.empty(5)
     e[:3] = p_goal - p
     e[3] = -ya
@@ -195,7 +198,7 @@ def pen_jacobian(R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray) -> np.ndarray:
     """The 5 x n task Jacobian J5 = [Jp ; x_s^T Jr ; y_s^T Jr] (module docstring)."""
     J5 = np.empty((5, Jp.shape[1]))
     J5[:3] = Jp
-    J5[3:] = R[:, :2].T @ Jr
+    J5[3:] = R.T[:2] @ Jr
     return J5
 
 
@@ -212,17 +215,18 @@ def pen_task(
 
 
 def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
-    """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits."""
-    return np.maximum(lower + margin - q, 0.0) - np.maximum(q - (upper - margin), 0.0)
+    """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits: back
+    into the band [lower + margin, upper - margin], zero inside it."""
+    return np.minimum(np.maximum(q, lower + margin), upper - margin) - q
 
 
 def null_space_motion(
     q: np.ndarray, q_posture: np.ndarray, lower: np.ndarray, upper: np.ndarray, cfg: IKConfig
 ) -> np.ndarray:
     """dq_0 = k_posture (q_posture - q) + k_limit * limit_push(q) in [rad]."""
-    return cfg.posture_gain * (q_posture - q) + cfg.limit_gain * limit_push(
-        q, lower, upper, cfg.limit_margin
-    )
+    dq0 = cfg.posture_gain * (q_posture - q)
+    dq0 += cfg.limit_gain * limit_push(q, lower, upper, cfg.limit_margin)
+    return dq0
 
 
 def dls_update(
@@ -242,14 +246,11 @@ def dls_update(
     J^T A^-1 e + (I - J^T A^-1 J) dq0 = J^T A^-1 (e - J dq0) + dq0 with A = J J^T + lambda^2 I,
     solved by Cholesky (A is symmetric positive definite)."""
     A = J @ J.T
-    A.flat[:: A.shape[0] + 1] += cfg.damping**2
+    A += cfg.damping**2 * _EYE5
     rhs = e if dq0 is None else e - J @ dq0
-    _, y, info = _cholesky_solve(A, rhs)
-    if info != 0:  # only non-finite joint angles get here (A >= lambda^2 I otherwise)
-        raise SolverError(
-            f"IK: J J^T + lambda^2 I is not positive definite (LAPACK dposv info {info}) at "
-            f"q = {q.tolist()}; expected finite joint angles"
-        )
+    # A >= lambda^2 I, so the factorisation cannot fail on finite numbers (and non-finite ones
+    # propagate to q, where the callers' error checks catch them).
+    _, y, _ = _cholesky_solve(A, rhs)
     dq = J.T @ y
     if dq0 is not None:
         dq += dq0
@@ -396,15 +397,14 @@ def track_path(
     """
     points = np.asarray(points, float)
     tracker = PathTracker(kin, axis_goal, q0, q_posture, cfg)
-    near_lower, near_upper = kin.lower + 1e-9, kin.upper - 1e-9
     path = np.empty((points.shape[0], kin.n))
     for i, p_goal in enumerate(points):
         pos_err, tilt_err = tracker.step(p_goal)
         q = tracker.q
-        if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or not (
-            (near_lower < q) & (q < near_upper)
-        ).all():
-            at_limit = (q <= near_lower) | (q >= near_upper)
+        # (q is clipped to the limits: the smallest distance to one, as a list min)
+        clearance = min(np.minimum(q - kin.lower, kin.upper - q).tolist())
+        if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or not clearance > 1e-9:
+            at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
             where = label(i) if label is not None else f"sample {i}"
             why = (
                 f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"

@@ -48,7 +48,7 @@ import mujoco
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
-from inkarm.control.ik import ArmKinematics, IKConfig, pen_task, solve_ik, track_path
+from inkarm.control.ik import ArmKinematics, IKConfig, pen_jacobian, solve_ik, track_path
 from inkarm.control.pid import JointPID, PIDGains
 from inkarm.control.transform import PagePlacement
 from inkarm.errors import InputError, SimulationError, UnreachableError
@@ -476,24 +476,27 @@ def plan_reference(
     qd = np.gradient(q, dt, axis=0)
     qdd = np.gradient(qd, dt, axis=0)
 
-    # Slowly varying terms on knots SLOW_TERMS_PERIOD_S apart, linear in between.
+    # Slowly varying terms on knots SLOW_TERMS_PERIOD_S apart, linear in between: MuJoCo
+    # evaluates each knot, the linear algebra runs on all knots at once.
+    all_knots = _knots(len(q), max(1, round(SLOW_TERMS_PERIOD_S / dt)))
+    n_k = len(all_knots)
+    tip_k = np.empty((n_k, 3))
+    jac5_k = np.empty((n_k, 5, kin.n))
+    mass_k = np.empty((n_k, kin.n * kin.n))
+    for j, i in enumerate(all_knots):
+        p, R, Jp, Jr = kin.jacobian_views(q[i])
+        tip_k[j] = p
+        jac5_k[j] = pen_jacobian(R, Jp, Jr)
+        mass_k[j] = kin.mass(q[i]).ravel()
+    page_k = placement.to_page(tip_k)
+    jac_k = jac5_k[:, :3].transpose(0, 2, 1).reshape(n_k, kin.n * 3)  # rows of Jp^T
+    # J5^+ (-n): the joint motion that presses the pen along -n, tilt unchanged.
     normal = placement.normal
     press = np.concatenate([-normal, [0.0, 0.0]])
-    damping = IKConfig().damping
-    all_knots = _knots(len(q), max(1, round(SLOW_TERMS_PERIOD_S / dt)))
-    page_k = np.empty((len(all_knots), 3))
-    normal_q_k = np.empty((len(all_knots), kin.n))
-    jac_k = np.empty((len(all_knots), kin.n * 3))
-    mass_k = np.empty((len(all_knots), kin.n * kin.n))
-    for j, i in enumerate(all_knots):
-        p, R, Jp, Jr = kin.jacobian(q[i])
-        page_k[j] = placement.to_page(p)
-        jac_k[j] = Jp.T.ravel()
-        _, J5 = pen_task(p, R, Jp, Jr, p, R[:, 2])  # only the Jacobian is wanted
-        JJt = J5 @ J5.T
-        JJt.flat[::6] += damping**2
-        normal_q_k[j] = J5.T @ np.linalg.solve(JJt, press)
-        mass_k[j] = kin.mass(q[i]).ravel()
+    JJt = jac5_k @ jac5_k.transpose(0, 2, 1)
+    JJt += IKConfig().damping ** 2 * np.eye(5)
+    y = np.linalg.solve(JJt, np.broadcast_to(press, (n_k, 5))[..., None])
+    normal_q_k = (jac5_k.transpose(0, 2, 1) @ y)[..., 0]
     mass = _lerp_rows(all_knots, mass_k, len(q)).reshape(len(q), kin.n, kin.n)
     jac_t = _lerp_rows(all_knots, jac_k, len(q)).reshape(len(q), kin.n, 3)
     page_all = _lerp_rows(all_knots, page_k, len(q))
@@ -578,17 +581,24 @@ def run_drawing(
     log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + 1, kin.n)
     k_force = config.force_gain_mm_per_ns / 1000.0 * dt  # [m/N] per period
     z_limit = config.correction_limit_mm / 1000.0
-    f_star = config.force_n
+    f_star, threshold, settle_tol = config.force_n, config.contact_threshold_n, config.settle_tol_n
     torque_mode = config.command == "torque"
     report_every = max(1, round(0.1 / dt))
-    settle_at = np.zeros(len(ref), dtype=bool)
-    settle_at[list(ref.settle)] = True
     senses_force = getattr(state, "pen_force", None) is not None
     senses_tip = getattr(state, "tip_mm", None) is not None
-    # Local names: this loop runs once per control period and its Python cost is the budget.
+    # Local names and Python lists: this loop runs once per control period and its Python cost
+    # is the budget. The plan's columns of the log are filled from ``ref_row`` afterwards.
     q_ref, qd_ref, inertia, normal_q = ref.q, ref.qd, ref.inertia, ref.normal_q
     contact_tau = ref.contact_tau
-    phases, bias, update = ref.phase, kin.bias, pid.update
+    phases = ref.phase.tolist()
+    settle_at = [False] * len(ref)
+    for r in ref.settle:
+        settle_at[r] = senses_force
+    bias, update = kin.bias, pid.update
+    read, command, step = plant.read, plant.command, plant.step
+    log_time, log_q, log_qd, log_torque = log.time, log.q, log.qd, log.torque
+    log_tip, log_force = log.tip, log.force
+    ref_row = np.zeros(len(log), dtype=np.intp)
     nan_torque = np.full(kin.n, np.nan)
 
     z_corr = 0.0  # force-loop correction along the normal, [m] (positive = deeper)
@@ -596,12 +606,12 @@ def run_drawing(
     n_ref = len(ref)
     try:
         while i < n_ref:
-            state = plant.read()
+            state = read()
             force = state.pen_force if senses_force else np.nan
             phase = phases[i]
-            holding = settle_at[i] and senses_force
+            holding = settle_at[i]
             pressing = phase == DRAW or (holding and waited > 0)
-            if pressing and force > config.contact_threshold_n:
+            if pressing and force > threshold:
                 z_corr = min(max(z_corr + k_force * (f_star - force), -z_limit), z_limit)
             q_goal = q_ref[i] + z_corr * normal_q[i]
             if torque_mode:
@@ -609,41 +619,49 @@ def run_drawing(
                 if pressing:
                     feedforward += contact_tau[i]
                 tau = update(q_goal, state.q, state.qd, qd_ref[i], feedforward)
-                plant.command(torque=tau)
+                command(torque=tau)
             else:
                 tau = nan_torque
-                plant.command(q_goal=q_goal, qd_ff=qd_ref[i])
-            log.time[row] = state.time
-            log.q[row] = state.q
-            log.qd[row] = state.qd
-            log.torque[row] = tau
-            log.tip[row] = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
-            log.force[row] = force
-            log.reference[row] = ref.page_mm[i]
-            log.phase[row] = phase
-            log.stroke[row] = ref.stroke[i]
+                command(q_goal=q_goal, qd_ff=qd_ref[i])
+            log_time[row] = state.time
+            log_q[row] = state.q
+            log_qd[row] = state.qd
+            log_torque[row] = tau
+            log_tip[row] = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            log_force[row] = force
+            ref_row[row] = i
             row += 1
-            plant.step()
+            step()
             if progress is not None and row % report_every == 0:
                 progress(i / n_ref, PHASES[phase])
             # Hold the end of a descent until the force has settled at its set point.
             if holding and waited < timeout_ticks:
                 waited += 1
-                settled_for = settled_for + 1 if abs(force - f_star) < config.settle_tol_n else 0
+                settled_for = settled_for + 1 if abs(force - f_star) < settle_tol else 0
                 if settled_for < settle_ticks:
                     continue
             waited, settled_for = 0, 0
             i += 1
     except SimulationError as err:
-        partial = log.truncated(row)
+        partial = _with_plan_columns(log, ref, ref_row, row)
         partial.wall_s = _time.perf_counter() - wall0
         err.log = partial
         raise
-    result = log.truncated(row)
+    result = _with_plan_columns(log, ref, ref_row, row)
     result.wall_s = _time.perf_counter() - wall0
     if progress is not None:
         progress(1.0, PHASES[phases[-1]])
     return result
+
+
+def _with_plan_columns(log: DrawLog, ref: Reference, ref_row: np.ndarray, k: int) -> DrawLog:
+    """The first ``k`` rows of ``log``, with the reference, phase and stroke of the plan rows
+    ``ref_row`` filled in."""
+    rows = ref_row[:k]
+    log.reference[:k] = ref.page_mm[rows]
+    log.phase[:k] = ref.phase[rows]
+    log.stroke[:k] = ref.stroke[rows]
+    return log.truncated(k)
 
 
 __all__ = [

@@ -95,6 +95,8 @@ class JointPID:
         self.dt = float(dt)
         self.integral = np.zeros(gains.n)
         self._ki_dt = gains.ki * self.dt
+        self._torque_floor = -gains.torque_limit
+        self._integral_floor = -gains.integral_limit
 
     def reset(self) -> None:
         """Empty the integrator."""
@@ -121,12 +123,15 @@ class JointPID:
             tau += feedforward
         # (minimum/maximum rather than np.clip: cheaper on 7 numbers, and this runs every period)
         integral = np.minimum(
-            np.maximum(self.integral + self._ki_dt * error, -g.integral_limit), g.integral_limit
+            np.maximum(self.integral + self._ki_dt * error, self._integral_floor),
+            g.integral_limit,
         )
-        if (np.abs(tau) <= g.torque_limit).all():
+        saturated = np.minimum(np.maximum(tau, self._torque_floor), g.torque_limit)
+        # Nothing saturated when clamping changed no bit (comparing the bytes is a fraction of
+        # the cost of an elementwise comparison and its reduction on 7 numbers).
+        if saturated.tobytes() == tau.tobytes():
             self.integral = integral
             return tau
-        saturated = np.minimum(np.maximum(tau, -g.torque_limit), g.torque_limit)
         # Conditional integration: freeze a joint whose output is saturated in the direction
         # its error would push the integrator.
         frozen = (saturated != tau) & (error * tau > 0.0)

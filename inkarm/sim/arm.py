@@ -33,11 +33,23 @@ away from the robot (world +x): the robot sits where the writer would.
 
 Cameras: ``paper_top`` (top-down on the page, image up = page up), ``overview`` (the cell,
 three-quarter view) and ``pen_cam`` (on link 7, looking at the pen tip).
+
+Menagerie arms. With ``CellConfig.arm = "iiwa14"`` or ``"panda"`` the arm is read instead from
+a local MuJoCo Menagerie copy named by the environment variable ``MENAGERIE_ROOT``
+(``kuka_iiwa_14/iiwa14.xml``, ``franka_emika_panda/panda_nohand.xml``), meshes and all, and
+fitted to the cell: its position actuators, keyframes and lights go, motors ``motor1..7`` with
+the arm's torque limits drive its joints ``joint1..7`` (the Menagerie's own names), joints
+without armature or damping get the built-in arm's, none of its geoms collides with anything,
+and the pen is mounted on its ``attachment_site`` (the flange). The pen, paper, table, cameras
+and names are the same as with the built-in arm. Menagerie's iiwa 14 has the kinematics of the
+built-in arm (same joint placements and axes), so the same home pose serves both.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import os
+from dataclasses import dataclass
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -63,6 +75,28 @@ _DAMPING = (0.5, 0.5, 0.3, 0.3, 0.2, 0.1, 0.1)  # viscous joint friction [N m s/
 
 # Home pose in [rad]: pen pointing down above the paper (pitch q2 - q4 + q6 = pi).
 HOME_Q = (0.0, 0.45, 0.0, -1.75, 0.0, 0.94, 0.0)
+
+ARMS = ("builtin", "iiwa14", "panda")
+MENAGERIE_ROOT_VARIABLE = "MENAGERIE_ROOT"
+# Model files inside a MuJoCo Menagerie checkout, and the site on their last link where a tool
+# goes (the flange; its z axis points out of the flange).
+MENAGERIE_MODELS = {
+    "iiwa14": "kuka_iiwa_14/iiwa14.xml",
+    "panda": "franka_emika_panda/panda_nohand.xml",
+}
+MENAGERIE_FLANGE_SITE = "attachment_site"
+PANDA_TORQUE_LIMITS_NM = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+ARM_TORQUE_LIMITS_NM = {
+    "builtin": TORQUE_LIMITS_NM,
+    "iiwa14": TORQUE_LIMITS_NM,
+    "panda": PANDA_TORQUE_LIMITS_NM,
+}
+# Panda home in [rad]: the pen pointing down, its tip 150 mm above the default sheet's centre
+# (solve_ik from the Panda's "ready" pose 0, 0, 0, -pi/2, 0, pi/2, -pi/4, rounded to mrad).
+# Not the built-in arm's tip position: there the Panda's shoulder is nearly straight (q2 ~ 0),
+# which lines up the axes of joints 1 and 3, and the joint PID then hunts on their coupled mode.
+PANDA_HOME_Q = (0.0, 0.334, 0.0, -2.019, 0.0, 2.353, -0.785)
+ARM_HOME_Q = {"builtin": HOME_Q, "iiwa14": HOME_Q, "panda": PANDA_HOME_Q}
 
 PEN_COLLISION_BIT = 2
 _PAPER_DEPTH_M = 0.005
@@ -91,7 +125,10 @@ class CellConfig:
             (MuJoCo's stability rule for soft constraints).
         contact_solimp: MuJoCo solimp (d0, d_width, width [m]) of the tip-paper contact: the
             softness of the paper's underlay (module docstring).
-        home_q: Home pose of the arm joints in [rad] (the ``home`` keyframe).
+        home_q: Home pose of the arm joints in [rad] (the ``home`` keyframe); None: the arm's
+            own (:data:`ARM_HOME_Q`). See :attr:`home`.
+        arm: ``"builtin"`` (the procedural iiwa 14), or ``"iiwa14"`` or ``"panda"`` to load
+            that arm from the MuJoCo Menagerie copy at ``$MENAGERIE_ROOT`` (module docstring).
     """
 
     timestep: float = 0.002
@@ -107,7 +144,8 @@ class CellConfig:
     friction: float = 0.3
     contact_timeconst: float = 0.01
     contact_solimp: tuple[float, float, float] = (0.1, 0.5, 0.001)
-    home_q: tuple[float, ...] = field(default=HOME_Q)
+    home_q: tuple[float, ...] | None = None
+    arm: str = "builtin"
 
     def __post_init__(self) -> None:
         positive = {
@@ -138,8 +176,19 @@ class CellConfig:
                 "CellConfig.contact_solimp: expected (d0, d_width, width) with "
                 f"0 < d0 <= d_width < 1 and width > 0, got {self.contact_solimp}"
             )
-        if len(self.home_q) != 7:
-            raise InputError(f"CellConfig.home_q: expected 7 joint angles, got {len(self.home_q)}")
+        if self.home_q is not None:
+            home = np.atleast_1d(np.asarray(self.home_q, dtype=float))
+            if home.shape != (7,):
+                raise InputError(f"CellConfig.home_q: expected 7 joint angles, got {home.size}")
+        if self.arm not in ARMS:
+            raise InputError(
+                f"CellConfig.arm: expected one of {', '.join(map(repr, ARMS))}, got {self.arm!r}"
+            )
+
+    @property
+    def home(self) -> tuple[float, ...]:
+        """Home pose of the arm joints in [rad]: ``home_q``, else the arm's own."""
+        return tuple(self.home_q) if self.home_q is not None else ARM_HOME_Q[self.arm]
 
 
 def paper_rotation(yaw_deg: float) -> np.ndarray:
@@ -168,14 +217,24 @@ def _look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
 
 
 def build_spec(config: CellConfig | None = None) -> mujoco.MjSpec:
-    """The cell as an editable :class:`mujoco.MjSpec` (compile it with ``.compile()``)."""
+    """The cell as an editable :class:`mujoco.MjSpec` (compile it with ``.compile()``).
+
+    Raises InputError when ``config.arm`` names a Menagerie arm and ``MENAGERIE_ROOT`` is
+    unset, or the model file or one of its meshes is missing there."""
     cfg = config or CellConfig()
-    spec = mujoco.MjSpec()
+    if cfg.arm == "builtin":
+        spec = mujoco.MjSpec()
+    else:  # fitted before the cell is added, which the fitting must leave alone
+        spec = _menagerie_spec(cfg.arm)
+        flange = _fit_menagerie_arm(spec, cfg.arm)
     spec.modelname = "inkarm_cell"
     spec.compiler.degree = False
     spec.option.timestep = cfg.timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    # The contact was tuned with MuJoCo's default impratio; Menagerie's Panda raises it to 10
+    # for grasping, which would stiffen the nib's friction.
+    spec.option.impratio = 1.0
     spec.visual.global_.offwidth = 1280
     spec.visual.global_.offheight = 960
     world = spec.worldbody
@@ -191,7 +250,9 @@ def build_spec(config: CellConfig | None = None) -> mujoco.MjSpec:
         conaffinity=0,
     )
     _add_paper(world, cfg)
-    _add_arm(spec, world, cfg)
+    if cfg.arm == "builtin":
+        flange = _add_arm(spec, world)
+    _add_pen(flange, cfg)
 
     centre = np.array([*cfg.paper_centre_mm, 0.0]) / 1000.0
     rot = paper_rotation(cfg.paper_yaw_deg)
@@ -209,7 +270,7 @@ def build_spec(config: CellConfig | None = None) -> mujoco.MjSpec:
         quat=_look_at([1.7, -1.3, 1.2], [0.45, 0.0, 0.45]),
         fovy=45.0,
     )
-    spec.add_key(name="home", qpos=[*cfg.home_q, 0.0])
+    spec.add_key(name="home", qpos=[*cfg.home, 0.0])
     return spec
 
 
@@ -243,7 +304,8 @@ def _contact_solref(cfg: CellConfig) -> list[float]:
     return [max(cfg.contact_timeconst, 2.0 * cfg.timestep), 1.0]
 
 
-def _add_arm(spec: mujoco.MjSpec, world, cfg: CellConfig) -> None:
+def _add_arm(spec: mujoco.MjSpec, world) -> mujoco.MjsFrame:
+    """The procedural iiwa 14; returns its flange frame (on link 7)."""
     grey, orange = [0.85, 0.85, 0.85, 1.0], [1.0, 0.45, 0.05, 1.0]
     world.add_geom(
         name="base",
@@ -277,39 +339,123 @@ def _add_arm(spec: mujoco.MjSpec, world, cfg: CellConfig) -> None:
             contype=0,
             conaffinity=0,
         )
-        act = spec.add_actuator(name=ACTUATOR_NAMES[i], target=JOINT_NAMES[i])
-        act.set_to_motor()
-        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.ctrlrange = [-TORQUE_LIMITS_NM[i], TORQUE_LIMITS_NM[i]]
+        _add_motor(spec, i, TORQUE_LIMITS_NM[i])
         parent = body
-    _add_pen(parent, cfg)
+    return parent.add_frame(pos=[0.0, 0.0, _FLANGE_OFFSET_M])
 
 
-def _add_pen(link7, cfg: CellConfig) -> None:
-    link7.add_site(name="flange", pos=[0.0, 0.0, _FLANGE_OFFSET_M], size=[0.005] * 3)
-    holder_top = _FLANGE_OFFSET_M
-    link7.add_geom(
+def _add_motor(spec: mujoco.MjSpec, i: int, torque_limit_nm: float) -> None:
+    """Torque motor ``motor{i+1}`` on ``joint{i+1}``, saturating at +-``torque_limit_nm``."""
+    act = spec.add_actuator(name=ACTUATOR_NAMES[i], target=JOINT_NAMES[i])
+    act.set_to_motor()
+    act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.ctrlrange = [-torque_limit_nm, torque_limit_nm]
+
+
+def menagerie_model_path(arm: str) -> Path:
+    """The Menagerie model file of ``arm`` under ``$MENAGERIE_ROOT``; InputError when the
+    variable is unset or the file is missing."""
+    if arm not in MENAGERIE_MODELS:
+        raise InputError(
+            f"CellConfig.arm: {arm!r} is not a Menagerie arm; expected one of "
+            f"{', '.join(map(repr, MENAGERIE_MODELS))}"
+        )
+    relative = MENAGERIE_MODELS[arm]
+    root = os.environ.get(MENAGERIE_ROOT_VARIABLE, "")
+    if not root:
+        raise InputError(
+            f"CellConfig.arm = {arm!r} loads a MuJoCo Menagerie model: set the environment "
+            f"variable {MENAGERIE_ROOT_VARIABLE} to a local copy of mujoco_menagerie "
+            f"(expected ${MENAGERIE_ROOT_VARIABLE}/{relative})"
+        )
+    path = Path(root).expanduser() / relative
+    if not path.is_file():
+        raise InputError(
+            f"CellConfig.arm = {arm!r}: no file {path} ({MENAGERIE_ROOT_VARIABLE}={root!r}; "
+            f"expected ${MENAGERIE_ROOT_VARIABLE}/{relative} from mujoco_menagerie)"
+        )
+    return path
+
+
+def _menagerie_spec(arm: str) -> mujoco.MjSpec:
+    path = menagerie_model_path(arm)
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except ValueError as e:
+        raise InputError(f"CellConfig.arm = {arm!r}: cannot read {path}: {e}") from None
+    # A copy without its meshes (a sparse checkout, an interrupted download) fails at compile
+    # time with a terse message: name the first missing file here instead.
+    mesh_dir = Path(spec.modelfiledir) / spec.meshdir
+    for mesh in spec.meshes:
+        if mesh.file and not (mesh_dir / mesh.file).is_file():
+            raise InputError(
+                f"CellConfig.arm = {arm!r}: {path} needs the mesh {mesh_dir / mesh.file}, "
+                f"which is missing (an incomplete copy of mujoco_menagerie?)"
+            )
+    return spec
+
+
+def _fit_menagerie_arm(spec: mujoco.MjSpec, arm: str) -> mujoco.MjsFrame:
+    """Fit a Menagerie arm, freshly loaded, to the cell (module docstring); returns its flange
+    frame."""
+    where = f"CellConfig.arm = {arm!r}: {MENAGERIE_MODELS[arm]}"
+    # inkarm's controller commands torques, Menagerie's models have position servos; their
+    # keyframes carry their controls and no pen slide, and the cell brings its own light.
+    for element in [*spec.actuators, *spec.keys, *spec.lights, *spec.pairs]:
+        spec.delete(element)
+    for geom in spec.geoms:  # only the pen tip and the paper may touch
+        geom.contype = 0
+        geom.conaffinity = 0
+    joints = {joint.name: joint for joint in spec.joints}
+    missing = [name for name in JOINT_NAMES if name not in joints]
+    extra = sorted(set(joints) - set(JOINT_NAMES))
+    if missing or extra:
+        raise InputError(
+            f"{where}: expected exactly the hinge joints {', '.join(JOINT_NAMES)}; "
+            f"missing {missing}, unexpected {extra}"
+        )
+    for i, name in enumerate(JOINT_NAMES):
+        joint = joints[name]
+        if joint.type != mujoco.mjtJoint.mjJNT_HINGE:
+            raise InputError(f"{where}: joint {name!r} is not a hinge")
+        # The joint PID relies on reflected rotor inertia and some viscous friction, which
+        # Menagerie's iiwa 14 leaves out: borrow the built-in arm's where the model has none.
+        if joint.armature == 0.0:
+            joint.armature = _ARMATURE[i]
+        if joint.damping[0] == 0.0:
+            joint.damping = [_DAMPING[i], *joint.damping[1:]]
+        _add_motor(spec, i, ARM_TORQUE_LIMITS_NM[arm][i])
+    site = spec.site(MENAGERIE_FLANGE_SITE)
+    if site is None:
+        raise InputError(f"{where}: no site {MENAGERIE_FLANGE_SITE!r} to mount the pen on")
+    flange = site.parent.add_frame(pos=site.pos, quat=site.quat)
+    flange.alt = site.alt  # the site's orientation, if given as euler, axisangle, ...
+    return flange
+
+
+def _add_pen(flange: mujoco.MjsFrame, cfg: CellConfig) -> None:
+    """Site ``flange``, the rigid holder, the sprung pen and ``pen_cam``, in the flange frame
+    (z out of the flange)."""
+    flange.add_site(name="flange", pos=[0.0, 0.0, 0.0], size=[0.005] * 3)
+    flange.add_geom(
         name="pen_holder",
         type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-        fromto=[0, 0, holder_top, 0, 0, holder_top + _PEN_HOLDER_M],
+        fromto=[0, 0, 0, 0, 0, _PEN_HOLDER_M],
         size=[0.012, 0, 0],
         mass=0.1,
         rgba=[0.2, 0.2, 0.2, 1.0],
         contype=0,
         conaffinity=0,
     )
-    link7.add_camera(
+    cam_pos = [0.12, 0.0, 0.015]
+    flange.add_camera(
         name="pen_cam",
-        pos=[0.12, 0.0, 0.06],
-        quat=_look_at(
-            [0.12, 0.0, 0.06],
-            [0.0, 0.0, holder_top + _PEN_HOLDER_M + _PEN_SHAFT_M],
-            up=(0.0, 0.0, -1.0),
-        ),
+        pos=cam_pos,
+        quat=_look_at(cam_pos, [0.0, 0.0, _PEN_HOLDER_M + _PEN_SHAFT_M], up=(0.0, 0.0, -1.0)),
         fovy=50.0,
     )
-    pen = link7.add_body(name="pen", pos=[0.0, 0.0, holder_top + _PEN_HOLDER_M])
+    pen = flange.add_body(name="pen", pos=[0.0, 0.0, _PEN_HOLDER_M])
     travel = cfg.pen_travel_mm / 1000.0
     pen.add_joint(
         name="pen_slide",
@@ -356,23 +502,34 @@ def build_model(config: CellConfig | None = None) -> mujoco.MjModel:
     return build_spec(config).compile()
 
 
-def default_gains() -> PIDGains:
-    """Joint PID gains for this arm at a control period of 2 to 6 ms: 40 to 75 rad/s of
-    closed-loop bandwidth, integral time 0.1 s, saturation at the iiwa 14 torque limits.
+def default_gains(arm: str = "builtin") -> PIDGains:
+    """Joint PID gains for ``arm`` (:data:`ARMS`) at a control period of 2 to 6 ms: 40 to 75
+    rad/s of closed-loop bandwidth, integral time 0.1 s, saturation at the arm's torque limits.
 
     The limit is the sampled derivative term on the lightest coupled mode (joints 1 and 3
     turning against each other, their inertias coupled by M_13 ~ M_33): T max eig(M^-1 K_d)
     must stay well below about 2 (explicit damping). Over the sheet it is at most 1.04 at
     T = 6 ms and 0.70 at 4 ms, hence the low K_d of joints 1 and 3; the gains still draw when
-    doubled at 6 ms."""
+    doubled at 6 ms.
+
+    The Panda (Menagerie's link inertias, 0.1 kg m^2 of armature per joint) couples joints 1
+    and 3 more tightly: with the iiwa's gains its sampled loop (PID every 6 ms on the linearised
+    arm, M from the home pose and 16 poses over the sheet) has a pole at 2.2, outside the unit
+    circle. Halving K_p and K_d of joints 1 and 3 and slowing the integral (K_i = 2 K_p, 0.5 s)
+    brings every pole inside (largest 0.988, the slow integral pole; the iiwa's is 0.966). Both
+    arms saturate at their own torque limits, the integral term at a quarter of them at most."""
+    if arm not in ARMS:
+        raise InputError(f"default_gains: expected an arm in {ARMS}, got {arm!r}")
     kp = np.array([4000.0, 4000.0, 1500.0, 1500.0, 250.0, 150.0, 100.0])
-    return PIDGains(
-        kp=kp,
-        ki=10.0 * kp,
-        kd=np.array([120.0, 160.0, 30.0, 60.0, 10.0, 6.0, 4.0]),
-        torque_limit=np.array(TORQUE_LIMITS_NM),
-        integral_limit=np.array([30.0, 30.0, 15.0, 15.0, 8.0, 4.0, 4.0]),
-    )
+    kd = np.array([120.0, 160.0, 30.0, 60.0, 10.0, 6.0, 4.0])
+    ki = 10.0 * kp
+    if arm == "panda":
+        kp *= [0.5, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0]
+        kd *= [0.5, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0]
+        ki = 2.0 * kp
+    torque_limit = np.array(ARM_TORQUE_LIMITS_NM[arm])
+    integral_limit = np.minimum([30.0, 30.0, 15.0, 15.0, 8.0, 4.0, 4.0], 0.25 * torque_limit)
+    return PIDGains(kp=kp, ki=ki, kd=kd, torque_limit=torque_limit, integral_limit=integral_limit)
 
 
 def joint_ranges(model: mujoco.MjModel) -> np.ndarray:

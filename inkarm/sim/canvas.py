@@ -38,6 +38,9 @@ import numpy as np
 from inkarm.errors import InputError
 
 A4_MM = (210.0, 297.0)
+# Capsules rasterised together (Canvas._rasterise_queue): enough to spread numpy's per-call
+# cost, few enough that the padded (K, H, W) arrays stay small.
+_QUEUE_LENGTH = 64
 
 
 class InkModel(Protocol):
@@ -220,10 +223,12 @@ class Canvas:
         self._base = np.full(self.shape, 0.0, np.float32)  # strokes already lifted
         self._stroke = np.full(self.shape, 0.0, np.float32)  # the stroke in progress
         self._image = np.full(self.shape, 0.0, np.float32)  # 1 - (1 - base)(1 - stroke)
+        # capsules (u0, v0, u1, v1, rad0, rad1, opacity, r0, r1, c0, c1) not yet in _stroke
+        self._queue: list[tuple[float, ...]] = []
         self._stroke_box: list[int] | None = None  # [r0, r1, c0, c1) touched by the stroke
         self._stale_box: list[int] | None = None  # where _image lags behind _stroke
         self._dirty_box: list[int] | None = None  # touched since take_dirty_box()
-        self.revision = 0  # incremented at every change of the raster
+        self._revision = 0
         self.n_strokes = 0
         self._reset_pen()
 
@@ -284,8 +289,8 @@ class Canvas:
             sx, sy, sw, _ = self._stamped
             x, y, width, opacity = self._pending
             self._stamp(sx, sy, sw, x, y, width, opacity)
+        self._refresh()
         if self._stroke_box is not None:
-            self._refresh()
             r0, r1, c0, c1 = self._stroke_box
             self._base[r0:r1, c0:c1] = self._image[r0:r1, c0:c1]
             self._stroke[r0:r1, c0:c1] = 0.0
@@ -300,15 +305,22 @@ class Canvas:
 
     def clear(self) -> None:
         """Blank the page (and forget any stroke in progress)."""
+        self._queue.clear()
         for buf in (self._base, self._stroke, self._image):
             buf.fill(0.0)
         self._stroke_box = self._stale_box = None
         self._dirty_box = [0, self.shape[0], 0, self.shape[1]]
-        self.revision += 1
+        self._revision += 1
         self.n_strokes = 0
         self._reset_pen()
 
     # -- reading the ink --------------------------------------------------------------------
+
+    @property
+    def revision(self) -> int:
+        """A counter that grows at every change of the raster."""
+        self._rasterise_queue()
+        return self._revision
 
     @property
     def image(self) -> np.ndarray:
@@ -339,6 +351,7 @@ class Canvas:
     def take_dirty_box(self) -> tuple[int, int, int, int] | None:
         """The pixel box (r0, r1, c0, c1), half-open, changed since the previous call, or None
         when nothing changed. For one consumer (the texture uploader) only."""
+        self._rasterise_queue()
         box, self._dirty_box = self._dirty_box, None
         return None if box is None else tuple(box)
 
@@ -346,6 +359,7 @@ class Canvas:
 
     def _refresh(self) -> None:
         """Bring the composite image up to date with the stroke in progress."""
+        self._rasterise_queue()
         if self._stale_box is None:
             return
         r0, r1, c0, c1 = self._stale_box
@@ -364,7 +378,12 @@ class Canvas:
         self, x0: float, y0: float, w0: float, x1: float, y1: float, w1: float, opacity: float
     ) -> None:
         """Max-composite into the stroke the capsule from (x0, y0) of width w0 to (x1, y1) of
-        width w1 (all in [mm]) with anti-aliased coverage times ``opacity``."""
+        width w1 (all in [mm]) with anti-aliased coverage times ``opacity``.
+
+        The capsule is queued and its pixels computed with the rest of the queue
+        (:meth:`_rasterise_queue`) when the raster is next read, at a lift, or once
+        ``_QUEUE_LENGTH`` capsules wait: numpy's cost per call, not per pixel, dominates a
+        capsule of a few hundred pixels, and the maximum does not depend on the order."""
         ppm = self.px_per_mm
         n_rows, n_cols = self.shape
         # pixel-index coordinates: u along columns, v along rows (pixel centres at integers)
@@ -378,30 +397,57 @@ class Canvas:
         r1 = min(n_rows, math.ceil(max(v0, v1) + reach) + 1)
         if c0 >= c1 or r0 >= r1 or opacity <= 0.0:
             return
+        self._queue.append((u0, v0, u1, v1, rad0, rad1, opacity, r0, r1, c0, c1))
+        if len(self._queue) >= _QUEUE_LENGTH:
+            self._rasterise_queue()
+
+    def _rasterise_queue(self) -> None:
+        """Max-composite the queued capsules into the stroke, all at once on (K, H, W) arrays
+        padded to the largest box, and account for them in the boxes and the revision.
+
+        Coverage of pixel centre p (pixel units) by the capsule from a to b with radii r_a, r_b:
+        s = clip((p - a) . (b - a) / |b - a|^2, 0, 1) (the nearest point of the segment),
+        c = clip(r_a + s (r_b - r_a) + 1/2 - |p - a - s (b - a)|, 0, 1) times the opacity:
+        the coverage ramps over one pixel across the edge, about the pixel's area inside. A
+        capsule shorter than 1e-6 px is a disc of the larger radius."""
+        if not self._queue:
+            return
+        caps = np.array(self._queue)
+        self._queue.clear()
+        u0, v0, u1, v1, rad0, rad1, opacity = caps[:, :7].T
+        r0, r1, c0, c1 = caps[:, 7:].astype(np.intp).T
+        box = [int(r0.min()), int(r1.max()), int(c0.min()), int(c1.max())]
+        self._stroke_box = _union(self._stroke_box, box)
+        self._stale_box = _union(self._stale_box, box)
+        self._dirty_box = _union(self._dirty_box, box)
+        self._revision += len(caps)
         du, dv = u1 - u0, v1 - v0
-        pu = np.arange(c0 - u0, c1 - u0, dtype=np.float32)[None, : c1 - c0]
-        pv = np.arange(r0 - v0, r1 - v0, dtype=np.float32)[: r1 - r0, None]
         length2 = du * du + dv * dv
-        if length2 > 1e-12:
-            s = pu * np.float32(du / length2) + pv * np.float32(dv / length2)
-            np.maximum(s, 0.0, out=s)
-            np.minimum(s, 1.0, out=s)
-            ex, ey = pu - s * np.float32(du), pv - s * np.float32(dv)
-            # coverage ramps over one pixel across the edge: ~ the pixel's area inside
-            coverage = s * np.float32(rad1 - rad0)
-            coverage += np.float32(rad0 + 0.5)
-            coverage -= np.sqrt(ex * ex + ey * ey)
-        else:
-            coverage = np.float32(max(rad0, rad1) + 0.5) - np.sqrt(pu * pu + pv * pv)
-        np.maximum(coverage, 0.0, out=coverage)
-        np.minimum(coverage, 1.0, out=coverage)
-        coverage *= np.float32(opacity)
-        stroke = self._stroke[r0:r1, c0:c1]
-        np.maximum(stroke, coverage, out=stroke)
-        self._stroke_box = _union(self._stroke_box, [r0, r1, c0, c1])
-        self._stale_box = _union(self._stale_box, [r0, r1, c0, c1])
-        self._dirty_box = _union(self._dirty_box, [r0, r1, c0, c1])
-        self.revision += 1
+        segment = length2 > 1e-12
+        safe2 = np.where(segment, length2, 1.0)
+        along_u = np.where(segment, du / safe2, 0.0)
+        along_v = np.where(segment, dv / safe2, 0.0)
+        slope = np.where(segment, rad1 - rad0, 0.0)
+        base = np.where(segment, rad0, np.maximum(rad0, rad1)) + 0.5
+
+        def column(values: np.ndarray) -> np.ndarray:
+            return values.astype(np.float32)[:, None, None]
+
+        # pixel centres relative to the capsule's start: (K, 1, W) and (K, H, 1)
+        pu = _offsets(c0 - u0, int((c1 - c0).max()))[:, None, :]
+        pv = _offsets(r0 - v0, int((r1 - r0).max()))[:, :, None]
+        s = pu * column(along_u) + pv * column(along_v)
+        np.clip(s, 0.0, 1.0, out=s)
+        ex, ey = pu - s * column(du), pv - s * column(dv)
+        coverage = s * column(slope)
+        coverage += column(base)
+        coverage -= np.sqrt(ex * ex + ey * ey)
+        np.clip(coverage, 0.0, 1.0, out=coverage)
+        coverage *= column(opacity)
+        for k in range(len(caps)):
+            stroke = self._stroke[r0[k] : r1[k], c0[k] : c1[k]]
+            np.maximum(stroke, coverage[k, : r1[k] - r0[k], : c1[k] - c0[k]], out=stroke)
+
 
 
 def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
@@ -410,6 +456,19 @@ def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
     rows = np.asarray(rows, dtype=float)
     cols = np.asarray(cols, dtype=float)
     return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
+
+
+def _offsets(starts: np.ndarray, n: int) -> np.ndarray:
+    """Rows ``starts[k] + j`` for j < n in float32, (K, n), each exactly as
+    ``np.arange(starts[k], starts[k] + n, dtype=np.float32)`` computes it (first two values
+    rounded from double, then first + j * (second - first) in float32), so that the batched
+    capsules give the very pixels one capsule at a time would."""
+    first = starts.astype(np.float32)[:, None]
+    second = (starts + 1.0).astype(np.float32)[:, None]
+    rows = first + np.arange(n, dtype=np.float32) * (second - first)
+    rows[:, :1] = first
+    rows[:, 1:2] = second
+    return rows
 
 
 def _union(box: list[int] | None, other: list[int]) -> list[int]:

@@ -125,9 +125,15 @@ class MujocoPlant:
         # page [mm] = (x - o) R 1000 = x (1000 R) - o (1000 R), as two operations per read.
         self._to_page = 1000.0 * self.data.site_xmat[origin_site].reshape(3, 3)
         self._page_offset = self.data.site_xpos[origin_site] @ self._to_page
-        # Views into MjData (its arrays never move), so that reading costs no look-ups.
+        self._to_page_xy = self._to_page[:, :2].copy()
+        self._page_offset_xy = self._page_offset[:2].copy()
+        self._timestep = float(m.opt.timestep)
+        # Views into MjData (its arrays never move): an attribute of MjData builds a new array
+        # object at each look-up, which the per-period calls would pay for again and again.
         self._tip_xpos = self.data.site_xpos[self._tip_site]
+        self._qpos = self.data.qpos
         self._qvel = self.data.qvel
+        self._ctrl = self.data.ctrl
         self._warning_stats = [self.data.warning[w] for w in _DIVERGENCE_WARNINGS]
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
@@ -146,15 +152,14 @@ class MujocoPlant:
     def read(self) -> SimState:
         """The state at the current time (tip from the current kinematics, force from the last
         physics step)."""
-        d = self.data
         return SimState(
-            time=d.time,
-            q=d.qpos[self._qpos_adr].copy(),
-            qd=d.qvel[self._dof_adr].copy(),
-            torque=d.ctrl.copy(),
+            time=self.data.time,
+            q=self._qpos[self._qpos_adr].copy(),
+            qd=self._qvel[self._dof_adr].copy(),
+            torque=self._ctrl.copy(),
             pen_force=self._pen_force,
             tip_mm=self._tip_mm(),
-            pen_compression_mm=1000.0 * d.qpos[self._slide_adr],
+            pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
         )
 
     def command(self, torque=None, q_goal=None, qd_ff=None, pen_down=None) -> None:
@@ -165,31 +170,30 @@ class MujocoPlant:
                 "MujocoPlant.command: the simulated arm takes joint torques, not q_goal/qd_ff"
             )
         if torque is not None:
-            self.data.ctrl[:] = torque
+            self._ctrl[:] = torque
 
     def step(self) -> None:
         """Advance one control period; feed the canvas; raise SimulationError on divergence."""
-        m, d = self.model, self.data
+        m, d, canvas = self.model, self.data, self.canvas
         for _ in range(self.substeps):
             mujoco.mj_step2(m, d)
-            self._pen_force = self._tip_normal_force()
-            if self._pen_force > 0.0:
+            force = self._tip_normal_force() if d.ncon else 0.0
+            self._pen_force = force
+            if force > 0.0:
                 self._touching = True
-                if self.canvas is not None:
+                if canvas is not None:
                     # Forces and positions of this pass belong to time d.time - h.
-                    t = d.time - m.opt.timestep
-                    self.canvas.touch(self._tip_mm()[:2], self._pen_force, t)
+                    xy = self._tip_xpos @ self._to_page_xy - self._page_offset_xy
+                    canvas.touch(xy, force, d.time - self._timestep)
             elif self._touching:
                 self._touching = False
-                if self.canvas is not None:
-                    self.canvas.lift()
+                if canvas is not None:
+                    canvas.lift()
             mujoco.mj_step1(m, d)
         self._check_divergence()
 
     def _tip_normal_force(self) -> float:
         d = self.data
-        if d.ncon == 0:
-            return 0.0
         force, geom, tip = 0.0, d.contact.geom, self._tip_geom
         for i in range(d.ncon):
             if geom[i, 0] == tip or geom[i, 1] == tip:

@@ -27,6 +27,13 @@ worked after ``apt-get install -y libosmesa6`` (which also upgraded the Mesa pac
 
 Video: :func:`write_video` encodes H.264 MP4 with the ffmpeg binary that the optional
 ``imageio-ffmpeg`` package ships (``pip install 'inkarm[video]'``).
+
+Replays. :func:`render_log_video` (offscreen video) and :func:`open_viewer` (MuJoCo's passive
+viewer, needs a display) play a finished run back from its :class:`DrawLog` rather than
+rendering during the simulation, which keeps the control loop's timing free of OpenGL: the
+logged joint angles pose a fresh cell model, the pen spring is compressed by F / k, and the ink
+is laid again on a fresh canvas from the logged tip and force (:class:`LogReplay`). The replay
+model has one more camera, ``drawing`` (:func:`add_drawing_camera`), close on the ink.
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ import math
 import os
 import subprocess
 import sys
+import threading
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Self
@@ -454,16 +462,18 @@ def add_drawing_camera(
     cell: CellConfig,
     box_mm: tuple[float, float, float, float] | None = None,
     *,
-    elevation_deg: float = 60.0,
+    elevation_deg: float = 35.0,
     fovy_deg: float = 45.0,
-    margin: float = 1.6,
+    margin: float = 3.0,
 ) -> None:
-    """Add the camera :data:`DRAWING_CAMERA` to the cell's MjSpec: it looks down at
-    ``elevation_deg`` above the page onto the centre of ``box_mm`` (page [mm]; the whole page
-    when None) from the page's +x side, its image up along the page's +y so that writing reads
-    upright, at the distance where ``margin`` times the box (at least 40 mm) fits its field of
-    view. From the side, the arm's wrist and pen lean away from the ink they have just laid
-    instead of covering it as in a top-down view."""
+    """Add the camera :data:`DRAWING_CAMERA` to the cell's MjSpec: from the writer's side of
+    the page (its -y edge, where the robot stands), ``elevation_deg`` above the paper, it looks
+    at the centre of ``box_mm`` (page [mm]; the whole page when None) from the distance where
+    ``margin`` times the box (at least 40 mm) fills its field of view. Writing reads upright
+    (image right = page +x), and the camera sits below the forearm, which comes down from the
+    top of the picture to the pen. A fill light shines from the camera, casting no shadow."""
+    import mujoco
+
     from inkarm.sim.arm import paper_rotation
 
     width_mm, height_mm = cell.paper_size_mm
@@ -471,24 +481,29 @@ def add_drawing_camera(
     centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0])
     span = margin * max(x1 - x0, y1 - y0, 40.0)
     distance = span / (2.0 * math.tan(math.radians(fovy_deg) / 2.0))
-    elevation = math.radians(elevation_deg)
-    back = np.array([math.cos(elevation), 0.0, math.sin(elevation)])  # page frame, unit
-    up = np.array([0.0, 1.0, 0.0])
+    e = math.radians(elevation_deg)
+    # Camera axes in the page frame (MuJoCo cameras look along their -z).
+    back = np.array([0.0, -math.cos(e), math.sin(e)])
+    up = np.array([0.0, math.sin(e), math.cos(e)])
     right = np.cross(up, back)
     rotation = paper_rotation(cell.paper_yaw_deg)  # page axes -> robot base frame
     offset = np.array([width_mm / 2, height_mm / 2, -cell.paper_thickness_mm])
     eye_mm = centre + distance * back - offset  # relative to the paper's centre
     world_centre = np.array([*cell.paper_centre_mm, 0.0])
-    camera_axes = rotation @ np.column_stack([right, up, back])  # MuJoCo cameras look along -z
+    camera_axes = rotation @ np.column_stack([right, up, back])
     quat = np.zeros(4)
-    import mujoco
-
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(camera_axes).ravel())
-    spec.worldbody.add_camera(
-        name=DRAWING_CAMERA,
-        pos=(world_centre + rotation @ eye_mm) / 1000.0,
-        quat=quat,
-        fovy=fovy_deg,
+    eye = (world_centre + rotation @ eye_mm) / 1000.0
+    spec.worldbody.add_camera(name=DRAWING_CAMERA, pos=eye, quat=quat, fovy=fovy_deg)
+    # The cell's light is overhead, so the arm's shadow lies on the ink: a fill light from the
+    # camera, casting no shadow, keeps the page readable.
+    spec.worldbody.add_light(
+        name=f"{DRAWING_CAMERA}_fill",
+        pos=eye,
+        dir=-camera_axes[:, 2],
+        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+        castshadow=False,
+        diffuse=[0.8, 0.8, 0.8],
     )
 
 
@@ -624,7 +639,7 @@ def render_log_video(
     px_per_mm: float = 10.0,
     ink: InkModel | str = "marker",
     fps: float = 30.0,
-    camera: str = "overview",
+    camera: str = DRAWING_CAMERA,
     width: int = 640,
     height: int = 480,
     contact_threshold_n: float = 0.02,
@@ -635,10 +650,12 @@ def render_log_video(
 
     The run is replayed after the fact (:class:`LogReplay`) into a fresh cell model whose paper
     shows a fresh canvas of ``px_per_mm`` [px/mm] with ``ink``, so each frame has the ink laid
-    so far. ``fps`` frames per simulated second (:func:`frame_times`), seen from the cell's
-    camera ``camera`` (``overview``, ``paper_top`` or ``pen_cam``), width x height pixels (an
-    odd size is padded by a pixel, see :func:`write_video`). ``progress(fraction, "video")``
-    is called after each frame.
+    so far. ``fps`` frames per simulated second (:func:`frame_times`), width x height pixels
+    (an odd size is padded by a pixel, see :func:`write_video`), seen from ``camera``:
+    ``drawing`` (close on the ink, from the writer's side: :func:`add_drawing_camera`), or the
+    cell's ``overview`` (the whole cell: the arm, but the ink is too thin to see), ``paper_top``
+    (the arm hides most of the page) or ``pen_cam`` (on the wrist, following the pen).
+    ``progress(fraction, "video")`` is called after each frame.
 
     Needs offscreen OpenGL (``MUJOCO_GL=egl`` or ``osmesa`` set before ``mujoco`` is
     imported: :func:`configure_gl`) and the optional ``imageio-ffmpeg``.
@@ -683,7 +700,8 @@ def render_log_video(
 # -- the interactive viewer ----------------------------------------------------------------------
 
 _GLFW_PROBE = "import sys, glfw\nsys.exit(0 if glfw.init() else 1)\n"
-VIEWER_PERIOD_S = 1.0 / 60.0
+VIEWER_PERIOD_S = 1.0 / 60.0  # how often the replay moves the viewer on, [s]
+VIEWER_TEARDOWN_S = 5.0  # longest wait for the viewer's window to close, [s]
 
 
 def require_display(timeout_s: float = 30.0) -> None:
@@ -760,9 +778,11 @@ def open_viewer(
     t0, t1 = float(log.time[0]), float(log.time[-1])
     data = replay.seek(t0)
     write_texture(model, canvas, full=True)
+    before = set(threading.enumerate())
     with mujoco.viewer.launch_passive(
         model, data, show_left_ui=False, show_right_ui=False
     ) as viewer:
+        viewer_threads = [t for t in threading.enumerate() if t not in before]
         with viewer.lock():
             _aim_at_cell(model, data, viewer.cam)
         start = _time.perf_counter()
@@ -775,6 +795,10 @@ def open_viewer(
                 viewer.update_texture(tex_id)
             viewer.sync()
             _time.sleep(VIEWER_PERIOD_S)
+    # Let the viewer's window thread finish tearing down: Python exiting under it crashed
+    # (segmentation fault or GLXBadDrawable) in tests with mujoco 4.0 on Xvfb.
+    for thread in viewer_threads:
+        thread.join(VIEWER_TEARDOWN_S)
 
 
 def _aim_at_cell(model, data, camera) -> None:

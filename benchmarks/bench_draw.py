@@ -1,0 +1,309 @@
+"""Drawing-cell benchmarks: the real-time factor of the default scenario on one core, and the
+per-tick cost of the planner's inverse kinematics against mink's differential IK.
+
+Run: ``python benchmarks/bench_draw.py [--quick] [--cpu N]``. Prints a markdown section with
+two tables:
+
+1. The embedded default scenario (60 mm letter N, marker, A4) drawn by
+   :func:`inkarm.control.loop.run_drawing` on :class:`inkarm.sim.plant.MujocoPlant` with the ink
+   canvas, pinned to one core (``os.sched_setaffinity``, like ``taskset -c N``). The real-time
+   factor is simulated time over the wall time of the whole run, planning included (the
+   ``realtime_factor`` of ``metrics.json``). Its reference, measured in the same run, is MuJoCo
+   alone: the plant model stepped as many times with the run's logged torques replayed open
+   loop, so the ratio is the share of the bare simulator's speed the controller keeps. The
+   quality bounds of the same runs (tracking, ink chamfer, force spread) are checked too.
+2. Inverse kinematics on the same path and MjModel: the pen-tip reference of the default
+   scenario (descents, stroke, lift) at the planner's IK knots (``ik_period_s`` apart), solved
+   tick by tick from the same start, both integrating one joint update per tick.
+   *inkarm*: :class:`inkarm.control.ik.PathTracker` (damped least squares on the 5-D pen task,
+   null-space posture and limit avoidance, iterated to 1 um). *mink*: ``solve_ik`` with the daqp
+   QP solver on a ``FrameTask`` at the ``pen_tip`` site (position cost 1, orientation cost
+   (1, 1, 0) in the site frame: the spin about the pen axis is free, as in the 5-D task; the
+   target orientation is the perpendicular pen of the start pose), a ``PostureTask`` towards the
+   same home posture (cost 1e-4, the best of 1e-2 ... 1e-4 for mink's tracking), a
+   ``ConfigurationLimit`` and the pen slide frozen by a ``DofFreezingTask`` constraint, then
+   ``Configuration.integrate_inplace``. Tracking is compared in tip position and pen-axis tilt
+   only (mink's frame task also holds the spin, which the pen task leaves free).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from inkarm.control.ik import ArmKinematics, IKConfig, PathTracker, solve_ik
+from inkarm.control.loop import APPROACH, HOME, LoopConfig, home_posture, plan_reference, run_drawing
+from inkarm.control.transform import PagePlacement
+from inkarm.metrics import compute_metrics
+from inkarm.models.trajectory import Drawing
+from inkarm.scenarios import load_scenario, place, source_drawing
+from inkarm.sim.arm import CellConfig, build_model, default_gains, joint_ranges
+from inkarm.sim.canvas import Canvas, make_ink
+from inkarm.sim.plant import MujocoPlant
+
+RTF_TARGET = 30.0
+IK_RATIO_TARGET = 0.5
+QUALITY_BOUNDS = (  # metric key, bound, label
+    ("tracking_rms_mm", 0.3, "tracking RMS [mm]"),
+    ("tracking_max_mm", 1.0, "tracking max [mm]"),
+    ("ink_chamfer_mm", 0.3, "ink chamfer [mm]"),
+    ("contact_force_std_n", 0.1, "contact force std [N]"),
+)
+MINK_POSTURE_COST = 1e-4
+
+
+@dataclass
+class Job:
+    """The default scenario, ready to draw."""
+
+    cell: CellConfig
+    drawing: Drawing
+    px_per_mm: float
+    ink: object
+
+
+def pin_one_core(cpu: int | None) -> int | None:
+    """Pin this process to ``cpu`` (default: the first core it may run on); the core or None."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    cpu = min(os.sched_getaffinity(0)) if cpu is None else cpu
+    os.sched_setaffinity(0, {cpu})
+    return cpu
+
+
+def default_job() -> Job:
+    scenario = load_scenario()
+    cell = CellConfig(**scenario.cell)
+    drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
+    ink = make_ink(scenario.ink_model, **scenario.ink)
+    return Job(cell, drawing, scenario.px_per_mm, ink)
+
+
+def draw_once(job: Job) -> tuple[dict, np.ndarray]:
+    """One run of the scenario: its metrics and the logged torques (periods, 7)."""
+    kin_model = build_model(job.cell)
+    placement = PagePlacement.from_model(kin_model)
+    canvas = Canvas(size_mm=job.cell.paper_size_mm, px_per_mm=job.px_per_mm, ink=job.ink)
+    plant = MujocoPlant(build_model(job.cell), canvas=canvas)
+    log = run_drawing(job.drawing, plant, kin_model, default_gains(), placement, LoopConfig())
+    plant.close()
+    metrics = compute_metrics(
+        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+        drawing=log.drawing, q=log.q, joint_range=joint_ranges(kin_model),
+        wall_time_s=log.wall_s, canvas=canvas,
+        plan_strokes=[s.pos[:, :2] for s in job.drawing.strokes],
+    )
+    metrics["wall_s"] = log.wall_s
+    metrics["sim_s"] = float(log.time[-1] - log.time[0])
+    return metrics, log.torque
+
+
+def bare_mujoco_rtf(job: Job, torques: np.ndarray, substeps: int = 3) -> float:
+    """Real-time factor of MuJoCo alone: the run's torques replayed open loop, ``substeps``
+    physics steps per period, on a fresh plant model."""
+    model = build_model(job.cell)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    start = time.perf_counter()
+    for tau in torques:
+        data.ctrl[:] = tau
+        mujoco.mj_step(model, data, substeps)
+    wall = time.perf_counter() - start
+    return len(torques) * substeps * model.opt.timestep / wall
+
+
+def drawing_rows(job: Job, repeat: int) -> list[tuple[str, ...]]:
+    draw_once(job)  # warm-up: imports, page faults, caches
+    runs = [draw_once(job) for _ in range(repeat)]
+    rtf = statistics.median(m["realtime_factor"] for m, _ in runs)
+    wall = statistics.median(m["wall_s"] for m, _ in runs)
+    bare = statistics.median(bare_mujoco_rtf(job, torques) for _, torques in runs)
+    sim = runs[0][0]["sim_s"]
+    rows = [
+        (
+            f"real-time factor (sim {sim:.2f} s / wall {1e3 * wall:.0f} ms)",
+            f"{rtf:.1f}",
+            f"MuJoCo alone {bare:.0f}",
+            f"{rtf / bare:.2f}",
+            f">= {RTF_TARGET:.0f}",
+            _ok(rtf >= RTF_TARGET),
+        )
+    ]
+    for key, bound, label in QUALITY_BOUNDS:
+        worst = max(m[key] for m, _ in runs)
+        rows.append((f"{label}, worst run", f"{worst:.3f}", "", "", f"<= {bound}", _ok(worst <= bound)))
+    return rows
+
+
+def ik_path(job: Job) -> tuple[ArmKinematics, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, IKConfig]:
+    """The planner's IK problem for the default scenario: kinematics, goals (T, 3) [m] at the
+    IK knots, pen axis, start joints, posture, knot spacing [s] and the planner's IK settings."""
+    kin = ArmKinematics(build_model(job.cell))
+    placement = PagePlacement.from_model(kin.model)
+    cfg = LoopConfig()
+    dt = MujocoPlant(build_model(job.cell)).dt
+    posture = home_posture(kin)
+    ref = plan_reference(job.drawing, kin, placement, cfg, posture, dt)
+    page = ref.page_mm[(ref.phase != APPROACH) & (ref.phase != HOME)]
+    stride = max(1, round(cfg.ik_period_s / dt))
+    knots = np.unique(np.append(np.arange(0, len(page), stride), len(page) - 1))
+    goals = placement.to_robot(page[knots])
+    axis = placement.pen_axis
+    q0 = solve_ik(kin, goals[0], axis, posture, posture).q
+    h = stride * dt
+    ik_cfg = IKConfig(posture_gain=cfg.posture_rate * h, limit_gain=0.5)
+    return kin, goals, axis, q0, posture, h, ik_cfg
+
+
+def tracking(kin: ArmKinematics, path: np.ndarray, goals: np.ndarray, axis: np.ndarray):
+    """(RMS [mm], max [mm]) of the tip error and the largest pen tilt [deg] along ``path``."""
+    errors, tilts = [], []
+    for q, goal in zip(path, goals):
+        p, R = kin.fk(q)
+        errors.append(1000.0 * np.linalg.norm(p - goal))
+        tilts.append(np.degrees(np.arccos(np.clip(R[:, 2] @ axis, -1.0, 1.0))))
+    errors = np.array(errors)
+    return float(np.sqrt(np.mean(errors**2))), float(errors.max()), float(max(tilts))
+
+
+def run_ours(kin, goals, axis, q0, posture, h, ik_cfg) -> tuple[list[float], np.ndarray]:
+    tracker = PathTracker(kin, axis, q0, posture, ik_cfg)
+    times, path = [], []
+    for goal in goals:
+        start = time.perf_counter()
+        tracker.step(goal)
+        times.append(time.perf_counter() - start)
+        path.append(tracker.q.copy())
+    return times, np.array(path)
+
+
+def run_mink(kin, goals, axis, q0, posture, h) -> tuple[list[float], np.ndarray]:
+    import mink
+
+    model = kin.model
+    slide = model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")]
+    q_full = model.qpos0.copy()
+    q_full[kin.qpos_adr] = q0
+    configuration = mink.Configuration(model)
+    configuration.update(q_full)
+    frame = mink.FrameTask(
+        "pen_tip", "site", position_cost=1.0, orientation_cost=[1.0, 1.0, 0.0]
+    )
+    posture_task = mink.PostureTask(model, cost=MINK_POSTURE_COST)
+    target = model.qpos0.copy()
+    target[kin.qpos_adr] = posture
+    posture_task.set_target(target)
+    site = configuration.data.site("pen_tip")
+    rotation = mink.SO3.from_matrix(site.xmat.reshape(3, 3).copy())
+    limits = [mink.ConfigurationLimit(model)]
+    frozen = [mink.DofFreezingTask(model, dof_indices=[int(slide)])]
+    times, path = [], []
+    for goal in goals:
+        start = time.perf_counter()
+        frame.set_target(mink.SE3.from_rotation_and_translation(rotation, goal))
+        velocity = mink.solve_ik(
+            configuration, [frame, posture_task], h, "daqp", limits=limits, constraints=frozen
+        )
+        configuration.integrate_inplace(velocity, h)
+        times.append(time.perf_counter() - start)
+        path.append(configuration.q[kin.qpos_adr].copy())
+    return times, np.array(path)
+
+
+def ik_rows(job: Job, repeat: int) -> tuple[list[tuple[str, ...]], str]:
+    kin, goals, axis, q0, posture, h, ik_cfg = ik_path(job)
+    note = f"{len(goals)} ticks {1e3 * h:.0f} ms apart"
+    ours = [run_ours(kin, goals, axis, q0, posture, h, ik_cfg) for _ in range(repeat + 1)][1:]
+    t_ours = statistics.median(t for times, _ in ours for t in times)
+    rms, worst, tilt = tracking(kin, ours[0][1], goals, axis)
+    rows = [
+        (
+            "inkarm PathTracker (DLS, 5-D pen task)",
+            f"{1e6 * t_ours:.1f}",
+            f"{rms:.4f}",
+            f"{worst:.4f}",
+            f"{tilt:.4f}",
+        )
+    ]
+    try:
+        import mink
+    except ImportError:
+        rows.append(("mink: not installed (pip install inkarm[compare]), skipped", "", "", "", ""))
+        return rows, note
+    theirs = [run_mink(kin, goals, axis, q0, posture, h) for _ in range(repeat + 1)][1:]
+    t_mink = statistics.median(t for times, _ in theirs for t in times)
+    m_rms, m_worst, m_tilt = tracking(kin, theirs[0][1], goals, axis)
+    rows.append(
+        (
+            f"mink {getattr(mink, '__version__', '')} solve_ik (daqp)".replace("  ", " "),
+            f"{1e6 * t_mink:.1f}",
+            f"{m_rms:.4f}",
+            f"{m_worst:.4f}",
+            f"{m_tilt:.4f}",
+        )
+    )
+    ratio = t_ours / t_mink
+    no_worse = rms <= m_rms and worst <= m_worst and tilt <= m_tilt
+    rows.append(
+        (
+            f"ratio inkarm / mink (target <= {IK_RATIO_TARGET}, errors no larger)",
+            f"{ratio:.2f} {_ok(ratio <= IK_RATIO_TARGET)}",
+            _ok(rms <= m_rms),
+            _ok(worst <= m_worst),
+            _ok(tilt <= m_tilt),
+        )
+    )
+    return rows, note + ("" if no_worse else "; inkarm's error is larger")
+
+
+def _ok(passed: bool) -> str:
+    return "ok" if passed else "MISSED"
+
+
+def section(quick: bool, cpu: int | None) -> str:
+    core = pin_one_core(cpu)
+    job = default_job()
+    where = f"one core (cpu {core})" if core is not None else "unpinned"
+    lines = [
+        "## draw: the drawing cell (real-time factor, inverse kinematics)",
+        "",
+        f"Default scenario (60 mm letter N, marker, A4 at {job.px_per_mm:g} px/mm), {where}; "
+        "wall time of the whole run, planning included. Medians of repeated runs; MuJoCo alone "
+        "replays the run's torques open loop for the same physics steps.",
+        "",
+        "| measure | median | reference | ratio | target | |",
+        "|---|---|---|---|---|---|",
+    ]
+    lines += ["| " + " | ".join(r) + " |" for r in drawing_rows(job, 3 if quick else 7)]
+    rows, note = ik_rows(job, 1 if quick else 3)
+    lines += [
+        "",
+        f"Inverse kinematics on the default scenario's path ({note}), same MjModel and start; "
+        "tip error against the reference after each tick's joint update.",
+        "",
+        "| solver | median per tick [us] | tip RMS [mm] | tip max [mm] | max tilt [deg] |",
+        "|---|---|---|---|---|",
+    ]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions")
+    parser.add_argument("--cpu", type=int, default=None, help="core to pin to (default: first)")
+    args = parser.parse_args()
+    print(section(args.quick, args.cpu))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
