@@ -29,6 +29,8 @@ two tables:
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
+import importlib.util
 import os
 import statistics
 import sys
@@ -39,7 +41,14 @@ import mujoco
 import numpy as np
 
 from inkarm.control.ik import ArmKinematics, IKConfig, PathTracker, solve_ik
-from inkarm.control.loop import APPROACH, HOME, LoopConfig, home_posture, plan_reference, run_drawing
+from inkarm.control.loop import (
+    APPROACH,
+    HOME,
+    LoopConfig,
+    home_posture,
+    plan_reference,
+    run_drawing,
+)
 from inkarm.control.transform import PagePlacement
 from inkarm.metrics import compute_metrics
 from inkarm.models.trajectory import Drawing
@@ -95,9 +104,15 @@ def draw_once(job: Job) -> tuple[dict, np.ndarray]:
     log = run_drawing(job.drawing, plant, kin_model, default_gains(), placement, LoopConfig())
     plant.close()
     metrics = compute_metrics(
-        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
-        drawing=log.drawing, q=log.q, joint_range=joint_ranges(kin_model),
-        wall_time_s=log.wall_s, canvas=canvas,
+        times_s=log.time,
+        reference_mm=log.reference,
+        tip_mm=log.tip,
+        force_n=log.force,
+        drawing=log.drawing,
+        q=log.q,
+        joint_range=joint_ranges(kin_model),
+        wall_time_s=log.wall_s,
+        canvas=canvas,
         plan_strokes=[s.pos[:, :2] for s in job.drawing.strokes],
     )
     metrics["wall_s"] = log.wall_s
@@ -121,7 +136,7 @@ def bare_mujoco_rtf(job: Job, torques: np.ndarray, substeps: int = 3) -> float:
 
 
 def drawing_rows(job: Job, repeat: int) -> list[tuple[str, ...]]:
-    draw_once(job)  # warm-up: imports, page faults, caches
+    first, _ = draw_once(job)  # the first run of a process, as `inkarm draw` reports it
     runs = [draw_once(job) for _ in range(repeat)]
     rtf = statistics.median(m["realtime_factor"] for m, _ in runs)
     wall = statistics.median(m["wall_s"] for m, _ in runs)
@@ -135,15 +150,27 @@ def drawing_rows(job: Job, repeat: int) -> list[tuple[str, ...]]:
             f"{rtf / bare:.2f}",
             f">= {RTF_TARGET:.0f}",
             _ok(rtf >= RTF_TARGET),
-        )
+        ),
+        (
+            "real-time factor, first run of the process (as `inkarm draw`)",
+            f"{first['realtime_factor']:.1f}",
+            "",
+            "",
+            f">= {RTF_TARGET:.0f}",
+            _ok(first["realtime_factor"] >= RTF_TARGET),
+        ),
     ]
     for key, bound, label in QUALITY_BOUNDS:
         worst = max(m[key] for m, _ in runs)
-        rows.append((f"{label}, worst run", f"{worst:.3f}", "", "", f"<= {bound}", _ok(worst <= bound)))
+        rows.append(
+            (f"{label}, worst run", f"{worst:.3f}", "", "", f"<= {bound}", _ok(worst <= bound))
+        )
     return rows
 
 
-def ik_path(job: Job) -> tuple[ArmKinematics, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, IKConfig]:
+def ik_path(
+    job: Job,
+) -> tuple[ArmKinematics, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, IKConfig]:
     """The planner's IK problem for the default scenario: kinematics, goals (T, 3) [m] at the
     IK knots, pen axis, start joints, posture, knot spacing [s] and the planner's IK settings."""
     kin = ArmKinematics(build_model(job.cell))
@@ -169,7 +196,7 @@ def tracking(kin: ArmKinematics, path: np.ndarray, goals: np.ndarray, axis: np.n
     for q, goal in zip(path, goals):
         p, R = kin.fk(q)
         errors.append(1000.0 * np.linalg.norm(p - goal))
-        tilts.append(np.degrees(np.arccos(np.clip(R[:, 2] @ axis, -1.0, 1.0))))
+        tilts.append(np.degrees(np.arcsin(min(1.0, np.linalg.norm(np.cross(R[:, 2], axis))))))
     errors = np.array(errors)
     return float(np.sqrt(np.mean(errors**2))), float(errors.max()), float(max(tilts))
 
@@ -194,9 +221,7 @@ def run_mink(kin, goals, axis, q0, posture, h) -> tuple[list[float], np.ndarray]
     q_full[kin.qpos_adr] = q0
     configuration = mink.Configuration(model)
     configuration.update(q_full)
-    frame = mink.FrameTask(
-        "pen_tip", "site", position_cost=1.0, orientation_cost=[1.0, 1.0, 0.0]
-    )
+    frame = mink.FrameTask("pen_tip", "site", position_cost=1.0, orientation_cost=[1.0, 1.0, 0.0])
     posture_task = mink.PostureTask(model, cost=MINK_POSTURE_COST)
     target = model.qpos0.copy()
     target[kin.qpos_adr] = posture
@@ -233,9 +258,7 @@ def ik_rows(job: Job, repeat: int) -> tuple[list[tuple[str, ...]], str]:
             f"{tilt:.4f}",
         )
     ]
-    try:
-        import mink
-    except ImportError:
+    if importlib.util.find_spec("mink") is None:
         rows.append(("mink: not installed (pip install inkarm[compare]), skipped", "", "", "", ""))
         return rows, note
     theirs = [run_mink(kin, goals, axis, q0, posture, h) for _ in range(repeat + 1)][1:]
@@ -243,7 +266,7 @@ def ik_rows(job: Job, repeat: int) -> tuple[list[tuple[str, ...]], str]:
     m_rms, m_worst, m_tilt = tracking(kin, theirs[0][1], goals, axis)
     rows.append(
         (
-            f"mink {getattr(mink, '__version__', '')} solve_ik (daqp)".replace("  ", " "),
+            f"mink {importlib.metadata.version('mink')} solve_ik (daqp)",
             f"{1e6 * t_mink:.1f}",
             f"{m_rms:.4f}",
             f"{m_worst:.4f}",
@@ -275,9 +298,11 @@ def section(quick: bool, cpu: int | None) -> str:
     lines = [
         "## draw: the drawing cell (real-time factor, inverse kinematics)",
         "",
-        f"Default scenario (60 mm letter N, marker, A4 at {job.px_per_mm:g} px/mm), {where}; "
-        "wall time of the whole run, planning included. Medians of repeated runs; MuJoCo alone "
-        "replays the run's torques open loop for the same physics steps.",
+        (
+            f"Default scenario (60 mm letter N, marker, A4 at {job.px_per_mm:g} px/mm), "
+            f"{where}; wall time of the whole run, planning included. Medians of repeated "
+            "runs; MuJoCo alone replays the run's torques open loop for the same physics steps."
+        ),
         "",
         "| measure | median | reference | ratio | target | |",
         "|---|---|---|---|---|---|",
@@ -286,8 +311,10 @@ def section(quick: bool, cpu: int | None) -> str:
     rows, note = ik_rows(job, 1 if quick else 3)
     lines += [
         "",
-        f"Inverse kinematics on the default scenario's path ({note}), same MjModel and start; "
-        "tip error against the reference after each tick's joint update.",
+        (
+            f"Inverse kinematics on the default scenario's path ({note}), same MjModel and "
+            "start; tip error against the reference after each tick's joint update."
+        ),
         "",
         "| solver | median per tick [us] | tip RMS [mm] | tip max [mm] | max tilt [deg] |",
         "|---|---|---|---|---|",

@@ -49,6 +49,14 @@ def main(argv: list[str] | None = None) -> int:
     except InkarmError as e:
         print(f"inkarm {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # The reader of our output went away (``inkarm ... | head``): not an error of ours.
+        sys.stderr.close()
+        return 0
+    except OSError as e:
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"inkarm {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"inkarm {args.command}: interrupted", file=sys.stderr)
         return 130

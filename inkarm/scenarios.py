@@ -329,12 +329,14 @@ def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, flo
 
 @dataclass
 class RunResult:
-    """What a run produced: its metrics, the files written (file name -> path) and the placed
-    drawing (page [mm])."""
+    """What a run produced: its metrics, the files written (file name -> path), the placed
+    drawing (page [mm]), the log of every control period and the cell it ran in."""
 
     metrics: dict
     files: dict[str, Path]
     drawing: Drawing
+    log: object = None
+    cell: object = None
 
 
 def run(
@@ -343,7 +345,7 @@ def run(
     progress=None,
     video: str | Path | None = None,
     fps: float = 30.0,
-    camera: str = "overview",
+    camera: str = "drawing",
     report: bool = True,
 ) -> RunResult:
     """Draw ``scenario`` with the simulated arm; write its pictures and logs into ``out_dir``.
@@ -375,9 +377,9 @@ def run(
     plant = MujocoPlant(build_model(cell), canvas=canvas)
     files = {name: out / name for name in ("reference.csv", "trace.npz", "canvas.png", "metrics.json")}
     drawing.to_csv(files["reference.csv"])
+    loop = LoopConfig(**scenario.controller)
     try:
-        log = run_drawing(drawing, plant, kin_model, gains, placement,
-                          LoopConfig(**scenario.controller), progress=progress)
+        log = run_drawing(drawing, plant, kin_model, gains, placement, loop, progress=progress)
     except SimulationError as e:
         partial = getattr(e, "log", None)
         if partial is not None:
@@ -404,7 +406,8 @@ def run(
     if video is not None:
         from inkarm.sim.render import render_log_video
 
-        files["video"] = render_log_video(kin_model, log, cell.paper_size_mm, scenario.px_per_mm,
-                                          make_ink(scenario.ink_model, **scenario.ink), video,
-                                          fps=fps, camera=camera)
-    return RunResult(metrics=metrics, files=files, drawing=drawing)
+        files["video"] = render_log_video(
+            log, video, cell, px_per_mm=scenario.px_per_mm,
+            ink=make_ink(scenario.ink_model, **scenario.ink), fps=fps, camera=camera,
+            contact_threshold_n=loop.contact_threshold_n, progress=progress)
+    return RunResult(metrics=metrics, files=files, drawing=drawing, log=log, cell=cell)

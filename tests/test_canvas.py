@@ -184,6 +184,86 @@ def test_ink_stays_in_unit_range_and_near_the_path(vertices, force, ink_name):
     assert np.all(nearest <= widest / 2 + 1.5 / canvas.px_per_mm + 0.05)
 
 
+def _capsule_one_at_a_time(shape, ppm, x0, y0, w0, x1, y1, w1, opacity) -> np.ndarray:
+    """Reference rasteriser: the coverage of one capsule on its own (float32, as the canvas),
+    from the formula of Canvas._rasterise_queue with np.arange pixel offsets."""
+    n_rows, n_cols = shape
+    u0, u1 = x0 * ppm - 0.5, x1 * ppm - 0.5
+    v0, v1 = n_rows - y0 * ppm - 0.5, n_rows - y1 * ppm - 0.5
+    rad0, rad1 = 0.5 * w0 * ppm, 0.5 * w1 * ppm
+    reach = max(rad0, rad1) + 1.0
+    c0, c1 = (
+        max(0, math.floor(min(u0, u1) - reach)),
+        min(n_cols, math.ceil(max(u0, u1) + reach) + 1),
+    )
+    r0, r1 = (
+        max(0, math.floor(min(v0, v1) - reach)),
+        min(n_rows, math.ceil(max(v0, v1) + reach) + 1),
+    )
+    out = np.zeros(shape, np.float32)
+    if c0 >= c1 or r0 >= r1:
+        return out
+    pu = np.arange(c0 - u0, c1 - u0, dtype=np.float32)[None, : c1 - c0]
+    pv = np.arange(r0 - v0, r1 - v0, dtype=np.float32)[: r1 - r0, None]
+    du, dv = u1 - u0, v1 - v0
+    length2 = du * du + dv * dv
+    if length2 > 1e-12:
+        s = np.clip(pu * np.float32(du / length2) + pv * np.float32(dv / length2), 0.0, 1.0)
+        ex, ey = pu - s * np.float32(du), pv - s * np.float32(dv)
+        cov = s * np.float32(rad1 - rad0) + np.float32(rad0 + 0.5) - np.sqrt(ex * ex + ey * ey)
+    else:
+        cov = np.float32(max(rad0, rad1) + 0.5) - np.sqrt(pu * pu + pv * pv)
+    out[r0:r1, c0:c1] = np.clip(cov, 0.0, 1.0) * np.float32(opacity)
+    return out
+
+
+capsules = st.lists(
+    st.tuples(
+        st.floats(-1.0, 21.0),
+        st.floats(-1.0, 16.0),
+        st.floats(0.05, 3.0),
+        st.floats(-1.0, 21.0),
+        st.floats(-1.0, 16.0),
+        st.floats(0.05, 3.0),
+        st.floats(0.05, 1.0),
+        st.booleans(),
+    ),
+    min_size=1,
+    max_size=150,
+)
+
+
+@settings(max_examples=25, deadline=None)
+@given(capsules)
+def test_batched_capsules_give_the_pixels_of_one_at_a_time(caps):
+    canvas = Canvas(size_mm=(20.0, 15.0), px_per_mm=7.0)
+    expected = np.zeros(canvas.shape, np.float32)
+    for x0, y0, w0, x1, y1, w1, opacity, dot in caps:
+        if dot:  # a pen at rest, with a width that may have changed
+            x1, y1 = x0, y0
+        canvas._stamp(x0, y0, w0, x1, y1, w1, opacity)
+        one = _capsule_one_at_a_time(canvas.shape, 7.0, x0, y0, w0, x1, y1, w1, opacity)
+        np.maximum(expected, one, out=expected)
+    blank = np.zeros(canvas.shape, np.float32)  # composited over an empty page
+    np.testing.assert_array_equal(canvas.image, 1.0 - (1.0 - blank) * (1.0 - expected))
+
+
+def test_queued_capsules_are_counted_by_every_reader():
+    canvas = Canvas(size_mm=(20.0, 20.0), px_per_mm=10.0)
+    revision = canvas.revision
+    for k, x in enumerate(np.linspace(5.0, 8.0, 30)):  # fewer capsules than a batch
+        canvas.touch([x, 10.0], 1.0, 0.001 * k)
+    assert canvas.revision > revision
+    r0, r1, c0, c1 = canvas.take_dirty_box()
+    rows, cols = np.nonzero(canvas.image)
+    assert len(rows) > 0 and canvas.in_contact
+    assert r0 <= rows.min() and rows.max() < r1 and c0 <= cols.min() and cols.max() < c1
+    canvas.clear()  # drops what is still queued
+    canvas.touch([12.0, 10.0], 1.0, 1.0)
+    canvas.lift()
+    assert np.nonzero(canvas.image)[1].min() > 100  # nothing left of the cleared stroke
+
+
 def test_make_ink_by_name_and_its_errors():
     assert make_ink("pencil", width_mm=0.2) == PencilInk(width_mm=0.2)
     with pytest.raises(

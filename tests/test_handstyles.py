@@ -150,7 +150,7 @@ def test_load_handstyles_errors(tmp_path, content, message):
 
 
 def test_load_handstyles_missing_file(tmp_path):
-    with pytest.raises(ScenarioError, match="no such file"):
+    with pytest.raises(ScenarioError, match="none.toml: no such handstyle file"):
         load_handstyles(tmp_path / "none.toml")
 
 

@@ -10,9 +10,14 @@ from hypothesis import strategies as st
 from inkarm.control.ik import (
     ArmKinematics,
     IKConfig,
+    PathTracker,
     dls_step,
+    dls_update,
     limit_push,
+    null_space_motion,
+    pen_error,
     pen_task,
+    pose_error,
     solve_ik,
     track_path,
 )
@@ -61,6 +66,89 @@ def test_task_error_is_zero_on_the_goal_and_measures_tilt():
     e, _ = pen_task(p, R, Jp, Jr, p + [0.001, 0, 0], tilted)
     np.testing.assert_allclose(e[:3], [0.001, 0, 0])
     assert np.linalg.norm(e[3:]) == pytest.approx(np.sin(0.1))
+
+
+def unit(v):
+    return np.asarray(v, float) / np.linalg.norm(v)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(
+        lambda v: np.linalg.norm(v) > 0.1
+    ),
+    st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(
+        lambda v: np.linalg.norm(v) > 0.1
+    ),
+)
+def test_tilt_rows_equal_the_cross_product_definition(quaternion, axis):
+    # e[3:] = (x_s . (z_s x a), y_s . (z_s x a)), computed by pen_error as (-y_s . a, x_s . a)
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, unit(quaternion))
+    R = R.reshape(3, 3)
+    a = unit(axis)
+    w = np.cross(R[:, 2], a)
+    e = pen_error(np.zeros(3), R, np.ones(3), a)
+    np.testing.assert_allclose(e[3:], [R[:, 0] @ w, R[:, 1] @ w], atol=1e-15)
+    np.testing.assert_allclose(e[:3], 1.0)
+
+
+def test_one_solve_step_equals_the_task_plus_projected_null_space_terms():
+    p, R, Jp, Jr = KIN.jacobian(Q_TEST)
+    goal = p + [0.01, -0.02, 0.005]
+    e, J = pen_task(p, R, Jp, Jr, goal, PAGE.pen_axis)
+    cfg = IKConfig(max_step=10.0, posture_gain=0.3)
+    dq0 = null_space_motion(Q_TEST, HOME, KIN.lower, KIN.upper, cfg)
+    # module docstring: J^T (J J^T + l^2 I)^-1 e + (I - J^+ J) dq0 with the damped J^+
+    pinv = J.T @ np.linalg.inv(J @ J.T + cfg.damping**2 * np.eye(5))
+    expected = Q_TEST + pinv @ e + (np.eye(7) - pinv @ J) @ dq0
+    got = dls_update(Q_TEST, e, J, dq0, cfg, KIN.lower - 10, KIN.upper + 10)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    np.testing.assert_allclose(
+        dls_update(Q_TEST, e, J, None, cfg, KIN.lower - 10, KIN.upper + 10),
+        Q_TEST + pinv @ e,
+        atol=1e-12,
+    )
+
+
+def test_jacobian_views_are_the_jacobian_without_copies():
+    copies = KIN.jacobian(Q_TEST)
+    views = KIN.jacobian_views(Q_TEST)
+    for view, copy in zip(views, copies):
+        np.testing.assert_array_equal(view, copy)
+    KIN.jacobian_views(HOME)  # the next evaluation overwrites the views
+    np.testing.assert_array_equal(views[0], KIN.fk(HOME)[0])
+    assert not np.allclose(views[0], copies[0])
+
+
+def test_path_tracker_steps_as_the_per_sample_scheme_it_documents():
+    line = PAGE.to_robot(
+        np.column_stack([np.linspace(60, 150, 40), np.linspace(140, 170, 40), np.zeros(40)])
+    )
+    q0 = solve_ik(KIN, line[0], PAGE.pen_axis, HOME, HOME).q
+    cfg = IKConfig(posture_gain=0.01, limit_gain=0.5)
+    tracker = PathTracker(KIN, PAGE.pen_axis, q0, HOME, cfg)
+    q = q0.copy()
+    for goal in line:
+        # reference: one null-space step, then task-only steps until within tolerance
+        q, _ = dls_step(KIN, q, goal, PAGE.pen_axis, HOME, cfg, null_space=True)
+        for _ in range(20):
+            pos_err, tilt_err = pose_error(KIN, q, goal, PAGE.pen_axis)
+            if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
+                break
+            q, _ = dls_step(KIN, q, goal, PAGE.pen_axis, HOME, cfg, null_space=False)
+        errors = tracker.step(goal)
+        np.testing.assert_allclose(tracker.q, q, atol=1e-12)
+        np.testing.assert_allclose(errors, pose_error(KIN, q, goal, PAGE.pen_axis), atol=1e-12)
+        assert errors[0] < cfg.tol_pos and errors[1] < cfg.tol_tilt
+
+
+def test_path_tracker_reports_the_error_it_could_not_remove():
+    q0 = solve_ik(KIN, PAGE.to_robot([105.0, 148.0, 0.0]), PAGE.pen_axis, HOME, HOME).q
+    tracker = PathTracker(KIN, PAGE.pen_axis, q0, HOME, IKConfig(), max_refine=3)
+    pos_err, _ = tracker.step(np.array([3.0, 0.0, 0.0]))
+    assert pos_err == pytest.approx(pose_error(KIN, tracker.q, [3.0, 0.0, 0.0], PAGE.pen_axis)[0])
+    assert pos_err > 1.0
 
 
 def test_spin_about_the_pen_axis_is_not_part_of_the_task():

@@ -254,6 +254,9 @@ def test_divergence_is_reported_with_the_log_so_far():
     partial = info.value.log
     assert 0 < len(partial) < 500
     assert np.all(np.isfinite(partial.q))
+    # the plan's columns are there too, up to the last row run
+    assert np.all(partial.phase == PHASES.index("approach")) and np.all(partial.stroke == -1)
+    assert np.all(np.linalg.norm(partial.reference, axis=1) > 100.0)  # on the sheet, not zeros
 
 
 def test_progress_is_reported_up_to_completion():

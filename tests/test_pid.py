@@ -74,6 +74,27 @@ def test_integrator_is_frozen_while_saturated_and_bounded_otherwise():
     assert pid.integral[0] == pytest.approx(2.0)
 
 
+def test_an_output_exactly_at_the_limit_is_not_saturated():
+    # 5.0 is reachable but not exceeded: the integrator keeps integrating; just above it the
+    # error pushes the saturated output further and the integrator freezes.
+    pid = JointPID(gains(kp=5.0, ki=10.0, limit=5.0), dt=0.01)
+    assert pid.update(one(1.0), one(0.0), one(0.0))[0] == 5.0
+    assert pid.integral[0] == pytest.approx(0.1)
+    pid = JointPID(gains(kp=5.0 + 1e-12, ki=10.0, limit=5.0), dt=0.01)
+    assert pid.update(one(1.0), one(0.0), one(0.0))[0] == 5.0
+    assert pid.integral[0] == 0.0
+
+
+def test_only_the_saturated_joint_freezes():
+    pid = JointPID(
+        PIDGains(kp=[100.0, 1.0], ki=[10.0, 10.0], kd=0.0, torque_limit=5.0, integral_limit=9.0),
+        dt=0.01,
+    )
+    tau = pid.update(np.ones(2), np.zeros(2), np.zeros(2))
+    np.testing.assert_array_equal(tau, [5.0, 1.0])
+    np.testing.assert_allclose(pid.integral, [0.0, 0.1])
+
+
 def test_reset_empties_the_integrator():
     pid = JointPID(gains(ki=10.0), dt=0.01)
     pid.update(one(1.0), one(0.0), one(0.0))

@@ -447,6 +447,33 @@ def test_render_log_video_without_opengl_says_what_to_install(tmp_path):
         assert needed in message
 
 
+def test_viewer_ink_lays_capsules_along_the_touched_path_only():
+    import mujoco
+
+    log = _log()
+    model, replay, _ = _replay(log)
+    data = replay.seek(0.0)
+    scene = mujoco.MjvScene(model, maxgeom=1000)
+    ink = MarkerInk(w0_mm=2.0, k_mm=0.0, opacity=0.8)
+    marks = R.ViewerInk(model, data, log, scene, ink)
+    marks.lay_until(49)  # the pen has not touched yet
+    assert scene.ngeom == 0
+    marks.lay_until(len(log) - 1)
+    step_mm = 90.0 / (len(log) - 1)  # tip travel per row
+    spacing = math.ceil(0.5 / step_mm)  # rows per capsule: >= 0.5 mm apart
+    assert scene.ngeom == 199 // spacing
+    origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+    for geom in scene.geoms[: scene.ngeom]:
+        page = data.site_xmat[origin].reshape(3, 3).T @ (geom.pos - data.site_xpos[origin])
+        assert page[1] * 1000.0 == pytest.approx(LINE_Y_MM) and abs(page[2]) < 1e-9
+        assert log.tip[50, 0] <= page[0] * 1000.0 <= log.tip[249, 0]
+        assert geom.size[0] == pytest.approx(0.001)  # radius: half the 2 mm width, in [m]
+        assert geom.rgba[3] == pytest.approx(0.8)
+    full = mujoco.MjvScene(model, maxgeom=5)
+    R.ViewerInk(model, data, log, full, ink).lay_until(len(log) - 1)
+    assert full.ngeom == 5  # a full scene takes no more
+
+
 def test_viewer_without_a_display_says_so(monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)

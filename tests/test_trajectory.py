@@ -135,3 +135,30 @@ def test_transformed_scales_then_offsets():
     assert np.allclose(d.strokes[0].pos, [[12, 4], [16, 8]])
     lo, hi = d.bounds()
     assert np.allclose(lo, [12, 4]) and np.allclose(hi, [16, 8])
+
+
+def test_csv_with_byte_order_mark_is_read(tmp_path):
+    path = tmp_path / "bom.csv"
+    path.write_bytes("\ufefft,x,y\n0,1,2\n1,3,4\n".encode("utf-8"))
+    assert np.array_equal(Drawing.from_csv(path).strokes[0].pos, [[1, 2], [3, 4]])
+
+
+def test_binary_csv_is_refused(tmp_path):
+    path = tmp_path / "bin.csv"
+    path.write_bytes(b"\xff\xfe\x00\x81garbage")
+    with pytest.raises(InputError, match="bin.csv: not a UTF-8 text file"):
+        Drawing.from_csv(path)
+
+
+def test_nan_line_number_counts_blank_lines(tmp_path):
+    path = tmp_path / "gaps.csv"
+    path.write_text("t,x,y\n\n0,1,2\n\n1,nan,2\n")
+    with pytest.raises(InputError, match=r"gaps.csv:5: NaN or inf value"):
+        Drawing.from_csv(path)
+
+
+def test_fractional_stroke_index_is_refused(tmp_path):
+    path = tmp_path / "s.csv"
+    path.write_text("t,x,y,stroke\n0,1,2,0\n1,1,2,0.5\n")
+    with pytest.raises(InputError, match=r"s.csv:3: stroke must be a whole number"):
+        Drawing.from_csv(path)

@@ -22,8 +22,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--video", metavar="FILE.mp4", default=None,
                    help="also render an offscreen video (MUJOCO_GL=egl, else osmesa)")
     p.add_argument("--fps", type=float, default=30.0, help="video frame rate (default 30)")
-    p.add_argument("--camera", default="overview",
-                   help="video camera: overview, paper_top or pen_cam (default overview)")
+    p.add_argument("--camera", default="drawing",
+                   help="video camera: drawing, overview, paper_top or pen_cam (default drawing)")
     p.add_argument("--viewer", action="store_true",
                    help="open MuJoCo's viewer on the finished run (needs a display)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -55,6 +55,15 @@ class ProgressBar:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.video:  # fail before a long simulation, and pick offscreen GL before mujoco loads
+        from inkarm.sim.render import configure_gl, require_ffmpeg
+
+        configure_gl()
+        require_ffmpeg("inkarm draw --video")
+    if args.viewer:
+        from inkarm.sim.render import require_display
+
+        require_display()
     from inkarm.scenarios import load_scenario, run as run_scenario
 
     scenario = load_scenario(args.scenario)
@@ -80,7 +89,10 @@ def run(args: argparse.Namespace) -> int:
     if "video" in result.files:
         print(f"video: {result.files['video']}")
     if args.viewer:
+        from inkarm.control.loop import LoopConfig
+        from inkarm.sim.canvas import make_ink
         from inkarm.sim.render import open_viewer
 
-        open_viewer(result)
+        open_viewer(result.log, result.cell, ink=make_ink(scenario.ink_model, **scenario.ink),
+                    contact_threshold_n=LoopConfig(**scenario.controller).contact_threshold_n)
     return 0

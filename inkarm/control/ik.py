@@ -315,10 +315,10 @@ def solve_ik(
         null_space = it <= cfg.max_iter // 2
         q_next, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=null_space)
         pos_err, tilt_err = task_error(e)
-        if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
-            # (the largest joint move, as a list max: cheaper than numpy's on 7 numbers)
-            if not null_space or max(map(abs, (q_next - q).tolist())) < 1e-4:
-                return IKResult(q, True, pos_err, tilt_err, it)
+        # (the largest joint move as a list max: cheaper than numpy's on 7 numbers)
+        settled = not null_space or max(map(abs, (q_next - q).tolist())) < 1e-4
+        if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt and settled:
+            return IKResult(q, True, pos_err, tilt_err, it)
         q = q_next
     pos_err, tilt_err = task_error(e)
     return IKResult(q, False, pos_err, tilt_err, cfg.max_iter)
@@ -342,7 +342,12 @@ class PathTracker:
     """
 
     def __init__(
-        self, kin: ArmKinematics, axis_goal, q0, q_posture, cfg: IKConfig = IKConfig(),
+        self,
+        kin: ArmKinematics,
+        axis_goal,
+        q0,
+        q_posture,
+        cfg: IKConfig = IKConfig(),
         max_refine: int = 20,
     ):
         self.kin = kin

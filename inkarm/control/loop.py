@@ -591,9 +591,9 @@ def run_drawing(
     q_ref, qd_ref, inertia, normal_q = ref.q, ref.qd, ref.inertia, ref.normal_q
     contact_tau = ref.contact_tau
     phases = ref.phase.tolist()
-    settle_at = [False] * len(ref)
+    hold_at = [False] * len(ref)  # rows where a descent waits for the force (if sensed)
     for r in ref.settle:
-        settle_at[r] = senses_force
+        hold_at[r] = senses_force
     bias, update = kin.bias, pid.update
     read, command, step = plant.read, plant.command, plant.step
     log_time, log_q, log_qd, log_torque = log.time, log.q, log.qd, log.torque
@@ -609,7 +609,7 @@ def run_drawing(
             state = read()
             force = state.pen_force if senses_force else np.nan
             phase = phases[i]
-            holding = settle_at[i]
+            holding = hold_at[i]
             pressing = phase == DRAW or (holding and waited > 0)
             if pressing and force > threshold:
                 z_corr = min(max(z_corr + k_force * (f_star - force), -z_limit), z_limit)

@@ -23,12 +23,12 @@ target, how sparsely a font polyline is turned into targets (``thin_angle``,
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
+from inkarm.tomlreader import load_toml
 from inkarm.errors import ScenarioError
 from inkarm.models.lqt import LQTConfig, semi_tied_covariances, solve
 from inkarm.models.plan import GaussianTarget, MotorPlan, StrokePlan
@@ -282,13 +282,7 @@ def _number(where: str, key: str, value) -> float:
 
 def load_handstyles(path: str | Path) -> dict[str, Handstyle]:
     """Handstyles defined in a TOML file, one table per style: ``[styles.NAME]``."""
-    path = Path(path)
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such file")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise ScenarioError(f"{path}: not valid TOML: {e}") from None
+    doc = load_toml(path, "handstyle file")
     unknown = set(doc) - {"styles"}
     if unknown:
         raise ScenarioError(f"{path}: unknown key {min(unknown)!r}; expected [styles.NAME] tables")

@@ -226,8 +226,11 @@ class Drawing:
         path = Path(path)
         if not path.is_file():
             raise InputError(f"{path}: no such file")
-        with open(path, newline="") as f:
-            rows = list(csv.reader(f))
+        try:
+            with open(path, newline="", encoding="utf-8-sig") as f:
+                rows = list(csv.reader(f))
+        except UnicodeDecodeError:
+            raise InputError(f"{path}: not a UTF-8 text file; expected CSV t,x,y[,z][,stroke]") from None
         if not rows:
             raise InputError(f"{path}: empty file; expected a header t,x,y[,z][,stroke]")
         header = [h.strip().lower() for h in rows[0]]
@@ -238,10 +241,11 @@ class Drawing:
                 f"{path}: header {','.join(rows[0])!r}; expected t,x,y or t,x,y,z "
                 "(optionally with a stroke column)"
             )
-        data = []
+        data, linenos = [], []
         for lineno, row in enumerate(rows[1:], start=2):
             if not row or all(not c.strip() for c in row):
                 continue
+            linenos.append(lineno)
             if len(row) != len(header):
                 raise InputError(f"{path}:{lineno}: expected {len(header)} fields, got {len(row)}")
             try:
@@ -252,12 +256,15 @@ class Drawing:
             raise InputError(f"{path}: no data rows")
         arr = np.array(data)
         if not np.all(np.isfinite(arr)):
-            lineno = int(np.argwhere(~np.isfinite(arr))[0][0]) + 2
+            lineno = linenos[int(np.argwhere(~np.isfinite(arr))[0][0])]
             raise InputError(f"{path}:{lineno}: NaN or inf value")
         pos_idx = [header.index(c) for c in cols[1:]]
         t_idx = header.index("t")
         if "stroke" in header:
             sid = arr[:, header.index("stroke")]
+            if np.any(sid != np.round(sid)):
+                lineno = linenos[int(np.argmax(sid != np.round(sid)))]
+                raise InputError(f"{path}:{lineno}: stroke must be a whole number")
             breaks = np.flatnonzero(np.diff(sid) != 0) + 1
             groups = np.split(np.arange(len(arr)), breaks)
         else:

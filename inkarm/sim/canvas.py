@@ -449,7 +449,6 @@ class Canvas:
             np.maximum(stroke, coverage[k, : r1[k] - r0[k], : c1[k] - c0[k]], out=stroke)
 
 
-
 def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
     """Page coordinates in [mm], shape (M, 2), of raster pixels (rows, cols) of a raster with
     ``n_rows`` rows at ``px_per_mm``, row 0 at the top (the convention of :class:`Canvas`)."""

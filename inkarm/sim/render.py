@@ -32,8 +32,9 @@ Replays. :func:`render_log_video` (offscreen video) and :func:`open_viewer` (MuJ
 viewer, needs a display) play a finished run back from its :class:`DrawLog` rather than
 rendering during the simulation, which keeps the control loop's timing free of OpenGL: the
 logged joint angles pose a fresh cell model, the pen spring is compressed by F / k, and the ink
-is laid again on a fresh canvas from the logged tip and force (:class:`LogReplay`). The replay
-model has one more camera, ``drawing`` (:func:`add_drawing_camera`), close on the ink.
+is laid again from the logged tip and force (:class:`LogReplay`): on a fresh canvas shown by
+the paper texture offscreen, as capsules in the viewer's user scene (:class:`ViewerInk`). The
+video's model has one more camera, ``drawing`` (:func:`add_drawing_camera`), close on the ink.
 """
 
 from __future__ import annotations
@@ -538,7 +539,7 @@ class LogReplay:
     Args:
         model: A cell model (:func:`replay_model`) with joints ``joint1..7`` and ``pen_slide``.
         log: The run's :class:`inkarm.control.loop.DrawLog` (time, q, tip, force are used).
-        canvas: The canvas the ink goes to (blank at first).
+        canvas: The canvas the ink goes to (blank at first), or None for no ink.
         pen_stiffness_n_per_mm: Pen spring rate k in [N/mm].
         contact_threshold_n: Force in [N] above which the pen counts as touching.
     """
@@ -580,6 +581,7 @@ class LogReplay:
         self._slide_m = np.clip(force / pen_stiffness_n_per_mm / 1000.0, 0.0, travel_m)
         self._touching = np.asarray(log.force, float) > self.contact_threshold_n
         self._next_row = 0  # the first row not yet fed to the canvas
+        self.row = 0  # the log row shown
         key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
         if key >= 0:
             mujoco.mj_resetDataKeyframe(model, self.data, key)
@@ -590,14 +592,16 @@ class LogReplay:
 
         log = self.log
         row = max(0, int(np.searchsorted(log.time, t, side="right")) - 1)
-        for i in range(self._next_row, row + 1):
-            if self._touching[i]:
-                self.canvas.touch(log.tip[i, :2], float(log.force[i]), float(log.time[i]))
-            else:
+        if self.canvas is not None:
+            for i in range(self._next_row, row + 1):
+                if self._touching[i]:
+                    self.canvas.touch(log.tip[i, :2], float(log.force[i]), float(log.time[i]))
+                else:
+                    self.canvas.lift()
+            if row + 1 == len(log):  # the run is over: finish the last stroke
                 self.canvas.lift()
         self._next_row = max(self._next_row, row + 1)
-        if self._next_row == len(log):  # the run is over: finish the last stroke
-            self.canvas.lift()
+        self.row = row
         self.data.qpos[self._qpos_adr] = log.q[row]
         self.data.qpos[self._slide_adr] = self._slide_m[row]
         self.data.time = float(log.time[row])
@@ -701,7 +705,7 @@ def render_log_video(
 
 _GLFW_PROBE = "import sys, glfw\nsys.exit(0 if glfw.init() else 1)\n"
 VIEWER_PERIOD_S = 1.0 / 60.0  # how often the replay moves the viewer on, [s]
-VIEWER_TEARDOWN_S = 5.0  # longest wait for the viewer's window to close, [s]
+VIEWER_TEARDOWN_S = 2.0  # longest wait for the viewer's window to close, [s]
 
 
 def require_display(timeout_s: float = 30.0) -> None:
@@ -744,70 +748,148 @@ def open_viewer(
     log: DrawLog,
     cell: CellConfig | None = None,
     *,
-    px_per_mm: float = 10.0,
     ink: InkModel | str = "marker",
     contact_threshold_n: float = 0.02,
     speed: float = 1.0,
 ) -> None:
     """Replay the logged run ``log`` of the cell ``cell`` in MuJoCo's passive viewer at
-    ``speed`` times real time, the ink appearing on the paper as in
-    :func:`render_log_video`; the last pose stays on screen. Returns when the window is
-    closed. Needs a display (:func:`require_display`)."""
+    ``speed`` times real time, the ink appearing behind the pen (:class:`ViewerInk`); the last
+    pose stays on screen. Returns when the window is closed. Needs a display
+    (:func:`require_display`)."""
     import time as _time
 
-    import mujoco
-    import mujoco.viewer
-
-    from inkarm.sim.arm import CellConfig
-    from inkarm.sim.canvas import Canvas
+    from inkarm.sim.arm import CellConfig, build_spec
+    from inkarm.sim.canvas import make_ink
 
     if not speed > 0:
         raise InputError(f"open_viewer: speed must be > 0, got {speed}")
     _check_log(log)
+    ink = make_ink(ink) if isinstance(ink, str) else ink
     require_display()
+    import mujoco
+    import mujoco.viewer  # loads GLFW: only once a display is known to work
+
     cell = cell or CellConfig()
-    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=px_per_mm, ink=ink)
-    model = replay_model(cell, canvas, drawing_box_mm=ink_box_mm(log, contact_threshold_n))
+    model = build_spec(cell).compile()
     replay = LogReplay(
         model,
         log,
-        canvas,
+        None,
         pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
         contact_threshold_n=contact_threshold_n,
     )
     t0, t1 = float(log.time[0]), float(log.time[-1])
     data = replay.seek(t0)
-    write_texture(model, canvas, full=True)
     before = set(threading.enumerate())
     with mujoco.viewer.launch_passive(
         model, data, show_left_ui=False, show_right_ui=False
     ) as viewer:
         viewer_threads = [t for t in threading.enumerate() if t not in before]
+        marks = ViewerInk(model, data, log, viewer.user_scn, ink, contact_threshold_n)
         with viewer.lock():
-            _aim_at_cell(model, data, viewer.cam)
+            _aim_at_ink(viewer.cam, model, data, cell, ink_box_mm(log, contact_threshold_n))
         start = _time.perf_counter()
         while viewer.is_running():
             t = min(t0 + speed * (_time.perf_counter() - start), t1)
             with viewer.lock():
                 replay.seek(t)
-                tex_id = write_texture(model, canvas, caller="open_viewer")
-            if tex_id is not None:
-                viewer.update_texture(tex_id)
+                marks.lay_until(replay.row)
             viewer.sync()
             _time.sleep(VIEWER_PERIOD_S)
     # Let the viewer's window thread finish tearing down: Python exiting under it crashed
     # (segmentation fault or GLXBadDrawable) in tests with mujoco 4.0 on Xvfb.
+    deadline = _time.perf_counter() + VIEWER_TEARDOWN_S
     for thread in viewer_threads:
-        thread.join(VIEWER_TEARDOWN_S)
+        thread.join(max(0.0, deadline - _time.perf_counter()))
 
 
-def _aim_at_cell(model, data, camera) -> None:
-    """Point the free MjvCamera ``camera`` at the arm and the paper, from the front left."""
+class ViewerInk:
+    """The ink of a replayed run as capsules in the viewer's user scene (an MjvScene whose
+    geoms the passive viewer draws along with the model's).
+
+    Why not the paper texture, as offscreen: the passive viewer's ``update_texture`` waits for
+    its window's render loop and, with mujoco 4.0, deadlocks the process when the window is
+    closed during that wait (seen in tests on Xvfb); user-scene geoms need no upload.
+
+    Successive touching rows are joined by capsules of the ink model's width and opacity at
+    the row's force and speed, a new capsule once the tip has moved ``min_segment_mm`` (as the
+    canvas does). Once the scene is full (its ``maxgeom``), later ink is not shown.
+    """
+
+    def __init__(
+        self,
+        model,
+        data,
+        log: DrawLog,
+        scene,
+        ink: InkModel,
+        contact_threshold_n: float = 0.02,
+        min_segment_mm: float = 0.5,
+    ):
+        import mujoco
+
+        origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+        if origin < 0:
+            raise InputError("ViewerInk: the model has no site paper_origin")
+        self._origin = data.site_xpos[origin].copy()
+        self._to_world = data.site_xmat[origin].reshape(3, 3).copy()
+        self.log = log
+        self.scene = scene
+        self.ink = ink
+        self.min_segment_mm = float(min_segment_mm)
+        self._touching = np.asarray(log.force, float) > contact_threshold_n
+        self._next_row = 0
+        self._laid: np.ndarray | None = None  # page (x, y) [mm] where the last capsule ended
+
+    def lay_until(self, row: int) -> None:
+        """Add the ink of the log rows up to ``row``."""
+        log = self.log
+        for i in range(self._next_row, row + 1):
+            if not self._touching[i]:
+                self._laid = None
+                continue
+            p = np.asarray(log.tip[i, :2], float)
+            if self._laid is None:
+                self._laid = p
+                continue
+            if np.linalg.norm(p - self._laid) < self.min_segment_mm:
+                continue
+            dt = float(log.time[i] - log.time[i - 1])
+            speed = float(np.linalg.norm(p - log.tip[i - 1, :2])) / dt if dt > 0 else 0.0
+            width, opacity = self.ink.mark(float(log.force[i]), speed)
+            self._capsule(self._laid, p, width, opacity)
+            self._laid = p
+        self._next_row = max(self._next_row, row + 1)
+
+    def _capsule(self, a_mm, b_mm, width_mm: float, opacity: float) -> None:
+        """A capsule of diameter ``width_mm`` from page point a to b, centred on the paper."""
+        import mujoco
+
+        scene = self.scene
+        if scene.ngeom >= scene.maxgeom:
+            return
+        a, b = (self._origin + self._to_world @ [q[0], q[1], 0.0] / 1000.0 for q in (a_mm, b_mm))
+        rgba = np.array([*(c / 255.0 for c in INK_RGB), opacity], np.float32)
+        geom = scene.geoms[scene.ngeom]
+        mujoco.mjv_initGeom(
+            geom, mujoco.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), np.eye(3).ravel(), rgba
+        )
+        mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_CAPSULE, width_mm / 2000.0, a, b)
+        scene.ngeom += 1
+
+
+def _aim_at_ink(camera, model, data, cell: CellConfig, box_mm) -> None:
+    """Point the free MjvCamera ``camera`` at the centre of ``box_mm`` (page [mm]; the page's
+    centre when None) as the :data:`DRAWING_CAMERA` does: from the writer's side, 35 deg above
+    the paper, far enough back to show the wrist and pen too."""
     import mujoco
 
-    paper = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "paper")
+    width_mm, height_mm = cell.paper_size_mm
+    x0, y0, x1, y1 = box_mm if box_mm is not None else (0.0, 0.0, width_mm, height_mm)
+    origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+    centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0]) / 1000.0
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-    camera.lookat[:] = 0.5 * data.geom_xpos[paper] + [0.0, 0.0, 0.3]
-    camera.distance = 1.9
-    camera.azimuth = 135.0
-    camera.elevation = -25.0
+    camera.lookat[:] = data.site_xpos[origin] + data.site_xmat[origin].reshape(3, 3) @ centre
+    camera.distance = 0.5
+    camera.azimuth = cell.paper_yaw_deg  # looking along the page's +y
+    camera.elevation = -35.0
