@@ -19,7 +19,8 @@ Schema (lengths [mm], times [s], forces [N], angles [deg]; every key optional un
     spacing_mm = 60.0              # one copy of each, spaced along x by spacing_mm
     plan = { strokes = [...] }     # plan: an inline plan (the plan-file schema) instead of file
     text = "inkarm"                # text: the words to write
-    style = "faithful"             # text, tag, trace: a handstyle preset
+    style = "faithful"             # text, tag: a handstyle preset; trace: "geometric" or
+                                   # "semi-tied" covariances (inkarm.models.restyle)
     height_mm = 10.0               # text: letter height
     compression = 0.75             # trace: DPPLA compression rate in (0, 1)
 
@@ -72,6 +73,7 @@ SOURCE_KEYS = {
     "trace": ("kind", "file", "style", "compression"),
 }
 PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale")
+MAX_PX_PER_MM = 40.0  # an A4 raster of 8400 x 11880 float32 pixels, 400 MB
 DEFAULT_SCENARIO = Path(__file__).parent / "data" / "default.toml"
 
 
@@ -148,6 +150,18 @@ def _dataclass_table(rd: TomlReader, table: dict, key: str, cls) -> dict:
     return out
 
 
+def _gain(rd: TomlReader, value, key: str) -> float | np.ndarray:
+    """A PID gain: one number >= 0 for every joint, or a list of 7."""
+    if not isinstance(value, list):
+        return rd.number(value, key, 0.0)
+    arr = rd.array(value, key, 1)
+    if arr.shape != (7,):
+        raise rd.error(key, f"expected one number or a list of 7 (one per joint), got {len(arr)}")
+    if np.any(arr < 0):
+        raise rd.error(key, f"expected numbers >= 0, got {arr.tolist()}")
+    return arr
+
+
 def _source(rd: TomlReader, raw, base_dir: Path) -> dict:
     table = rd.table(raw, "source")
     if "kind" not in table:
@@ -184,7 +198,14 @@ def _source(rd: TomlReader, raw, base_dir: Path) -> dict:
         if not out["text"].strip():
             raise rd.error("source.text", "empty text")
     if "style" in table:
-        out["style"] = rd.text(table["style"], "source.style")
+        if kind == "trace":
+            from inkarm.models.restyle import STYLES
+
+            out["style"] = rd.choice(table["style"], "source.style", STYLES)
+        else:
+            from inkarm.models.handstyles import PRESETS
+
+            out["style"] = rd.choice(table["style"], "source.style", tuple(PRESETS))
     if "height_mm" in table:
         out["height_mm"] = rd.number(table["height_mm"], "source.height_mm", 0.0, strict=True)
     if "compression" in table:
@@ -230,13 +251,13 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
     gains = rd.table(controller.pop("gains", {}), "controller.gains")
     gain_names = tuple(f.name for f in dataclasses.fields(PIDGains))
     rd.keys(gains, gain_names, "controller.gains")
-    gains = {
-        k: rd.array(v, f"controller.gains.{k}", 1) if isinstance(v, list) else rd.number(v, f"controller.gains.{k}")
-        for k, v in gains.items()
-    }
+    gains = {k: _gain(rd, v, f"controller.gains.{k}") for k, v in gains.items()}
     ink = dict(rd.table(data.get("ink", {}), "ink"))
     ink_model = rd.choice(ink.pop("model", "marker"), "ink.model", tuple(INK_MODELS))
     px_per_mm = rd.number(ink.pop("px_per_mm", 10.0), "ink.px_per_mm", 0.0, strict=True)
+    if px_per_mm > MAX_PX_PER_MM:
+        raise rd.error("ink.px_per_mm", f"expected at most {MAX_PX_PER_MM:g} (a finer raster of a "
+                       f"sheet does not fit in memory), got {px_per_mm:g}")
     ink = _dataclass_table(rd, ink, "ink", INK_MODELS[ink_model])
     return Scenario(
         path=source,
@@ -293,7 +314,7 @@ def source_drawing(scenario: Scenario) -> Drawing:
         from inkarm.models.restyle import RestyleConfig, restyle
         from inkarm.models.trace import load_trace
 
-        cfg = RestyleConfig(**({"compression": src["compression"]} if "compression" in src else {}))
+        cfg = RestyleConfig(**{k: src[k] for k in ("compression", "style") if k in src})
         return restyle(load_trace(src["file"]), cfg).drawing
     except ScenarioError:
         raise
@@ -302,10 +323,14 @@ def source_drawing(scenario: Scenario) -> Drawing:
 
 
 def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, float]) -> Drawing:
-    """Scale, rotate and translate ``drawing`` (x, y only) onto a page of ``page_size_mm``, and
-    stretch its times by ``placement.time_scale``."""
+    """Scale, rotate and translate a 2-D ``drawing`` onto a page of ``page_size_mm``, and stretch
+    its times by ``placement.time_scale``."""
+    if drawing.dim != 2:
+        # The pen's height is the force loop's to decide; a planned z would fight it.
+        raise InputError(f"source: the drawing has {drawing.dim}-D positions; the arm draws "
+                         "2-D (x, y) page paths, pen down along each stroke")
     lo, hi = drawing.bounds()
-    centre = 0.5 * (lo[:2] + hi[:2])
+    centre = 0.5 * (lo + hi)
     height = float(hi[1] - lo[1])
     scale = placement.scale
     if placement.height_mm is not None:
@@ -318,8 +343,7 @@ def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, flo
     rot = scale * np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
     strokes = []
     for s in drawing.strokes:
-        pos = s.pos.copy()
-        pos[:, :2] = (pos[:, :2] - centre) @ rot.T + target
+        pos = (s.pos - centre) @ rot.T + target
         strokes.append(Trajectory(t=s.t * placement.time_scale, pos=pos, pressure=s.pressure))
     return Drawing(strokes, page_size=page_size_mm)
 
@@ -352,8 +376,32 @@ def run(
 
     ``progress(fraction, phase)`` is called during the simulation; ``report=False`` skips
     report.png. On divergence the partial trace and canvas are written before
-    :class:`SimulationError` propagates.
+    :class:`SimulationError` propagates; errors of the scenario's settings found while building
+    the cell name the scenario file and key.
     """
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        return _run(scenario, out, progress, video, fps, camera, report)
+    except (ScenarioError, SimulationError):
+        raise
+    except InputError as e:
+        raise ScenarioError(f"{scenario.path}: {_table_key(str(e))}") from None
+
+
+_CONFIG_TABLES = {"CellConfig.": "cell.", "LoopConfig.": "controller.", "PIDGains.": "controller.gains."}
+
+
+def _table_key(message: str) -> str:
+    """A configuration class's field in ``message`` renamed to the scenario key it comes from."""
+    for prefix, table in _CONFIG_TABLES.items():
+        if message.startswith(prefix):
+            return table + message.removeprefix(prefix)
+    return message
+
+
+def _run(scenario, out, progress, video, fps, camera, report) -> RunResult:
     from inkarm.control.loop import LoopConfig, run_drawing
     from inkarm.control.transform import PagePlacement
     from inkarm.metrics import compute_metrics
@@ -362,8 +410,6 @@ def run(
     from inkarm.sim.canvas import Canvas, make_ink
     from inkarm.sim.plant import MujocoPlant
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     cell = CellConfig(**scenario.cell)
     drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
     kin_model = build_model(cell)  # the controller's own model; the plant gets a twin

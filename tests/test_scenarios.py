@@ -229,3 +229,33 @@ def test_cli_draw_bad_scenario_exits_2_with_one_line(tmp_path, capsys):
     assert main(["draw", str(scenario), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "source.fiel: unknown key (did you mean 'file'?)" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        ("[controller]\nforce_n = 100.0\n", r"job.toml: controller.force_n: 100.0 N compresses the pen"),
+        ("[controller.gains]\nkp = [1.0, 2.0]\n", r"job.toml: controller.gains.kp: expected one number or a list of 7"),
+        ("[controller.gains]\nkd = -3.0\n", r"job.toml: controller.gains.kd: expected a number >= 0, got -3.0"),
+        ("[ink]\npx_per_mm = 1000\n", r"job.toml: ink.px_per_mm: expected at most 40"),
+    ],
+)
+def test_bad_cell_and_controller_settings_name_the_file_and_key(tmp_path, extra, match):
+    path = _scenario(tmp_path, "[source]\nkind = 'plan'\n[[source.plan.strokes]]\n"
+                     "targets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [20.0, 5.0], cov = 1.0 }]\n" + extra)
+    with pytest.raises(ScenarioError, match=match):
+        run(load_scenario(path), tmp_path / "out", report=False)
+
+
+def test_unknown_style_of_each_source_kind_is_named(tmp_path):
+    with pytest.raises(ScenarioError, match=r"source.style: unknown value 'nope'; expected one of 'faithful'"):
+        load_scenario(_scenario(tmp_path, "[source]\nkind = 'tag'\nstyle = 'nope'\n"))
+    with pytest.raises(ScenarioError, match=r"source.style: unknown value 'cursive'; expected one of 'geometric', 'semi-tied'"):
+        load_scenario(_scenario(tmp_path, "[source]\nkind = 'trace'\nfile = 'job.toml'\nstyle = 'cursive'\n"))
+
+
+def test_three_dimensional_sources_are_refused(tmp_path):
+    (tmp_path / "p.csv").write_text("t,x,y,z\n0,0,0,0\n1,10,0,1\n")
+    path = _scenario(tmp_path, "[source]\nkind = 'trajectory'\nfile = 'p.csv'\n")
+    with pytest.raises(ScenarioError, match=r"job.toml: source: the drawing has 3-D positions"):
+        run(load_scenario(path), tmp_path / "out")
