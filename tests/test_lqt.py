@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.signal import find_peaks
 
 from inkarm.errors import InputError, PlanError, SolverError
 from inkarm.models import lqt
+from inkarm.models.kinematics import speed_peaks
 from inkarm.models.lqt import (
     LQTConfig,
     Reference,
@@ -39,11 +39,6 @@ def _extent(pos):
 
 
 def _speed_peaks(traj):
-    try:
-        from inkarm.models.kinematics import speed_peaks
-    except ImportError:  # pragma: no cover - the kinematics module is written in parallel
-        v = np.linalg.norm(traj.vel, axis=1)
-        return int(find_peaks(v, height=0.1 * v.max())[0].size)
     return speed_peaks(traj, 0.1)
 
 
@@ -373,6 +368,13 @@ def test_semi_tied_covariances():
 def test_config_errors(kwargs, match):
     with pytest.raises(InputError, match=match):
         LQTConfig(**kwargs)
+
+
+def test_segment_time_must_be_a_whole_number_of_steps():
+    stroke = StrokePlan.from_arrays([[0, 0], [10, 0]], 1.0, segment_time=0.025)
+    with pytest.raises(PlanError, match=r"segment_time: 0.025 s is not a whole number of dt = 0.01 s steps \(2.5\)"):
+        solve(stroke, LQTConfig(dt=0.01))
+    assert solve(stroke, LQTConfig(dt=0.005)).n == 10
 
 
 def test_plan_errors_name_the_target():

@@ -52,8 +52,12 @@ def run(args: argparse.Namespace) -> int:
             if a.power_law is None
             else (f"gamma {a.power_law.gamma:.3f} (R2 {a.power_law.r2:.2f})")
         )
+        band = ""
+        if a.result.banded:
+            band = {True: ", band holds the optimum", False: ", band MISSED the exact optimum",
+                    None: ", band not verified (too large for the exact check)"}[a.result.optimal_in_band]
         print(
-            f"stroke {i}: {a.traj.n} samples, {a.result.k} segments, correlation {a.correlation:.3f}, {law}"
+            f"stroke {i}: {a.traj.n} samples, {a.result.k} segments, correlation {a.correlation:.3f}, {law}{band}"
         )
         if args.out is not None:
             stem = f"{args.trace.stem}_stroke{i}"

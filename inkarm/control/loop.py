@@ -24,9 +24,9 @@ the senses every control period:
 
 Reasons: (1) an unreachable point or a joint limit is found before anything moves, naming the
 point, which a real arm needs; (2) the per-period cost drops to a PID and one bias evaluation,
-which is what lets the simulation run at >= 30x real time on one core (about 38x measured for
-a 60 mm script letter at the default 6 ms control period, planning included) and a Python loop
-keep a hardware period; (3) the kinematic model is exact, so an online IK would only re-solve
+which is what lets the simulation run at >= 30x real time on one core (40 to 50x measured for
+a 60 mm script letter at the default 6 ms control period, planning included:
+``benchmarks/bench_draw.py``) and a Python loop keep a hardware period; (3) the kinematic model is exact, so an online IK would only re-solve
 the same equations from a state that differs from the plan by the tracking error, which joint
 feedback already removes. What online IK would add, bending the path itself to sensed
 surprises, is here limited to the pen-normal force loop.

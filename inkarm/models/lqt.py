@@ -288,7 +288,13 @@ def _ones(count: int) -> np.ndarray:
 
 def _time_grid(stroke: StrokePlan, cfg: LQTConfig) -> tuple[int, int]:
     """(steps per segment, N)."""
-    per = round(stroke.segment_time / cfg.dt)
+    ratio = stroke.segment_time / cfg.dt
+    per = round(ratio)
+    if per >= 1 and abs(ratio - per) > 1e-6 * ratio:
+        raise PlanError(
+            f"stroke segment_time: {stroke.segment_time} s is not a whole number of dt = {cfg.dt} s "
+            f"steps ({ratio:.4g}); the targets would be held {per * cfg.dt:g} s instead"
+        )
     if per < 1:
         raise PlanError(
             f"stroke segment_time: {stroke.segment_time} s is shorter than dt = {cfg.dt} s"
@@ -942,7 +948,7 @@ def _original_values(prob: _Problem, block: _Block) -> np.ndarray:
 def solve(stroke: StrokePlan, cfg: LQTConfig = LQTConfig(), references=()) -> Trajectory:
     """The optimal (mean) trajectory of ``stroke``: t from 0 in [s], pos (N, D) in [mm], vel [mm/s].
 
-    Each target is held round(segment_time / dt) steps, so N = m * segment_time / dt (key-points:
+    Each target is held segment_time / dt steps (a whole number, else PlanError), so N = m * segment_time / dt (key-points:
     (m - 1) * segment_time / dt + 1, one key-point every segment_time). The movement
     starts at rest on the first mean and, with ``cfg.end_at_rest``, ends at rest. With wide
     covariances (e.g. variance 100 mm^2 and d = 5 mm at order 4) the path smooths through the

@@ -132,6 +132,8 @@ def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig) -> St
     segment_time = cfg.segment_time or traj.duration / len(means)
     if not segment_time > 0:
         raise InputError(f"restyle: stroke of duration {traj.duration} s; give segment_time")
+    # The LQT holds each target a whole number of steps.
+    segment_time = max(1, round(segment_time / cfg.dt)) * cfg.dt
     return StrokePlan.from_arrays(means, covs, segment_time=segment_time)
 
 
