@@ -10,6 +10,7 @@ import pytest
 
 from inkarm.cli import main
 from inkarm.errors import InputError, ScenarioError, SimulationError, UnreachableError
+from inkarm.models.trajectory import Drawing, Trajectory
 from inkarm.scenarios import (
     DEFAULT_SCENARIO,
     Placement,
@@ -19,7 +20,6 @@ from inkarm.scenarios import (
     run,
     source_drawing,
 )
-from inkarm.models.trajectory import Drawing, Trajectory
 
 SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
 LINE = {"kind": "plan", "plan": {"strokes": [{"targets": [{"mean": [0.0, 0.0], "cov": 1.0},

@@ -43,7 +43,7 @@ class ProgressBar:
         if now - self._last < 0.1 and fraction < 1.0:
             return
         self._last = now
-        filled = int(round(self.width * min(max(fraction, 0.0), 1.0)))
+        filled = round(self.width * min(max(fraction, 0.0), 1.0))
         bar = "#" * filled + "-" * (self.width - filled)
         self.stream.write(f"\r{self.label} [{bar}] {100 * fraction:5.1f}% {phase:<8} "
                           f"{now - self._t0:5.1f}s")
@@ -64,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
         from inkarm.sim.render import require_display
 
         require_display()
-    from inkarm.scenarios import load_scenario, run as run_scenario
+    from inkarm.scenarios import load_scenario
+    from inkarm.scenarios import run as run_scenario
 
     scenario = load_scenario(args.scenario)
     bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r}")

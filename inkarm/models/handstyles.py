@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from inkarm.tomlreader import load_toml
 from inkarm.errors import ScenarioError
 from inkarm.models.lqt import LQTConfig, semi_tied_covariances, solve
 from inkarm.models.plan import GaussianTarget, MotorPlan, StrokePlan
 from inkarm.models.trajectory import A4_MM, Drawing
+from inkarm.tomlreader import load_toml
 
 
 def slanted_basis(slant_deg: float, stretch: float = 1.0) -> np.ndarray:

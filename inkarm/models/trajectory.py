@@ -301,10 +301,10 @@ class Drawing:
         w, h = self.page_size
         lines = [
             '<?xml version="1.0" encoding="UTF-8"?>',
-            f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}mm" height="{h}mm" '
-            f'viewBox="0 0 {w} {h}">',
-            f'<g fill="none" stroke="black" stroke-width="{stroke_width}" '
-            'stroke-linecap="round" stroke-linejoin="round">',
+            (f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}mm" height="{h}mm" '
+            f'viewBox="0 0 {w} {h}">'),
+            (f'<g fill="none" stroke="black" stroke-width="{stroke_width}" '
+            'stroke-linecap="round" stroke-linejoin="round">'),
         ]
         for s in self.strokes:
             pts = " ".join(f"{x:.3f},{h - y:.3f}" for x, y in s.pos[:, :2])
