@@ -165,3 +165,9 @@ def test_cli_reports_bad_input_without_a_traceback(tmp_path, capsys):
     Drawing([harmonic_ellipse()]).to_csv(tmp_path / "e.csv")
     assert main(["analyse", str(tmp_path / "e.csv"), "--compression", "1.5"]) == 2
     assert "must lie in (0, 1)" in capsys.readouterr().err
+
+
+def test_straight_trace_has_no_density_curvature_correlation():
+    t = np.linspace(0.0, 1.0, 200)
+    straight = Trajectory(t=t, pos=np.column_stack([50.0 * t, 20.0 * t]))
+    assert np.isnan(analyse(straight, 0.75).correlation)

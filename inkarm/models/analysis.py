@@ -56,10 +56,13 @@ def turning_angles(pos) -> np.ndarray:
     if moving.size < 2:
         return theta
     u, v = steps[moving[:-1]], steps[moving[1:]]
-    dot = np.einsum("np,np->n", u, v)
-    cross2 = np.einsum("np,np->n", u, u) * np.einsum("np,np->n", v, v) - dot * dot
+    nu, nv = lengths[moving[:-1], None], lengths[moving[1:], None]
+    # Kahan's angle between vectors: accurate at every angle, where arccos of the normalised
+    # dot product (or the Lagrange identity for the cross) loses half the digits near 0.
+    a, b = u * nv, v * nu
+    angle = 2.0 * np.arctan2(np.linalg.norm(a - b, axis=1), np.linalg.norm(a + b, axis=1))
     # The vertex where step moving[m] ends is sample moving[m] + 1.
-    theta[moving[:-1] + 1] = np.arctan2(np.sqrt(np.maximum(cross2, 0.0)), dot)
+    theta[moving[:-1] + 1] = angle
     return theta
 
 
@@ -167,7 +170,9 @@ def analyse(traj: Trajectory, compression: float = 0.75, banded: bool = False) -
     density = target_density(traj.pos, result.breakpoints)
     curvature = segment_curvature(traj.pos, result.breakpoints)
     velocity = target_velocity(traj, result.breakpoints)
-    if np.ptp(density) == 0 or np.ptp(curvature) == 0:
+    # A straight trace has no curvature to speak of: its "variation" is rounding noise.
+    extent = float(np.max(np.ptp(traj.pos, axis=0)))
+    if np.ptp(density) <= 1e-9 * np.max(density) or np.max(np.abs(curvature)) * extent <= 1e-9:
         correlation = float("nan")
     else:
         correlation = float(np.corrcoef(density, curvature)[0, 1])
