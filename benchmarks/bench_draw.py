@@ -101,8 +101,9 @@ def draw_once(job: Job) -> tuple[dict, np.ndarray]:
     placement = PagePlacement.from_model(kin_model)
     canvas = Canvas(size_mm=job.cell.paper_size_mm, px_per_mm=job.px_per_mm, ink=job.ink)
     plant = MujocoPlant(build_model(job.cell), canvas=canvas)
+    gains = default_gains(job.cell.arm)
     cpu0 = time.process_time()
-    log = run_drawing(job.drawing, plant, kin_model, default_gains(), placement, LoopConfig())
+    log = run_drawing(job.drawing, plant, kin_model, gains, placement, LoopConfig())
     cpu = time.process_time() - cpu0
     plant.close()
     metrics = compute_metrics(
@@ -153,6 +154,14 @@ def drawing_rows(job: Job, repeat: int) -> list[tuple[str, ...]]:
             f"{rtf / bare:.2f}",
             f">= {RTF_TARGET:.0f}",
             _ok(rtf >= RTF_TARGET),
+        ),
+        (
+            "real-time factor, best run (the least disturbed by other processes)",
+            f"{max(m['realtime_factor'] for m, _ in runs):.1f}",
+            "",
+            "",
+            "info",
+            "",
         ),
         (
             "real-time factor on CPU time (the core's time taken by others left out)",

@@ -238,9 +238,9 @@ def dls_update(
     lower: np.ndarray,
     upper: np.ndarray,
 ) -> np.ndarray:
-    """q + dq, the step of the module docstring from the task error ``e`` and Jacobian ``J``
-    at ``q`` (task only when ``dq0`` is None), scaled to ``cfg.max_step`` and clipped to the
-    limits.
+    """q + dq, the step of the module docstring from the pen-task error ``e`` (5,) and
+    Jacobian ``J`` (5, n) at ``q`` (task only when ``dq0`` is None), scaled to
+    ``cfg.max_step`` and clipped to the limits.
 
     The task and null-space terms share one solve, by linearity:
     J^T A^-1 e + (I - J^T A^-1 J) dq0 = J^T A^-1 (e - J dq0) + dq0 with A = J J^T + lambda^2 I,

@@ -13,7 +13,9 @@ it), so a fast stroke is a continuous line however far the pen moves in one step
 physics step cheap, a segment is only rasterised once the pen has moved ``max_segment_mm`` or
 the ink width or opacity has changed noticeably since the last rasterised point; the pending
 end point is flushed on lift. The chord error this introduces on a curve of radius R is
-``max_segment_mm**2 / (8 R)`` (0.016 mm for the default 0.5 mm on a 2 mm radius).
+``max_segment_mm**2 / (8 R)`` (0.016 mm for the default 0.5 mm on a 2 mm radius). Capsules
+are queued and rasterised in batches (at a lift, when the raster is read, or every 64), the
+very pixels one at a time would give, at a fraction of numpy's per-call cost.
 
 Darkness is an opacity in [0, 1]. Strokes composite as ``1 - (1 - a)(1 - b)`` (two layers of
 ink let through the product of their transmittances, so darkness never exceeds 1); within one

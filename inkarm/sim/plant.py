@@ -125,8 +125,9 @@ class MujocoPlant:
         # page [mm] = (x - o) R 1000 = x (1000 R) - o (1000 R), as two operations per read.
         self._to_page = 1000.0 * self.data.site_xmat[origin_site].reshape(3, 3)
         self._page_offset = self.data.site_xpos[origin_site] @ self._to_page
-        self._to_page_xy = self._to_page[:, :2].copy()
-        self._page_offset_xy = self._page_offset[:2].copy()
+        # The same map for the canvas's (x, y), on Python floats: a 3 x 2 product is cheaper
+        # written out than as a numpy call (and sums in the same order, so gives the same bits).
+        self._page_xy = (*self._to_page[:, :2].ravel().tolist(), *self._page_offset[:2].tolist())
         self._timestep = float(m.opt.timestep)
         # Views into MjData (its arrays never move): an attribute of MjData builds a new array
         # object at each look-up, which the per-period calls would pay for again and again.
@@ -183,14 +184,19 @@ class MujocoPlant:
                 self._touching = True
                 if canvas is not None:
                     # Forces and positions of this pass belong to time d.time - h.
-                    xy = self._tip_xpos @ self._to_page_xy - self._page_offset_xy
-                    canvas.touch(xy, force, d.time - self._timestep)
+                    canvas.touch(self._tip_page_xy(), force, d.time - self._timestep)
             elif self._touching:
                 self._touching = False
                 if canvas is not None:
                     canvas.lift()
             mujoco.mj_step1(m, d)
         self._check_divergence()
+
+    def _tip_page_xy(self) -> tuple[float, float]:
+        """Pen tip (x, y) in page [mm]: the first two columns of :meth:`_tip_mm`."""
+        x, y, z = self._tip_xpos.tolist()
+        a00, a01, a10, a11, a20, a21, o0, o1 = self._page_xy
+        return a00 * x + a10 * y + a20 * z - o0, a01 * x + a11 * y + a21 * z - o1
 
     def _tip_normal_force(self) -> float:
         d = self.data
