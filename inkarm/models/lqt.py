@@ -948,8 +948,9 @@ def _original_values(prob: _Problem, block: _Block) -> np.ndarray:
 def solve(stroke: StrokePlan, cfg: LQTConfig = LQTConfig(), references=()) -> Trajectory:
     """The optimal (mean) trajectory of ``stroke``: t from 0 in [s], pos (N, D) in [mm], vel [mm/s].
 
-    Each target is held segment_time / dt steps (a whole number, else PlanError), so N = m * segment_time / dt (key-points:
-    (m - 1) * segment_time / dt + 1, one key-point every segment_time). The movement
+    Each target is held segment_time / dt steps (a whole number, else PlanError), so
+    N = m * segment_time / dt (key-points: (m - 1) * segment_time / dt + 1, one key-point every
+    segment_time). The movement
     starts at rest on the first mean and, with ``cfg.end_at_rest``, ends at rest. With wide
     covariances (e.g. variance 100 mm^2 and d = 5 mm at order 4) the path smooths through the
     targets with about one speed peak per segment; with tight covariances it stops at every target
@@ -969,7 +970,8 @@ def solve(stroke: StrokePlan, cfg: LQTConfig = LQTConfig(), references=()) -> Tr
     else:
         pos, vel = _outputs(prob, _Factor(prob, cfg.solver).mean())
     _check_finite(pos)
-    return Trajectory(t=_times(prob.n_steps, prob.dt), pos=pos, vel=vel)
+    _check_finite(vel)
+    return Trajectory.from_checked(_times(prob.n_steps, prob.dt), pos, vel)
 
 
 @lru_cache(maxsize=32)

@@ -76,6 +76,16 @@ class Trajectory:
                 )
             object.__setattr__(self, "pressure", pressure)
 
+    @classmethod
+    def from_checked(cls, t: np.ndarray, pos: np.ndarray, vel: np.ndarray | None = None) -> Trajectory:
+        """A trajectory from float arrays its producer has already checked (finite, t strictly
+        increasing, matching shapes), skipping the validation that a movement model's hot path
+        would otherwise pay on every call."""
+        traj = object.__new__(cls)
+        for name, value in (("t", t), ("pos", pos), ("vel", vel), ("pressure", None)):
+            object.__setattr__(traj, name, value)
+        return traj
+
     @property
     def n(self) -> int:
         """Number of samples N."""
