@@ -250,8 +250,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     print("## dppla: adaptive sampling of traces (seed 001)\n")
     print("Times are medians; the reference is a plain triple-loop DPPLA with the same O(1) "
-          "segment costs, run once in the same process on the same input. Below: density-curvature correlation and gamma of seed "
-          f"001 sec. 5. python {sys.version.split()[0]}, numpy {np.__version__}.\n")
+          "segment costs, run once in the same process on the same input. Below: "
+          "density-curvature correlation and gamma of seed 001 sec. 5. "
+          f"python {sys.version.split()[0]}, numpy {np.__version__}.\n")
     timing_table(1 if args.quick else 7, args.quick)
     print()
     analysis_table()
