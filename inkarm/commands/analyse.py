@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.models.trace import DEFAULT_RATE, DEFAULT_SPEED
+from inkarm.commands import add_trace_options
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -28,12 +28,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--banded", action="store_true", help="banded DPPLA, O(w^2/k), instead of the exact one"
     )
-    p.add_argument(
-        "--speed", type=float, default=DEFAULT_SPEED, help="SVG only: pen speed in [mm/s]"
-    )
-    p.add_argument(
-        "--rate", type=float, default=DEFAULT_RATE, help="SVG only: sampling rate in [Hz]"
-    )
+    add_trace_options(p)
     return p
 
 

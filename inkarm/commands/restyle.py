@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from inkarm.commands import add_trace_options
 from inkarm.models.restyle import STYLES, RestyleConfig
-from inkarm.models.trace import DEFAULT_RATE, DEFAULT_SPEED
 
 _DEFAULTS = RestyleConfig()
 
@@ -69,12 +69,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default=_DEFAULTS.across,
         help="std across the path / local segment length",
     )
-    p.add_argument(
-        "--speed", type=float, default=DEFAULT_SPEED, help="SVG only: pen speed in [mm/s]"
-    )
-    p.add_argument(
-        "--rate", type=float, default=DEFAULT_RATE, help="SVG only: sampling rate in [Hz]"
-    )
+    add_trace_options(p)
     return p
 
 

@@ -289,14 +289,21 @@ def _add_paper(world, cfg: CellConfig) -> None:
         size=[w / 2, h / 2, _PAPER_DEPTH_M / 2],
         pos=[0.0, 0.0, thick - _PAPER_DEPTH_M / 2],
         rgba=[0.97, 0.97, 0.94, 1.0],
-        contype=PEN_COLLISION_BIT,
-        conaffinity=PEN_COLLISION_BIT,
-        condim=3,
-        friction=[cfg.friction, 0.005, 0.0001],
-        solref=_contact_solref(cfg),
-        solimp=[*cfg.contact_solimp, 0.5, 2.0],
+        **_pen_contact(cfg),
     )
     paper.add_site(name="paper_origin", pos=[-w / 2, -h / 2, thick], size=[0.003] * 3)
+
+
+def _pen_contact(cfg: CellConfig) -> dict:
+    """Collision settings shared by the pen tip and the paper, the only pair that touches."""
+    return {
+        "contype": PEN_COLLISION_BIT,
+        "conaffinity": PEN_COLLISION_BIT,
+        "condim": 3,
+        "friction": [cfg.friction, 0.005, 0.0001],
+        "solref": _contact_solref(cfg),
+        "solimp": [*cfg.contact_solimp, 0.5, 2.0],
+    }
 
 
 def _contact_solref(cfg: CellConfig) -> list[float]:
@@ -486,12 +493,7 @@ def _add_pen(flange: mujoco.MjsFrame, cfg: CellConfig) -> None:
         pos=[0.0, 0.0, _PEN_SHAFT_M],
         mass=1e-4,
         rgba=[0.05, 0.05, 0.05, 1.0],
-        contype=PEN_COLLISION_BIT,
-        conaffinity=PEN_COLLISION_BIT,
-        condim=3,
-        friction=[cfg.friction, 0.005, 0.0001],
-        solref=_contact_solref(cfg),
-        solimp=[*cfg.contact_solimp, 0.5, 2.0],
+        **_pen_contact(cfg),
     )
     pen.add_site(name="pen_tip", pos=[0.0, 0.0, _PEN_SHAFT_M + radius], size=[0.001] * 3)
 
