@@ -55,10 +55,9 @@ def main() -> int:
         "Times are medians of repeated runs; every target is also checked as a ratio against a "
         "reference measured in the same run, so the ratios carry over between machines.\n"
         "Regenerate with `make bench` (or `python benchmarks/run_all.py --write`).\n\n"
-        "The machine is a shared 2-core VM whose speed drifts by up to 1.6x from minute to "
-        "minute: the LQT mean at N = 200 measured a median of 0.19 to 0.31 ms in repeated runs "
-        "on 2026-11-21 (minimum 0.18-0.19 ms every time), the drawing cell's real-time factor "
-        "26 to 50. Minima and best runs are given beside medians for that reason.\n"
+        "On a shared VM, repeated runs of the same benchmark can differ by 1.6x from minute to "
+        "minute (another tenant on the same physical core); minima and best runs are given "
+        "beside medians for that reason.\n"
     )
     text = header + "\n" + "\n".join(sections)
     print(text)
