@@ -34,7 +34,3 @@ class UnreachableError(InkarmError):
 
 class SimulationError(InkarmError):
     """The simulation diverged or produced non-finite state."""
-
-
-class HardwareError(InkarmError):
-    """A device failed, timed out or reported an error; the plant is left in a safe state."""
