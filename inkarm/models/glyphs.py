@@ -271,15 +271,4 @@ def make_tag(
         points.append(pts)
         evolutions.append(evo)
     joined = join_ligatures(pieces, max_gap=np.inf, max_turn=style.ligature_angle)
-    strokes = tuple(
-        style.stroke_plan(
-            p.means,
-            rng,
-            meta={
-                "glyphs": tuple(int(i) for i in p.letters),
-                "connectors": tuple(bool(c) for c in p.connectors),
-            },
-        )
-        for p in joined
-    )
-    return Tag(MotorPlan(strokes), tuple(points), tuple(evolutions), style)
+    return Tag(style.motor_plan(joined, rng, "glyphs"), tuple(points), tuple(evolutions), style)

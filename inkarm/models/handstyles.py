@@ -126,6 +126,21 @@ class Handstyle:
         targets = tuple(GaussianTarget(mu, c) for mu, c in zip(means, covs))
         return StrokePlan(targets, self.segment_time, meta=dict(meta or {}))
 
+    def motor_plan(self, sequences, rng: np.random.Generator, unit: str) -> MotorPlan:
+        """One stroke per joined target sequence (``means``, ``letters``, ``connectors``), each
+        stroke's meta naming the ``unit`` (e.g. "letters", "glyphs") its targets come from."""
+        return MotorPlan(tuple(
+            self.stroke_plan(
+                seq.means,
+                rng,
+                meta={
+                    unit: tuple(int(i) for i in seq.letters),
+                    "connectors": tuple(bool(c) for c in seq.connectors),
+                },
+            )
+            for seq in sequences
+        ))
+
     def realise(
         self,
         plan: MotorPlan,

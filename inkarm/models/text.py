@@ -444,18 +444,7 @@ def plan_text(
     pieces = glyph_targets(placed, style.thin_angle, spacing, mark_size=0.2 * f.height)
     pieces = join_ligatures(pieces, gap, style.ligature_angle)
     rng = np.random.default_rng(seed)
-    strokes = tuple(
-        style.stroke_plan(
-            p.means,
-            rng,
-            meta={
-                "letters": tuple(int(i) for i in p.letters),
-                "connectors": tuple(bool(c) for c in p.connectors),
-            },
-        )
-        for p in pieces
-    )
-    return TextPlan(text, MotorPlan(strokes), tuple(placed), f)
+    return TextPlan(text, style.motor_plan(pieces, rng, "letters"), tuple(placed), f)
 
 
 class WrittenText(NamedTuple):
