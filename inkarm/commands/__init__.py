@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from inkarm.errors import InputError
 
 
 def add_trace_options(parser: argparse.ArgumentParser) -> None:
@@ -13,3 +16,13 @@ def add_trace_options(parser: argparse.ArgumentParser) -> None:
                         help=f"SVG only: pen speed in [mm/s] (default {DEFAULT_SPEED:g})")
     parser.add_argument("--rate", type=float, default=DEFAULT_RATE,
                         help=f"SVG only: sampling rate in [Hz] (default {DEFAULT_RATE:g})")
+
+
+def output_folder(path: str | Path) -> Path:
+    """The ``--out`` folder, created if missing; a path that is a file is refused up front,
+    before any work is done."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    return out

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options
+from inkarm.commands import add_trace_options, output_folder
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     drawing = load_trace(args.trace, speed=args.speed, rate=args.rate)
     result = analyse_drawing(drawing, args.compression, banded=args.banded)
     if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
+        output_folder(args.out)
     strokes = [i for i in range(len(drawing.strokes)) if i not in result.skipped]
     for i, a in zip(strokes, result.strokes):
         law = (

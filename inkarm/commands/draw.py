@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from inkarm.commands import output_folder
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
@@ -66,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
         require_display()
     from inkarm.scenarios import load_scenario
     from inkarm.scenarios import run as run_scenario
+
+    output_folder(args.out)
 
     scenario = load_scenario(args.scenario)
     bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r}")

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.commands import output_folder
 from inkarm.errors import InputError
 
 
@@ -60,10 +61,7 @@ def run(args) -> int:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
     plan = load_plan(args.file, seed=args.seed)
     result = realise_plan(plan, samples=args.samples)
-    out = args.out
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args.out)
     written = [out / "mean.csv"]
     result.drawing.to_csv(written[0])
     if result.n_samples > 0:

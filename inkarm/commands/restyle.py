@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options
+from inkarm.commands import add_trace_options, output_folder
 from inkarm.models.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     )
     trace = load_trace(args.trace, speed=args.speed, rate=args.rate)
     result = restyle(trace, cfg)
-    args.out.mkdir(parents=True, exist_ok=True)
+    output_folder(args.out)
     stem = args.trace.stem
     result.drawing.to_csv(args.out / f"{stem}_restyled.csv")
     result.drawing.to_svg(args.out / f"{stem}_restyled.svg")

@@ -44,7 +44,6 @@ def run(args) -> int:
     style = get_handstyle(args.style, extra)
     tag = make_tag(style, seed=args.seed, n_glyphs=args.glyphs, size=args.size)
     drawing = tag.realise(dt=args.dt)
-    args.out.mkdir(parents=True, exist_ok=True)
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
     fig = tag_figure(tag, drawing, title=f"seed {args.seed}, style {args.style}")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.commands import output_folder
 from inkarm.errors import InputError
 from inkarm.models.handstyles import PRESETS, get_handstyle, load_handstyles
 from inkarm.models.text import (
@@ -58,8 +59,7 @@ def check_common(args) -> None:
     """Refuse a negative seed and an output path that is a file (shared with ``tag``)."""
     if args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(f"--out {args.out}: exists and is not a directory")
+    output_folder(args.out)
 
 
 def save_figure(fig, path: Path) -> None:
@@ -78,7 +78,6 @@ def run(args) -> int:
     tp, drawing = write_text(
         text, style, dt=args.dt, height=args.height, font=args.font, layout=layout, seed=args.seed
     )
-    args.out.mkdir(parents=True, exist_ok=True)
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
     deviation = max(outline_deviation(tp, drawing).values())
