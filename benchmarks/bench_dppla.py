@@ -3,7 +3,7 @@
 Run: ``python benchmarks/bench_dppla.py`` (``--quick`` for fewer repeats). Prints two markdown
 tables:
 
-1. Median wall time of :func:`inkarm.models.dppla.dppla` (exact and banded) and of a plain
+1. Median wall time of :func:`inkarm.analysis.dppla.dppla` (exact and banded) and of a plain
    triple-loop DP (pure Python loops over segments k, end sample j and start sample i, each
    segment error in O(1) from the same prefix sums), in the same process on the same input
    (with ``--quick`` the slow loops run on shorter inputs and their time is extrapolated by the
@@ -22,10 +22,10 @@ import time
 
 import numpy as np
 
-from inkarm.models.analysis import analyse_drawing
-from inkarm.models.dppla import dppla
-from inkarm.models.trace import resample_arc_length
-from inkarm.models.trajectory import Drawing, Trajectory
+from inkarm.analysis.density import analyse_drawing
+from inkarm.analysis.dppla import dppla
+from inkarm.core.trajectory import Drawing, Trajectory
+from inkarm.io.trace import resample_arc_length
 
 
 def smooth_curve(w: int, seed: int = 0) -> np.ndarray:
@@ -212,8 +212,8 @@ def hershey_word(
 def lqt_word(word: Drawing, rate: float = 200.0) -> Drawing:
     """The Hershey word re-drawn by the LQT through its glyph vertices (human-like speed: slow
     at cusps), sampled at ``rate`` [Hz]."""
+    from inkarm.core.plan import StrokePlan
     from inkarm.models.lqt import LQTConfig, solve
-    from inkarm.models.plan import StrokePlan
 
     strokes = []
     for s in word.strokes:

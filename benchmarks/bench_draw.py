@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from inkarm.analysis.metrics import compute_metrics
 from inkarm.control.ik import ArmKinematics, IKConfig, PathTracker, solve_ik
 from inkarm.control.loop import (
     APPROACH,
@@ -49,12 +50,11 @@ from inkarm.control.loop import (
     plan_reference,
     run_drawing,
 )
-from inkarm.control.transform import PagePlacement
-from inkarm.metrics import compute_metrics
-from inkarm.models.trajectory import Drawing
-from inkarm.scenarios import load_scenario, place, source_drawing
-from inkarm.sim.arm import CellConfig, build_model, default_gains, joint_ranges
-from inkarm.sim.canvas import Canvas, make_ink
+from inkarm.core.frames import PagePlacement
+from inkarm.core.trajectory import Drawing
+from inkarm.ink.canvas import Canvas, make_ink
+from inkarm.jobs.scenario import load_scenario, place, source_drawing
+from inkarm.sim.cell import CellConfig, build_model, default_gains, joint_ranges
 from inkarm.sim.plant import MujocoPlant
 
 RTF_TARGET = 30.0

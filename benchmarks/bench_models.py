@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.plan import StrokePlan
 from inkarm.models.lqt import LQTConfig, sample, solve
-from inkarm.models.plan import StrokePlan
 
 HERE = Path(__file__).resolve().parent
 SEGMENT, DT = 0.5, 0.01  # 50 steps per target

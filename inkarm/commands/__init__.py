@@ -10,7 +10,7 @@ from inkarm.errors import InputError
 
 def add_trace_options(parser: argparse.ArgumentParser) -> None:
     """The options that time an SVG trace, which has only a path (commands reading traces)."""
-    from inkarm.models.trace import DEFAULT_RATE, DEFAULT_SPEED
+    from inkarm.io.trace import DEFAULT_RATE, DEFAULT_SPEED
 
     parser.add_argument("--speed", type=float, default=DEFAULT_SPEED,
                         help=f"SVG only: pen speed in [mm/s] (default {DEFAULT_SPEED:g})")

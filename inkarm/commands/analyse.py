@@ -33,8 +33,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from inkarm.models.analysis import analyse_drawing, plot_density_curvature, plot_power_law
-    from inkarm.models.trace import load_trace
+    from inkarm.analysis.density import analyse_drawing, plot_density_curvature, plot_power_law
+    from inkarm.io.trace import load_trace
 
     drawing = load_trace(args.trace, speed=args.speed, rate=args.rate)
     result = analyse_drawing(drawing, args.compression, banded=args.banded)

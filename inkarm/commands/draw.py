@@ -16,7 +16,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="draw a scenario with the simulated 7-DOF arm (the embedded default without one)",
         description="Build the scenario's drawing, check the arm can reach it, simulate the arm "
         "tracking it in MuJoCo and write canvas.png, trace.npz, metrics.json, report.png and "
-        "reference.csv into --out. Schema: see inkarm.scenarios.",
+        "reference.csv into --out. Schema: see inkarm.jobs.scenario.",
     )
     p.add_argument("scenario", nargs="?", default=None,
                    help="scenario file (TOML); default: the embedded letter N")
@@ -66,8 +66,8 @@ def run(args: argparse.Namespace) -> int:
         from inkarm.sim.render import require_display
 
         require_display()
-    from inkarm.scenarios import load_scenario
-    from inkarm.scenarios import run as run_scenario
+    from inkarm.jobs.scenario import load_scenario
+    from inkarm.jobs.scenario import run as run_scenario
 
     output_folder(args.out)
 
@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"video: {result.files['video']}")
     if args.viewer:
         from inkarm.control.loop import LoopConfig
-        from inkarm.sim.canvas import make_ink
+        from inkarm.ink.canvas import make_ink
         from inkarm.sim.render import open_viewer
 
         open_viewer(result.log, result.cell, ink=make_ink(scenario.ink_model, **scenario.ink),

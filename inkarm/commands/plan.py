@@ -4,14 +4,14 @@ Writes into DIR:
 
 - ``mean.csv``: the mean trajectory of every stroke, columns ``t,x,y[,z],stroke``, strokes
   concatenated in order and re-timed to follow each other with the plan's pen-up pause
-  (the :meth:`inkarm.models.trajectory.Drawing.to_csv` format);
+  (the :meth:`inkarm.core.trajectory.Drawing.to_csv` format);
 - ``samples.npz`` when K > 0: ``pos`` (K, N, D), the K sampled trajectories with the strokes
   concatenated along N in stroke order exactly as the rows of mean.csv, plus ``t`` (N,) and
   ``stroke`` (N,) for those rows;
 - ``plan.png`` and ``plan.svg``: targets (1 and 2 sigma ellipses), mean path, samples in
   grey, speed profile beneath.
 
-The schema of FILE is documented in :mod:`inkarm.models.planfile`.
+The schema of FILE is documented in :mod:`inkarm.io.planfile`.
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "plan",
         help="realise a plan file (Gaussian targets, key-points, human lines) into trajectories",
         description="Realise a plan file into trajectories: mean.csv, samples.npz (with --samples) "
-        "and the plan figure (plan.png, plan.svg). Schema: see inkarm.models.planfile.",
+        "and the plan figure (plan.png, plan.svg). Schema: see inkarm.io.planfile.",
     )
-    p.add_argument("file", type=Path, help="plan file (TOML); schema in inkarm.models.planfile")
+    p.add_argument("file", type=Path, help="plan file (TOML); schema in inkarm.io.planfile")
     p.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
     p.add_argument(
         "--samples",
@@ -53,7 +53,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from inkarm.models.planfile import load_plan, realise_plan
+    from inkarm.io.planfile import load_plan, realise_plan
 
     if args.samples is not None and args.samples < 0:
         raise InputError(f"--samples: expected an integer >= 0, got {args.samples}")
@@ -68,7 +68,7 @@ def run(args) -> int:
         written.append(out / "samples.npz")
         np.savez(written[-1], **result.stacked_samples())
     if not args.no_figure:
-        from inkarm.models.figures import save_plan_figure
+        from inkarm.plots.plans import save_plan_figure
 
         written += save_plan_figure(result, out / "plan")
     n = sum(s.n for s in result.drawing.strokes)

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from inkarm.commands import add_trace_options, output_folder
-from inkarm.models.restyle import STYLES, RestyleConfig
+from inkarm.plans.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
 
@@ -74,8 +74,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from inkarm.models.restyle import plot_restyle, restyle
-    from inkarm.models.trace import load_trace
+    from inkarm.io.trace import load_trace
+    from inkarm.plans.restyle import plot_restyle, restyle
 
     cfg = RestyleConfig(
         compression=args.compression,

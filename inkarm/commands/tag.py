@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.commands.write import check_common, ink, save_figure
-from inkarm.models.glyphs import Tag, make_tag
-from inkarm.models.handstyles import get_handstyle, load_handstyles
-from inkarm.models.trajectory import Drawing
+from inkarm.core.trajectory import Drawing
+from inkarm.plans.glyphs import Tag, make_tag
+from inkarm.plans.handstyles import get_handstyle, load_handstyles
 
 DEFAULT_STYLE = "graffiti"
 

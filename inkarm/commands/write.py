@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.commands import output_folder
+from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError
-from inkarm.models.handstyles import PRESETS, get_handstyle, load_handstyles
-from inkarm.models.text import (
+from inkarm.plans.handstyles import PRESETS, get_handstyle, load_handstyles
+from inkarm.plans.text import (
     DEFAULT_FONT,
     DEFAULT_HEIGHT,
     PageLayout,
@@ -19,7 +20,6 @@ from inkarm.models.text import (
     outline_deviation,
     write_text,
 )
-from inkarm.models.trajectory import Drawing
 
 DEFAULT_STYLE = "cursive"
 

@@ -14,7 +14,7 @@ pen, from flange to tip) and the desired pen direction a:
 
 and ``dq`` is scaled as a whole vector (direction kept) so that no joint moves more than its
 step limit. Units: SI inside (m, rad), as in MuJoCo; callers in page millimetres go through
-:mod:`inkarm.control.transform` first.
+:mod:`inkarm.core.frames` first.
 """
 
 from __future__ import annotations

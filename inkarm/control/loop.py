@@ -35,7 +35,7 @@ Stroke samples are interpolated onto the control grid with a cubic spline (Hermi
 stroke carries velocities), so the reference is as smooth as the curve the arm draws.
 
 Units: page [mm] and [s] at this module's surface; the page-to-robot transform
-(:class:`inkarm.control.transform.PagePlacement`) converts once to SI for the kinematics.
+(:class:`inkarm.core.frames.PagePlacement`) converts once to SI for the kinematics.
 """
 
 from __future__ import annotations
@@ -50,9 +50,9 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from inkarm.control.ik import ArmKinematics, IKConfig, pen_jacobian, solve_ik, track_path
 from inkarm.control.pid import JointPID, PIDGains
-from inkarm.control.transform import PagePlacement
+from inkarm.core.frames import PagePlacement
+from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError, SimulationError, UnreachableError
-from inkarm.models.trajectory import Drawing
 
 PHASES = ("approach", "descend", "draw", "lift", "travel", "home")
 # Spacing in [s] of the evaluations of the terms that vary with the pose only (inertia matrix,

@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 from inkarm.models.minjerk import quintic_profile
-from inkarm.models.trajectory import Trajectory
 
 THESIS_CLOCK = 2.0  # seed 002 sec. 3.2: t in [0, 2]
 DEFAULT_PX_MM = 25.4 / 300.0  # one pixel of a 300 dpi scan, in [mm]

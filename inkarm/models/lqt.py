@@ -41,9 +41,9 @@ import numpy as np
 from scipy.interpolate import BSpline
 from scipy.linalg import eig_banded, expm, lapack, lstsq, null_space, solve_triangular
 
+from inkarm.core.plan import StrokePlan, check_covariance
+from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError, PlanError, SolverError
-from inkarm.models.plan import StrokePlan, check_covariance
-from inkarm.models.trajectory import Trajectory
 
 MAX_ORDER = 7
 SOLVERS = ("auto", "cholesky", "augmented", "batch")

@@ -32,8 +32,8 @@ import numpy as np
 from numpy.polynomial import Polynomial
 from scipy.optimize import minimize
 
+from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
-from inkarm.models.trajectory import Trajectory
 
 PEAK_SPEED_RATIO = 1.875  # seed 002 eq. 3.2: V_max = C A / t_f with C = 15/8
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from inkarm.control.plant import PlantState
+from inkarm.core.plant import PlantState
 from inkarm.errors import InputError, SimulationError
-from inkarm.sim.arm import JOINT_NAMES, CellConfig, build_model
+from inkarm.sim.cell import JOINT_NAMES, CellConfig, build_model
 
 _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
@@ -61,7 +61,7 @@ class MujocoPlant:
     """The drawing cell in MuJoCo, driven by joint torques.
 
     Args:
-        model: A cell model (see :mod:`inkarm.sim.arm`); built from ``config`` when None. The
+        model: A cell model (see :mod:`inkarm.sim.cell`); built from ``config`` when None. The
             plant owns it: its auto-reset flag is switched off.
         config: Cell configuration used when ``model`` is None.
         substeps: Physics steps per control period (default 3 x 2 ms: 167 Hz control, cheap

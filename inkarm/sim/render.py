@@ -54,8 +54,8 @@ from inkarm.errors import InkarmError, InputError
 
 if TYPE_CHECKING:  # mujoco must not be imported before configure_gl() has run
     from inkarm.control.loop import DrawLog
-    from inkarm.sim.arm import CellConfig
-    from inkarm.sim.canvas import InkModel
+    from inkarm.ink.canvas import InkModel
+    from inkarm.sim.cell import CellConfig
 
 PAPER_TEXTURE = "paper_ink"
 PAPER_RGB = (246, 244, 236)  # off-white paper
@@ -436,7 +436,7 @@ def replay_model(
     """The drawing cell of ``cell`` (default :class:`CellConfig`) compiled with its paper
     textured for ``canvas``, an offscreen buffer of at least width x height pixels and a
     camera :data:`DRAWING_CAMERA` framing ``drawing_box_mm`` (:func:`add_drawing_camera`)."""
-    from inkarm.sim.arm import CellConfig, build_spec
+    from inkarm.sim.cell import CellConfig, build_spec
 
     cell = cell or CellConfig()
     spec = build_spec(cell)
@@ -475,7 +475,7 @@ def add_drawing_camera(
     top of the picture to the pen. A fill light shines from the camera, casting no shadow."""
     import mujoco
 
-    from inkarm.sim.arm import paper_rotation
+    from inkarm.sim.cell import paper_rotation
 
     width_mm, height_mm = cell.paper_size_mm
     x0, y0, x1, y1 = box_mm if box_mm is not None else (0.0, 0.0, width_mm, height_mm)
@@ -555,7 +555,7 @@ class LogReplay:
     ):
         import mujoco
 
-        from inkarm.sim.arm import JOINT_NAMES
+        from inkarm.sim.cell import JOINT_NAMES
 
         _check_log(log)
         if not pen_stiffness_n_per_mm > 0:
@@ -664,8 +664,8 @@ def render_log_video(
     Needs offscreen OpenGL (``MUJOCO_GL=egl`` or ``osmesa`` set before ``mujoco`` is
     imported: :func:`configure_gl`) and the optional ``imageio-ffmpeg``.
     """
-    from inkarm.sim.arm import CellConfig
-    from inkarm.sim.canvas import Canvas
+    from inkarm.ink.canvas import Canvas
+    from inkarm.sim.cell import CellConfig
 
     path = Path(path)
     if path.suffix.lower() != ".mp4":
@@ -758,8 +758,8 @@ def open_viewer(
     (:func:`require_display`)."""
     import time as _time
 
-    from inkarm.sim.arm import CellConfig, build_spec
-    from inkarm.sim.canvas import make_ink
+    from inkarm.ink.canvas import make_ink
+    from inkarm.sim.cell import CellConfig, build_spec
 
     if not speed > 0:
         raise InputError(f"open_viewer: speed must be > 0, got {speed}")

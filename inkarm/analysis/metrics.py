@@ -1,0 +1,294 @@
+"""Measures of a drawing run: how well the pen tracked, how close the ink is to the plan, how
+hard the pen pressed, how near the joints came to their limits and how fast it simulated.
+
+Pure NumPy/SciPy on plain arrays (no MuJoCo, no controller types). Time in [s], positions in
+[mm] in the page frame, forces in [N], joint angles in [rad].
+
+Conventions shared by the functions below: a run is N samples; ``drawing`` is a boolean mask
+(N,) that is True where the controller's phase is "draw" (the pen is meant to be on the paper);
+a maximal run of consecutive True samples is one planned stroke.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from inkarm.errors import InputError
+
+METRIC_KEYS = (
+    "tracking_rms_mm",
+    "tracking_max_mm",
+    "ink_chamfer_mm",
+    "gap_mm",
+    "contact_force_mean_n",
+    "contact_force_std_n",
+    "joint_limit_margin_rad",
+    "realtime_factor",
+)
+
+
+def _array(name: str, value, ndim: int, n: int | None = None) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim != ndim:
+        raise InputError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
+    if n is not None and arr.shape[0] != n:
+        raise InputError(f"{name}: expected {n} samples (rows), got {arr.shape[0]}")
+    if not np.all(np.isfinite(arr)):
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise InputError(f"{name}: non-finite value at index {bad}")
+    return arr
+
+
+def _mask(name: str, value, n: int) -> np.ndarray:
+    mask = np.asarray(value)
+    if mask.shape != (n,) or mask.dtype != bool:
+        raise InputError(
+            f"{name}: expected a boolean array of shape ({n},), got {mask.dtype} {mask.shape}"
+        )
+    return mask
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open index ranges [start, stop) of the maximal runs of True in ``mask``."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+
+
+@dataclass(frozen=True)
+class TrackingError:
+    """Distance in the page plane between the reference and the pen tip while drawing, in [mm]."""
+
+    rms_mm: float
+    max_mm: float
+
+
+def tracking_error(reference_mm, tip_mm, drawing) -> TrackingError:
+    """RMS and maximum of e_k = ||r_k - p_k|| over the drawing samples, where r_k and p_k are
+    the (x, y) columns of the reference and the pen tip in [mm] (a z column is ignored: the
+    height above the paper is the pen-up/down business of the controller)."""
+    reference = _array("reference_mm", reference_mm, 2)
+    tip = _array("tip_mm", tip_mm, 2, reference.shape[0])
+    mask = _mask("drawing", drawing, reference.shape[0])
+    if reference.shape[1] < 2 or tip.shape[1] < 2:
+        raise InputError(
+            f"tracking_error: need (x, y) columns, got reference {reference.shape}, tip {tip.shape}"
+        )
+    if not mask.any():
+        raise InputError("tracking_error: the drawing mask selects no sample")
+    error = np.linalg.norm(reference[mask, :2] - tip[mask, :2], axis=1)
+    return TrackingError(float(np.sqrt(np.mean(error**2))), float(error.max()))
+
+
+def resample_polyline(points_mm, spacing_mm: float) -> np.ndarray:
+    """Points along the polyline ``points_mm`` (K, 2) at most ``spacing_mm`` apart, vertices
+    included, in [mm]."""
+    points = _array("polyline", points_mm, 2)
+    if spacing_mm <= 0:
+        raise InputError(f"resample_polyline: spacing_mm must be > 0, got {spacing_mm}")
+    if len(points) < 2:
+        return points.copy()
+    pieces = [points[:1]]
+    for a, b in itertools.pairwise(points):
+        n = max(1, math.ceil(np.linalg.norm(b - a) / spacing_mm))
+        s = np.arange(1, n + 1)[:, None] / n
+        pieces.append(a + s * (b - a))
+    return np.concatenate(pieces)
+
+
+def ink_centreline_mm(darkness, px_per_mm: float, threshold: float = 0.5) -> np.ndarray:
+    """Centres in [mm], shape (M, 2), of the pixels on the discrete medial axis of the ink.
+
+    The ink is the set of pixels of ``darkness`` (rows, cols; row 0 at the top of the page, the
+    :class:`inkarm.ink.canvas.Canvas` convention) that are >= ``threshold``; its medial axis is
+    taken as the ink pixels whose Euclidean distance to the nearest blank pixel is a maximum
+    of their 3 x 3 neighbourhood (a ridge of the distance transform). For a line of any width
+    this lies within half a pixel of the line's centre.
+    """
+    image = np.asarray(darkness)
+    if image.ndim != 2:
+        raise InputError(f"ink_centreline_mm: darkness must be 2-D, got shape {image.shape}")
+    ink = image >= threshold
+    depth = ndimage.distance_transform_edt(np.pad(ink, 1))[1:-1, 1:-1]
+    ridge = ink & (depth >= ndimage.maximum_filter(depth, size=3) - 1e-9)
+    rows, cols = np.nonzero(ridge)
+    n_rows = image.shape[0]
+    return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
+
+
+def chamfer_mm(points_a, points_b) -> float:
+    """Symmetric chamfer distance in [mm] between point sets A (M, 2) and B (K, 2):
+
+        d(A, B) = 1/2 ( mean_{a in A} min_{b in B} ||a - b|| + mean_{b in B} min_{a in A} ||a - b|| ).
+
+    Returns inf when exactly one set is empty (nothing matches nothing)."""
+    a = _array("points_a", points_a, 2)
+    b = _array("points_b", points_b, 2)
+    if len(a) == 0 and len(b) == 0:
+        raise InputError("chamfer_mm: both point sets are empty")
+    if len(a) == 0 or len(b) == 0:
+        return math.inf
+    a_to_b, _ = cKDTree(b).query(a)
+    b_to_a, _ = cKDTree(a).query(b)
+    return float(0.5 * (a_to_b.mean() + b_to_a.mean()))
+
+
+def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes, threshold: float = 0.5) -> float:
+    """Ink-versus-plan distance in [mm]: the symmetric chamfer distance (:func:`chamfer_mm`)
+    between the ink's centreline (:func:`ink_centreline_mm` of the raster ``darkness`` at
+    ``px_per_mm``, ink = darkness >= ``threshold``) and the plan, each stroke of
+    ``plan_strokes`` (a list of (K, 2) polylines in page [mm]) resampled at half a pixel.
+
+    The centreline, not every inked pixel, is compared so that the line width does not count
+    as error: with all pixels of a line of width w on its plan, the ink-to-plan term would be
+    w/4. A drawing traced exactly scores below half a pixel; a drawing shifted by s scores s.
+    Returns inf when there is no ink."""
+    strokes = [resample_polyline(s, 0.5 / px_per_mm) for s in plan_strokes]
+    if not strokes or sum(len(s) for s in strokes) == 0:
+        raise InputError("ink_chamfer_mm: the plan has no stroke")
+    plan = np.concatenate([s[:, :2] for s in strokes])
+    return chamfer_mm(ink_centreline_mm(darkness, px_per_mm, threshold), plan)
+
+
+@dataclass(frozen=True)
+class Gaps:
+    """Planned ink that the pen did not lay because it was off the paper, in [mm] of the
+    reference path: the longest gap, their total and how many there were."""
+
+    longest_mm: float
+    total_mm: float
+    count: int
+
+
+def pen_gaps(reference_mm, force_n, drawing, contact_threshold_n: float = 0.05) -> Gaps:
+    """Gaps in the ink along the reference path.
+
+    A drawing sample k is off the paper when force_n[k] <= ``contact_threshold_n``. Each
+    drawing sample owns the reference arc length w_k = (||r_{k+1} - r_k|| + ||r_k - r_{k-1}||)/2
+    (trapezoidal weights; a neighbour outside the stroke contributes nothing), and a gap is a
+    maximal run of consecutive off-paper drawing samples of length sum_k w_k. Only (x, y) of
+    the reference count."""
+    reference = _array("reference_mm", reference_mm, 2)
+    n = reference.shape[0]
+    force = _array("force_n", force_n, 1, n)
+    mask = _mask("drawing", drawing, n)
+    step = np.linalg.norm(np.diff(reference[:, :2], axis=0), axis=1)
+    step[~(mask[:-1] & mask[1:])] = 0.0  # a step across a stroke boundary is not drawing
+    weight = 0.5 * (np.concatenate(([0.0], step)) + np.concatenate((step, [0.0])))
+    gaps = [weight[a:b].sum() for a, b in _runs(mask & (force <= contact_threshold_n))]
+    return Gaps(float(max(gaps, default=0.0)), float(sum(gaps)), len(gaps))
+
+
+def contact_force_stats(force_n, drawing, contact_threshold_n: float = 0.05) -> tuple[float, float]:
+    """Mean and standard deviation in [N] of the normal force over the drawing samples in
+    contact (force > ``contact_threshold_n``; gaps are :func:`pen_gaps`' business); NaN when
+    the pen never touched while drawing."""
+    force = _array("force_n", force_n, 1)
+    mask = _mask("drawing", drawing, force.shape[0])
+    touching = force[mask & (force > contact_threshold_n)]
+    if touching.size == 0:
+        return math.nan, math.nan
+    return float(touching.mean()), float(touching.std())
+
+
+def joint_limit_margin_rad(q, joint_range) -> float:
+    """Smallest distance in [rad] of any joint to either of its limits over the run,
+
+        min_k min_j min(q_kj - lo_j, hi_j - q_kj),
+
+    negative when a limit was passed. ``q`` is (N, J), ``joint_range`` (J, 2) rows (lo, hi);
+    give +-inf for an unlimited joint."""
+    q = _array("q", q, 2)
+    bounds = np.asarray(joint_range, dtype=float)
+    if bounds.shape != (q.shape[1], 2):
+        raise InputError(f"joint_range: expected shape ({q.shape[1]}, 2), got {bounds.shape}")
+    if np.any(np.isnan(bounds)) or np.any(bounds[:, 0] >= bounds[:, 1]):
+        j = int(np.argmax(np.isnan(bounds).any(axis=1) | (bounds[:, 0] >= bounds[:, 1])))
+        raise InputError(
+            f"joint_range[{j}] = {bounds[j].tolist()}: expected lo < hi (+-inf for no limit)"
+        )
+    return float(np.min(np.minimum(q - bounds[:, 0], bounds[:, 1] - q)))
+
+
+def realtime_factor(times_s, wall_time_s: float) -> float:
+    """Simulated time over wall-clock time, (t_N - t_1) / wall_time_s."""
+    times = _array("times_s", times_s, 1)
+    if not (wall_time_s > 0 and math.isfinite(wall_time_s)):
+        raise InputError(f"realtime_factor: wall_time_s must be > 0, got {wall_time_s!r}")
+    if times.size < 2:
+        raise InputError(f"realtime_factor: need at least 2 times, got {times.size}")
+    return float((times[-1] - times[0]) / wall_time_s)
+
+
+def plan_strokes_from_reference(reference_mm, drawing) -> list[np.ndarray]:
+    """The planned strokes: (x, y) of the reference over each maximal run of drawing samples."""
+    reference = _array("reference_mm", reference_mm, 2)
+    mask = _mask("drawing", drawing, reference.shape[0])
+    return [reference[a:b, :2] for a, b in _runs(mask)]
+
+
+def compute_metrics(
+    *,
+    times_s,
+    reference_mm,
+    tip_mm,
+    force_n,
+    drawing,
+    q,
+    joint_range,
+    wall_time_s: float,
+    canvas,
+    plan_strokes=None,
+    contact_threshold_n: float = 0.05,
+    ink_threshold: float = 0.5,
+) -> dict[str, float]:
+    """All metrics of a drawing run, keyed by :data:`METRIC_KEYS`: tracking RMS and max
+    (:func:`tracking_error`), ink-versus-plan chamfer (:func:`ink_chamfer_mm`), the total
+    length of the gaps (:func:`pen_gaps`, which also gives the longest), contact force mean
+    and std (:func:`contact_force_stats`), the smallest joint-limit margin
+    (:func:`joint_limit_margin_rad`) and the real-time factor (:func:`realtime_factor`).
+
+    Args:
+        times_s: Sample times (N,) in [s].
+        reference_mm: Pen reference (N, 2 or 3) in page [mm].
+        tip_mm: Pen tip (N, 2 or 3) in page [mm].
+        force_n: Pen-paper normal force (N,) in [N].
+        drawing: Boolean (N,), True while the phase is "draw".
+        q: Joint positions (N, J) in [rad].
+        joint_range: Joint limits (J, 2) in [rad].
+        wall_time_s: Wall-clock duration of the run in [s].
+        canvas: The ink raster (anything with ``image`` and ``px_per_mm``, row 0 at the top).
+        plan_strokes: Planned strokes, (K, 2) polylines in page [mm]; by default the reference
+            over each run of drawing samples.
+        contact_threshold_n: Force in [N] at or below which the pen counts as off the paper.
+        ink_threshold: Darkness at or above which a pixel counts as ink.
+    """
+    times = _array("times_s", times_s, 1)
+    n = times.size
+    reference = _array("reference_mm", reference_mm, 2, n)
+    _array("tip_mm", tip_mm, 2, n)
+    _array("force_n", force_n, 1, n)
+    _array("q", q, 2, n)
+    mask = _mask("drawing", drawing, n)
+    if plan_strokes is None:
+        plan_strokes = plan_strokes_from_reference(reference, mask)
+    tracking = tracking_error(reference, tip_mm, mask)
+    gaps = pen_gaps(reference, force_n, mask, contact_threshold_n)
+    force_mean, force_std = contact_force_stats(force_n, mask, contact_threshold_n)
+    return {
+        "tracking_rms_mm": tracking.rms_mm,
+        "tracking_max_mm": tracking.max_mm,
+        "ink_chamfer_mm": ink_chamfer_mm(
+            canvas.image, canvas.px_per_mm, plan_strokes, ink_threshold
+        ),
+        "gap_mm": gaps.total_mm,
+        "contact_force_mean_n": force_mean,
+        "contact_force_std_n": force_std,
+        "joint_limit_margin_rad": joint_limit_margin_rad(q, joint_range),
+        "realtime_factor": realtime_factor(times, wall_time_s),
+    }

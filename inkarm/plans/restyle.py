@@ -1,0 +1,202 @@
+"""Trace to stylised drawing: DPPLA targets (seed 001) drive a Gaussian-target LQT (seed 000).
+
+Each stroke of a trace is reduced to the DPPLA targets at a compression rate (seed 001,
+sec. 3); every target becomes a Gaussian whose covariance follows the local geometry, and the
+LQT (seed 000, eq. 13) re-draws the stroke through them. The result keeps the trace's shape
+where it bends (targets are dense there) and replaces its fine detail and timing by the
+smooth, isochronous movement of the LQT.
+
+Geometric covariances: at target i, with u_i the unit direction of the chord from target
+i-1 to target i+1 (the adjacent segment at the ends) and L_i the mean length of the segments
+meeting at target i,
+
+    Sigma_i = (across L_i)^2 I + ((along L_i)^2 - (across L_i)^2) u_i u_i^T,
+
+elongated along the path: the movement may slide along the trace but must pass close across
+it. ``style="semi-tied"`` uses seed 000's eq. 22 covariances Sigma_i = H h I H^T instead,
+with one oblique basis H = along L (I + shear e_x e_y^T) for the whole stroke (L the mean
+segment length, h = 1): every target shares the same slanted ellipse, a uniform "hand".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from inkarm.analysis.dppla import EXACT_BUDGET, DPPLAResult, dppla, segments_for_compression
+from inkarm.core.plan import MotorPlan, StrokePlan
+from inkarm.core.trajectory import Drawing, Trajectory
+from inkarm.errors import InputError
+
+STYLES = ("geometric", "semi-tied")
+
+
+@dataclass(frozen=True)
+class RestyleConfig:
+    """How a trace is restyled.
+
+    Attributes:
+        compression: DPPLA compression rate rho in (0, 1) (seed 001, sec. 3).
+        order: Order n of the LQT's integrator chain (seed 000).
+        d: LQT maximum displacement in [mm] (seed 000, eq. 9-10).
+        dt: LQT time step in [s].
+        segment_time: Time per target in [s]; default the stroke's duration divided by its
+            number of targets, so the restyled stroke lasts as long as the trace.
+        style: "geometric" or "semi-tied" covariances (module docstring).
+        along: Standard deviation along the path, as a fraction of the local segment length.
+        across: Standard deviation across the path, as a fraction of the local segment length.
+        min_std: Lower bound on both standard deviations in [mm].
+        shear: Shear of the semi-tied basis H (seed 000, eq. 22), for style "semi-tied".
+        banded: Use the banded DPPLA (O(w^2 / k)) or the exact one (O(k w^2)); None picks the
+            exact one where k w^2 / 2 <= ``dppla.EXACT_BUDGET``.
+        seed: Random seed of the semi-tied magnitudes h_i.
+    """
+
+    compression: float = 0.95
+    order: int = 4
+    d: float = 5.0
+    dt: float = 0.01
+    segment_time: float | None = None
+    style: str = "geometric"
+    along: float = 0.4
+    across: float = 0.08
+    min_std: float = 0.05
+    shear: float = 0.5
+    banded: bool | None = None
+    seed: int | None = 0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.compression, (int, float)) and 0 < self.compression < 1):
+            raise InputError(f"restyle compression: must lie in (0, 1), got {self.compression!r}")
+        if self.style not in STYLES:
+            raise InputError(f"restyle style: expected one of {STYLES}, got {self.style!r}")
+        for name in ("along", "across", "min_std"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InputError(f"restyle {name}: must be positive, got {value!r}")
+        if self.segment_time is not None and not self.segment_time > 0:
+            raise InputError(
+                f"restyle segment_time: must be positive seconds, got {self.segment_time!r}"
+            )
+
+
+@dataclass(frozen=True)
+class Restyled:
+    """A restyled drawing with what produced it: per stroke, the DPPLA and the motor plan."""
+
+    drawing: Drawing
+    plan: MotorPlan
+    targets: tuple[DPPLAResult, ...]
+
+
+def geometric_covariances(targets, along: float, across: float, min_std: float) -> np.ndarray:
+    """(m, D, D) covariances in [mm^2] elongated along the local chord (module docstring)."""
+    targets = np.asarray(targets, dtype=float)
+    m, dim = targets.shape
+    seg = np.linalg.norm(np.diff(targets, axis=0), axis=1)
+    local = 0.5 * (np.concatenate([seg[:1], seg]) + np.concatenate([seg, seg[-1:]]))
+    chord = targets[np.minimum(np.arange(m) + 1, m - 1)] - targets[np.maximum(np.arange(m) - 1, 0)]
+    norm = np.linalg.norm(chord, axis=1, keepdims=True)
+    u = np.divide(chord, norm, out=np.zeros_like(chord), where=norm > 0)
+    s_along = np.maximum(along * local, min_std)
+    s_across = np.maximum(across * local, min_std)
+    eye = np.eye(dim)[None]
+    return (s_across**2)[:, None, None] * eye + (s_along**2 - s_across**2)[:, None, None] * (
+        u[:, :, None] * u[:, None, :]
+    )
+
+
+def stroke_targets(traj: Trajectory, compression: float, banded: bool | None = None) -> DPPLAResult:
+    """DPPLA of a stroke's positions at a compression rate (time as the chord parameter)."""
+    k = segments_for_compression(compression, traj.n, traj.dim)
+    if banded is None:
+        banded = k * traj.n**2 / 2 > EXACT_BUDGET
+    return dppla(traj.pos, k, banded=banded, tau=traj.t, verify=False)
+
+
+def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig) -> StrokePlan:
+    """Gaussian targets at the DPPLA break points of ``traj``."""
+    means = traj.pos[result.breakpoints]
+    if cfg.style == "geometric":
+        covs = geometric_covariances(means, cfg.along, cfg.across, cfg.min_std)
+    else:
+        from inkarm.models.lqt import semi_tied_covariances
+
+        scale = max(float(np.mean(np.linalg.norm(np.diff(means, axis=0), axis=1))), cfg.min_std)
+        basis = cfg.along * scale * np.eye(traj.dim)
+        if traj.dim > 1:
+            basis[0, 1] = cfg.along * scale * cfg.shear
+        covs = semi_tied_covariances(len(means), basis, 1.0, seed=cfg.seed)
+    segment_time = cfg.segment_time or traj.duration / len(means)
+    if not segment_time > 0:
+        raise InputError(f"restyle: stroke of duration {traj.duration} s; give segment_time")
+    # The LQT holds each target a whole number of steps.
+    segment_time = max(1, round(segment_time / cfg.dt)) * cfg.dt
+    return StrokePlan.from_arrays(means, covs, segment_time=segment_time)
+
+
+def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
+    """Restyle every stroke of ``drawing`` (strokes too short for two targets are dropped:
+    fewer than 3 samples)."""
+    from inkarm.models.lqt import LQTConfig, solve
+
+    lqt = LQTConfig(order=cfg.order, dt=cfg.dt, d=cfg.d)
+    strokes, plans, results = [], [], []
+    for traj in drawing.strokes:
+        if traj.n < 3:
+            continue
+        result = stroke_targets(traj, cfg.compression, cfg.banded)
+        plan = stroke_plan(traj, result, cfg)
+        strokes.append(solve(plan, lqt))
+        plans.append(plan)
+        results.append(result)
+    if not strokes:
+        raise InputError("restyle: the trace has no stroke with at least 3 samples")
+    out = Drawing(strokes, page_size=drawing.page_size).sequential()
+    return Restyled(out, MotorPlan(tuple(plans)), tuple(results))
+
+
+def plot_restyle(trace: Drawing, restyled: Restyled, path: str | Path) -> None:
+    """Trace (grey), DPPLA targets with 1-sigma ellipses (red) and the LQT result (black)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 7))
+    for s in trace.strokes:
+        ax.plot(
+            s.pos[:, 0],
+            s.pos[:, 1],
+            color="0.7",
+            lw=2.5,
+            label="trace" if s is trace.strokes[0] else None,
+        )
+    angle = np.linspace(0, 2 * np.pi, 40)
+    circle = np.column_stack([np.cos(angle), np.sin(angle)])
+    for n, stroke in enumerate(restyled.plan.strokes):
+        for tg in stroke.targets:
+            vals, vecs = np.linalg.eigh(tg.cov[:2, :2])
+            ellipse = circle @ (vecs * np.sqrt(vals)).T + tg.mean[:2]
+            ax.plot(ellipse[:, 0], ellipse[:, 1], color="C3", lw=0.6, alpha=0.7)
+        ax.plot(
+            stroke.means[:, 0],
+            stroke.means[:, 1],
+            "o",
+            color="C3",
+            ms=3,
+            label="DPPLA targets" if n == 0 else None,
+        )
+    for n, s in enumerate(restyled.drawing.strokes):
+        ax.plot(
+            s.pos[:, 0], s.pos[:, 1], color="k", lw=1.0, label="restyled (LQT)" if n == 0 else None
+        )
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,219 @@
+"""Figures of a drawing run: the ink over the plan, and the tracking error, contact force and
+pen speed against time.
+
+Matplotlib with the Agg backend, imported inside the functions so that importing inkarm stays
+fast. Inputs are plain arrays (time in [s], page positions in [mm], force in [N]) and a canvas
+(anything with ``image``, row 0 at the top of the page, and ``px_per_mm``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from inkarm.analysis.metrics import plan_strokes_from_reference
+from inkarm.errors import InputError
+
+PLAN_COLOUR = "tab:red"
+INK_CMAP = "gray_r"
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _extent_of_interest(
+    canvas, plan_strokes, margin_mm: float
+) -> tuple[float, float, float, float]:
+    """(x0, x1, y0, y1) in [mm]: the box around the ink and the plan plus ``margin_mm``,
+    clipped to the page; the whole page when there is neither."""
+    ppm = canvas.px_per_mm
+    n_rows, n_cols = canvas.image.shape
+    page = (0.0, n_cols / ppm, 0.0, n_rows / ppm)
+    rows, cols = np.nonzero(canvas.image > 0.05)
+    xs = [(cols + 0.5) / ppm] + [np.asarray(s, float)[:, 0] for s in plan_strokes]
+    ys = [(n_rows - rows - 0.5) / ppm] + [np.asarray(s, float)[:, 1] for s in plan_strokes]
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    if x.size == 0:
+        return page
+    return (
+        max(page[0], x.min() - margin_mm),
+        min(page[1], x.max() + margin_mm),
+        max(page[2], y.min() - margin_mm),
+        min(page[3], y.max() + margin_mm),
+    )
+
+
+def plot_canvas(
+    canvas,
+    ax=None,
+    *,
+    plan_strokes: Sequence[np.ndarray] = (),
+    zoom: bool = True,
+    margin_mm: float = 5.0,
+):
+    """Draw the ink of ``canvas`` in page coordinates [mm] on ``ax`` (a new figure's when
+    None), the planned strokes ((K, 2) polylines in [mm]) over it as thin coloured lines,
+    zoomed to the ink and plan unless ``zoom`` is False. Returns the axes."""
+    if ax is None:
+        ax = _pyplot().figure(figsize=(5, 6)).add_subplot()
+    ppm = canvas.px_per_mm
+    n_rows, n_cols = canvas.image.shape
+    ax.imshow(
+        canvas.image,
+        cmap=INK_CMAP,
+        vmin=0.0,
+        vmax=1.0,
+        origin="upper",
+        extent=(0.0, n_cols / ppm, 0.0, n_rows / ppm),
+        interpolation="antialiased",
+    )
+    for index, stroke in enumerate(plan_strokes):
+        stroke = np.asarray(stroke, float)
+        ax.plot(
+            stroke[:, 0],
+            stroke[:, 1],
+            color=PLAN_COLOUR,
+            lw=0.4,
+            alpha=0.7,
+            label="plan" if index == 0 else None,
+        )
+    x0, x1, y0, y1 = (
+        _extent_of_interest(canvas, plan_strokes, margin_mm)
+        if zoom
+        else (0.0, n_cols / ppm, 0.0, n_rows / ppm)
+    )
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    if len(plan_strokes):
+        ax.legend(loc="upper right", fontsize="small", frameon=False)
+    return ax
+
+
+def canvas_figure(
+    canvas,
+    path: str | Path,
+    *,
+    plan_strokes: Sequence[np.ndarray] = (),
+    zoom: bool = True,
+    dpi: int = 150,
+) -> Path:
+    """Save :func:`plot_canvas` of ``canvas`` (and the plan) as an image file; returns the path."""
+    plt = _pyplot()
+    x0, x1, y0, y1 = (
+        _extent_of_interest(canvas, plan_strokes, 5.0)
+        if zoom
+        else (
+            0.0,
+            canvas.image.shape[1] / canvas.px_per_mm,
+            0.0,
+            canvas.image.shape[0] / canvas.px_per_mm,
+        )
+    )
+    aspect = min(max((y1 - y0) / max(x1 - x0, 1e-9), 0.25), 2.0)
+    fig = plt.figure(figsize=(6.0, 6.0 * aspect + 0.8), layout="constrained")
+    plot_canvas(canvas, fig.add_subplot(), plan_strokes=plan_strokes, zoom=zoom)
+    path = Path(path)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
+def _shade(ax, times: np.ndarray, drawing: np.ndarray) -> None:
+    """Shade the time spans where ``drawing`` is True."""
+    edges = np.diff(np.concatenate(([0], drawing.astype(np.int8), [0])))
+    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        ax.axvspan(times[start], times[stop - 1], color="0.9", lw=0)
+
+
+def report_figure(
+    path: str | Path,
+    *,
+    canvas,
+    times_s,
+    reference_mm,
+    tip_mm,
+    force_n,
+    drawing,
+    plan_strokes: Sequence[np.ndarray] | None = None,
+    metrics: Mapping[str, float] | None = None,
+    title: str | None = None,
+    dpi: int = 150,
+) -> Path:
+    """Save the report figure of a run (``report.png``): the ink over the plan on the left;
+    on the right, against time, the tracking error ||r - p|| in [mm], the contact force in [N]
+    and the pen-tip and reference speeds in [mm/s], the drawing phases shaded grey. ``metrics``
+    (e.g. :func:`inkarm.analysis.metrics.compute_metrics`) are printed under the title. Returns the
+    path.
+
+    Args:
+        times_s: Sample times (N,) in [s].
+        reference_mm, tip_mm: Reference and pen tip (N, 2 or 3) in page [mm].
+        force_n: Pen-paper normal force (N,) in [N].
+        drawing: Boolean (N,), True while the phase is "draw".
+        plan_strokes: Planned strokes ((K, 2) in [mm]); by default the reference over each
+            drawing run.
+    """
+    times = np.asarray(times_s, float)
+    reference = np.asarray(reference_mm, float)
+    tip = np.asarray(tip_mm, float)
+    force = np.asarray(force_n, float)
+    mask = np.asarray(drawing, bool)
+    n = times.shape[0]
+    for name, arr in (
+        ("reference_mm", reference),
+        ("tip_mm", tip),
+        ("force_n", force),
+        ("drawing", mask),
+    ):
+        if arr.shape[0] != n:
+            raise InputError(f"report_figure: {name} has {arr.shape[0]} samples, times_s has {n}")
+    if n < 2:
+        raise InputError(f"report_figure: need at least 2 samples, got {n}")
+    if plan_strokes is None:
+        plan_strokes = plan_strokes_from_reference(reference, mask)
+
+    error = np.linalg.norm(reference[:, :2] - tip[:, :2], axis=1)
+    tip_speed = np.linalg.norm(np.gradient(tip[:, :2], times, axis=0), axis=1)
+    ref_speed = np.linalg.norm(np.gradient(reference[:, :2], times, axis=0), axis=1)
+
+    plt = _pyplot()
+    fig = plt.figure(figsize=(11, 6.5), layout="constrained")
+    grid = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.25))
+    plot_canvas(canvas, fig.add_subplot(grid[:, 0]), plan_strokes=plan_strokes)
+    panels = [fig.add_subplot(grid[0, 1])]
+    panels += [fig.add_subplot(grid[i, 1], sharex=panels[0]) for i in (1, 2)]
+    for ax in panels:
+        _shade(ax, times, mask)
+        ax.grid(True, lw=0.3)
+    panels[0].plot(times, np.where(mask, error, np.nan), lw=0.8, color="tab:blue")
+    panels[0].plot(times, np.where(mask, np.nan, error), lw=0.6, color="0.6")
+    panels[0].set_ylabel("tracking error [mm]")
+    panels[1].plot(times, force, lw=0.8, color="tab:green")
+    panels[1].set_ylabel("contact force [N]")
+    panels[2].plot(times, ref_speed, lw=0.6, color=PLAN_COLOUR, ls="--", label="reference")
+    panels[2].plot(times, tip_speed, lw=0.8, color="tab:purple", label="pen tip")
+    panels[2].set_ylabel("speed [mm/s]")
+    panels[2].set_xlabel("time [s]")
+    panels[2].legend(loc="upper right", fontsize="small", frameon=False)
+    for ax in panels[:2]:
+        ax.tick_params(labelbottom=False)
+    heading = title or "drawing run"
+    if metrics:
+        items = [f"{key} = {value:.3g}" for key, value in metrics.items()]
+        heading += "".join("\n" + "   ".join(items[i : i + 4]) for i in range(0, len(items), 4))
+    fig.suptitle(heading, fontsize="medium")
+    path = Path(path)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path

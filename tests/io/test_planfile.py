@@ -1,0 +1,358 @@
+"""Plan files: schema, defaults and overrides, every error message, realisation."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from inkarm.errors import InkarmError, ScenarioError
+from inkarm.io.planfile import load_plan, parse_plan, realise_plan
+
+BASIC = """
+title = "two strokes"
+cov = 4.0
+[model]
+order = 3
+d = 2.0
+segment_time = 0.2
+[[strokes]]
+targets = [{ mean = [0.0, 0.0] }, { mean = [10.0, 20.0] }, { mean = [20.0, 0.0] }]
+[[strokes]]
+model = { order = 5, r = 1e-6 }
+cov = [1.0, 9.0]
+targets = [{ mean = [30.0, 0.0] }, { mean = [40.0, 10.0], cov = [[4.0, 1.0], [1.0, 2.0]] }]
+"""
+
+
+def parse(text: str, seed: int | None = None):
+    return parse_plan(tomllib.loads(text), source="plan.toml", seed=seed)
+
+
+def with_target(extra: str) -> str:
+    return f"""
+[[strokes]]
+targets = [{{ mean = [0.0, 0.0], cov = 1.0 }}, {{ mean = [5.0, 5.0], {extra} }}]
+"""
+
+
+def test_defaults_overrides_and_covariance_forms():
+    plan = parse(BASIC)
+    assert (
+        plan.title == "two strokes" and plan.samples == 0 and plan.seed == 0 and plan.pause == 0.5
+    )
+    first, second = plan.strokes
+    assert first.kind == "gaussian" and first.model["order"] == 3 and first.model["d"] == 2.0
+    assert first.plan.segment_time == 0.2 and not first.plan.keypoints
+    np.testing.assert_allclose(first.plan.covs, np.broadcast_to(np.eye(2) * 4.0, (3, 2, 2)))
+    # a stroke's r replaces the inherited d; other settings stay inherited
+    assert second.model["order"] == 5 and second.model["r"] == 1e-6 and second.model["d"] is None
+    assert second.model["segment_time"] == 0.2
+    np.testing.assert_allclose(second.plan.covs[0], np.diag([1.0, 9.0]))
+    np.testing.assert_allclose(second.plan.covs[1], [[4.0, 1.0], [1.0, 2.0]])
+
+
+def test_std_and_angle_give_a_rotated_covariance():
+    plan = parse(with_target("std = [3.0, 1.0], angle = 90"))
+    np.testing.assert_allclose(plan.strokes[0].plan.covs[1], np.diag([1.0, 9.0]), atol=1e-12)
+    plan = parse(with_target("std = 2.0"))
+    np.testing.assert_allclose(plan.strokes[0].plan.covs[1], np.eye(2) * 4.0)
+
+
+def test_keypoints_default_to_identity_and_3d_targets_are_accepted():
+    plan = parse("""
+[[strokes]]
+kind = "keypoints"
+targets = [{ mean = [0.0, 0.0, 1.0] }, { mean = [5.0, 5.0, 1.0] }]
+""")
+    stroke = plan.strokes[0]
+    assert stroke.plan.keypoints and plan.dim == 3
+    np.testing.assert_allclose(stroke.plan.covs, np.eye(3)[None].repeat(2, axis=0))
+
+
+def test_semi_tied_generates_aligned_covariances_and_stroke_settings_override():
+    text = """
+seed = 3
+[semi_tied]
+H = [[1.0, 0.5], [0.0, 1.0]]
+h = 4.0
+[[strokes]]
+targets = [{ mean = [0.0, 0.0] }, { mean = [5.0, 5.0], cov = 1.0 }, { mean = [9.0, 0.0] }]
+[[strokes]]
+semi_tied = { rho = 1.0 }
+targets = [{ mean = [0.0, 0.0] }, { mean = [5.0, 5.0] }, { mean = [9.0, 0.0] }]
+"""
+    plan = parse(text)
+    basis = np.array([[1.0, 0.5], [0.0, 1.0]])
+    covs = plan.strokes[0].plan.covs
+    np.testing.assert_allclose(covs[0], 4.0 * basis @ basis.T)  # seed 000 eq. 22, rho = 0
+    np.testing.assert_allclose(covs[1], np.eye(2))  # an explicit cov wins
+    spread = plan.strokes[1].plan.covs
+    scales = spread[:, 0, 1] / (basis @ basis.T)[0, 1]
+    np.testing.assert_allclose(spread, scales[:, None, None] * (basis @ basis.T)[None])
+    assert np.ptp(scales) > 0  # rho > 0 perturbs h per target
+    np.testing.assert_allclose(parse(text).strokes[1].plan.covs, spread)  # same seed, same plan
+    assert not np.allclose(parse(text, seed=4).strokes[1].plan.covs, spread)
+
+
+def test_human_line_and_minjerk_strokes():
+    plan = parse("""
+[human_line]
+squiggle = 3.0
+[[strokes]]
+kind = "human_line"
+points = [[0.0, 0.0], [30.0, 0.0], [30.0, 30.0]]
+human_line = { duration = 1.0 }
+[[strokes]]
+kind = "minjerk"
+points = [[0.0, 0.0], [10.0, 10.0], [20.0, 0.0]]
+minjerk = { duration = 0.8, via_times = [0.3] }
+""")
+    line, mj = plan.strokes
+    assert line.options == {"squiggle": 3.0, "px_mm": pytest.approx(25.4 / 300), "duration": 1.0}
+    assert mj.options["duration"] == 0.8 and mj.options["via_times"].tolist() == [0.3]
+    result = realise_plan(plan, samples=3)
+    assert result.strokes[0].mean.t[-1] == pytest.approx(2.0)
+    assert result.strokes[0].samples.shape == (3, result.strokes[0].mean.n, 2)
+    assert not np.allclose(result.strokes[0].samples[0], result.strokes[0].samples[1])
+    np.testing.assert_allclose(result.strokes[1].mean.pos[30], [10.0, 10.0], atol=1e-9)
+    np.testing.assert_array_equal(result.strokes[1].samples[2], result.strokes[1].mean.pos)
+
+
+def test_realised_plan_concatenates_strokes_and_samples_in_order():
+    plan = parse(BASIC)
+    result = realise_plan(plan, samples=4)
+    n0, n1 = (s.mean.n for s in result.strokes)
+    stacked = result.stacked_samples()
+    assert stacked["pos"].shape == (4, n0 + n1, 2)
+    assert stacked["stroke"].tolist() == [0] * n0 + [1] * n1
+    assert np.all(np.diff(stacked["t"]) > 0)
+    # the second stroke starts after the first plus the pen-up pause
+    assert stacked["t"][n0] == pytest.approx(stacked["t"][n0 - 1] + plan.pause)
+    np.testing.assert_array_equal(stacked["pos"][:, n0:], result.strokes[1].samples)
+    # the samples scatter around the mean
+    mean0 = result.strokes[0].mean.pos
+    assert np.max(np.abs(stacked["pos"][:, :n0] - mean0)) > 1e-3
+    np.testing.assert_allclose(
+        realise_plan(plan, samples=4).stacked_samples()["pos"], stacked["pos"]
+    )
+
+
+def test_load_plan_reads_a_file_and_reports_syntax_errors(tmp_path):
+    path = tmp_path / "plan.toml"
+    path.write_text(BASIC)
+    assert len(load_plan(path).strokes) == 2
+    path.write_text("[model\norder = 4\n")
+    with pytest.raises(ScenarioError, match=r"plan.toml: not valid TOML"):
+        load_plan(path)
+    with pytest.raises(ScenarioError, match=r"missing.toml: no such plan file"):
+        load_plan(tmp_path / "missing.toml")
+
+
+BAD_CASES = [
+    # unknown and mistyped keys, with suggestions
+    (
+        "titel = 'x'\n" + with_target("cov = 1.0"),
+        r"plan.toml: titel: unknown key \(did you mean 'title'\?\)",
+    ),
+    (
+        "[model]\nsegement_time = 0.2\n" + with_target("cov = 1.0"),
+        r"plan.toml: model.segement_time: unknown key \(did you mean 'segment_time'\?\)",
+    ),
+    (
+        with_target("covv = 1.0"),
+        r"strokes\[0\].targets\[1\].covv: unknown key \(did you mean 'cov'\?\)",
+    ),
+    (
+        "[[strokes]]\ntarget = []\n",
+        r"strokes\[0\].target: unknown key \(did you mean 'targets'\?\)",
+    ),
+    (
+        "[[strokes]]\nmodel = { dd = 1.0 }\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }]\n",
+        r"strokes\[0\].model.dd: unknown key \(did you mean 'd'\?\)",
+    ),
+    (
+        "[[strokes]]\nkind = 'gausian'\n",
+        r"strokes\[0\].kind: unknown value 'gausian' \(did you mean 'gaussian'\?\)",
+    ),
+    # wrong types and values
+    (
+        "[model]\norder = 4.5\n" + with_target("cov = 1.0"),
+        r"model.order: expected an integer, got 4.5 \(float\)",
+    ),
+    (
+        "[model]\norder = 9\n" + with_target("cov = 1.0"),
+        r"model.order: expected an integer in 1..7, got 9",
+    ),
+    (
+        "[model]\ndt = 'fast'\n" + with_target("cov = 1.0"),
+        r"model.dt: expected a number, got 'fast' \(str\)",
+    ),
+    (
+        "[model]\nd = nan\n" + with_target("cov = 1.0"),
+        r"model.d: expected a finite number, got nan",
+    ),
+    ("[model]\nd = -1.0\n" + with_target("cov = 1.0"), r"model.d: expected a number > 0, got -1.0"),
+    (
+        "[model]\nd = 1.0\nr = 1.0\n" + with_target("cov = 1.0"),
+        r"model: give one of d .* and r .*, not both",
+    ),
+    (
+        "[model]\nend_at_rest = 1\n" + with_target("cov = 1.0"),
+        r"model.end_at_rest: expected true or false, got 1",
+    ),
+    (
+        "[model]\ndt = 0.1\nsegment_time = 0.05\n" + with_target("cov = 1.0"),
+        r"model.segment_time: segment_time \(0.05 s\) must be at least dt \(0.1 s\)",
+    ),
+    ("samples = -1\n" + with_target("cov = 1.0"), r"samples: expected an integer >= 0, got -1"),
+    (
+        "seed = true\n" + with_target("cov = 1.0"),
+        r"seed: expected an integer, got true \(boolean\)",
+    ),
+    (
+        "model = 3\n" + with_target("cov = 1.0"),
+        r"plan.toml: model: expected a table, got 3 \(int\)",
+    ),
+    # targets and covariances
+    (
+        with_target("cov = [[1.0, 0.0], [0.0, -1.0]]"),
+        r"plan.toml: strokes\[0\].targets\[1\].cov: covariance is not positive definite",
+    ),
+    (
+        with_target("cov = [[1.0, 0.5], [0.0, 1.0]]"),
+        r"strokes\[0\].targets\[1\].cov: covariance is not symmetric",
+    ),
+    (
+        with_target("cov = [1.0, 2.0, 3.0]"),
+        r"targets\[1\].cov: diagonal covariance has 3 entries, expected 2",
+    ),
+    (with_target("cov = [[1.0, 0.0], [0.0]]"), r"targets\[1\].cov: rows have different lengths"),
+    (with_target("cov = nan"), r"strokes\[0\].targets\[1\].cov: expected a finite number, got nan"),
+    (
+        with_target("cov = 1.0, std = 1.0"),
+        r"strokes\[0\].targets\[1\]: give one of cov and std, not both",
+    ),
+    (with_target("cov = 1.0, angle = 3.0"), r"targets\[1\].angle: only allowed together with std"),
+    (with_target("std = [1.0, -2.0]"), r"targets\[1\].std: standard deviations must be positive"),
+    (with_target("std = [1.0]"), r"targets\[1\].std: has 1 entries, expected 2"),
+    (
+        "[[strokes]]\ntargets = [{ mean = [0.0, 0.0] }]\n",
+        r"strokes\[0\].targets\[0\]: no covariance: give cov or std, or a cov or \[semi_tied\]",
+    ),
+    ("[[strokes]]\ntargets = [{ cov = 1.0 }]\n", r"strokes\[0\].targets\[0\].mean: required"),
+    (
+        "[[strokes]]\ntargets = [{ mean = [0.0, 'a'], cov = 1.0 }]\n",
+        r"strokes\[0\].targets\[0\].mean\[1\]: expected a number, got 'a'",
+    ),
+    (
+        "[[strokes]]\ntargets = [{ mean = [0.0], cov = 1.0 }]\n",
+        r"targets\[0\].mean: expected 2 or 3 coordinates, got 1",
+    ),
+    (
+        "[[strokes]]\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [1.0, 1.0, 1.0], cov = 1.0 }]\n",
+        r"targets\[1\].mean: has 3 coordinates but strokes\[0\].targets\[0\] has 2",
+    ),
+    ("[[strokes]]\ntargets = []\n", r"strokes\[0\].targets: expected a non-empty array"),
+    ("[[strokes]]\nkind = 'gaussian'\n", r"strokes\[0\].targets: required for a gaussian stroke"),
+    # strokes, kinds and sections
+    ("title = 'nothing'\n", r"plan.toml: strokes: required: at least one \[\[strokes\]\] table"),
+    ("strokes = 3\n", r"strokes: expected at least one \[\[strokes\]\] table"),
+    (
+        "[[strokes]]\nkind = 'human_line'\n",
+        r"strokes\[0\].points: required for a human_line stroke",
+    ),
+    (
+        "[[strokes]]\nkind = 'human_line'\npoints = [[0.0, 0.0]]\n",
+        r"strokes\[0\].points: expected at least 2 points",
+    ),
+    (
+        "[[strokes]]\nkind = 'minjerk'\npoints = [[0.0, 0.0], [1.0, 1.0]]\ncov = 1.0\n",
+        r"strokes\[0\].cov: not used by a minjerk stroke",
+    ),
+    (
+        "[[strokes]]\npoints = [[0.0, 0.0], [1.0, 1.0]]\n",
+        r"strokes\[0\].points: not used by a gaussian stroke",
+    ),
+    (
+        "[[strokes]]\nkind = 'minjerk'\npoints = [[0.0, 0.0], [1.0, 1.0]]\nhuman_line = { squiggle = 1.0 }\n",
+        r"strokes\[0\].human_line: only applies to human_line strokes, this one is minjerk",
+    ),
+    (
+        "[[strokes]]\nkind = 'minjerk'\npoints = [[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]\nminjerk = { via_times = [0.1, 0.2] }\n",
+        r"strokes\[0\].minjerk.via_times: expected 1 times for the 1 via-points, got 2",
+    ),
+    (
+        "[human_line]\nsquigle = 2.0\n" + with_target("cov = 1.0"),
+        r"human_line.squigle: unknown key \(did you mean 'squiggle'\?\)",
+    ),
+    (
+        "[human_line]\npx_mm = 0.0\n" + with_target("cov = 1.0"),
+        r"human_line.px_mm: expected a number > 0, got 0.0",
+    ),
+    # semi-tied
+    (
+        "[semi_tied]\nH = [[1.0, 0.0], [0.0, 1.0]]\n" + with_target("cov = 1.0"),
+        r"semi_tied.h: required",
+    ),
+    (
+        "[semi_tied]\nh = 1.0\nH = [[1.0, 2.0], [0.5, 1.0]]\n" + with_target("cov = 1.0"),
+        r"semi_tied.H: the basis is singular",
+    ),
+    (
+        "[semi_tied]\nh = 1.0\nH = [[1.0, 2.0, 3.0]]\n" + with_target("cov = 1.0"),
+        r"semi_tied.H: expected a 2 x 2 or 3 x 3 matrix, got shape \(1, 3\)",
+    ),
+    (
+        "[semi_tied]\nh = 1.0\nrho = -1.0\n" + with_target("cov = 1.0"),
+        r"semi_tied.rho: expected a number >= 0",
+    ),
+    (
+        "cov = 1.0\n[semi_tied]\nh = 1.0\n" + with_target("cov = 1.0"),
+        r"plan.toml: give one of the top-level cov and \[semi_tied\]",
+    ),
+    (
+        "[[strokes]]\ncov = 1.0\nsemi_tied = { h = 1.0 }\ntargets = [{ mean = [0.0, 0.0] }]\n",
+        r"strokes\[0\]: give one of cov and semi_tied, not both",
+    ),
+    (
+        (
+            "[[strokes]]\nsemi_tied = { h = 1.0, H = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] }\n"
+            "targets = [{ mean = [0.0, 0.0] }]\n"
+        ),
+        r"strokes\[0\].semi_tied.H: is 3 x 3 but the targets are 2-D",
+    ),
+    # mixed dimensions across strokes
+    (
+        (
+            "[[strokes]]\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }]\n"
+            "[[strokes]]\ntargets = [{ mean = [0.0, 0.0, 0.0], cov = 1.0 }]\n"
+        ),
+        r"strokes\[1\]: is 3-D but strokes\[0\] is 2-D",
+    ),
+]
+
+
+@pytest.mark.parametrize(("text", "message"), BAD_CASES)
+def test_bad_plans_name_the_file_and_key(text, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse(text)
+
+
+def test_nan_in_toml_is_refused_everywhere():
+    assert math.isnan(tomllib.loads("x = nan")["x"])
+    with pytest.raises(
+        ScenarioError, match=r"strokes\[0\].targets\[0\].mean\[0\]: expected a finite number"
+    ):
+        parse("[[strokes]]\ntargets = [{ mean = [nan, 0.0], cov = 1.0 }]\n")
+
+
+def test_solver_errors_name_the_stroke():
+    plan = parse(
+        "[model]\norder = 6\ndt = 0.1\nsegment_time = 0.1\n"
+        "[[strokes]]\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [1.0, 0.0], cov = 1.0 }]\n"
+    )
+    with pytest.raises(InkarmError, match=r"plan.toml: strokes\[0\]: .*order 6 needs at least 7"):
+        realise_plan(plan)

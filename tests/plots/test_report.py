@@ -1,0 +1,87 @@
+"""Report figures: the canvas plot's geometry, the report PNG, input errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from inkarm.errors import InputError
+from inkarm.ink.canvas import Canvas
+from inkarm.plots.report import canvas_figure, plot_canvas, report_figure
+
+
+def _run():
+    """A 2 s run: a 40 mm stroke at 40 mm/s with 0.1 mm tracking error, then pen-up travel."""
+    times = np.arange(0.0, 2.0, 0.002)
+    x = 20.0 + 40.0 * np.clip(times, 0.0, 1.0)
+    reference = np.column_stack([x, np.full_like(x, 50.0)])
+    tip = reference + [0.0, 0.1]
+    drawing = times < 1.0
+    force = np.where(drawing, 1.2, 0.0)
+    canvas = Canvas(size_mm=(100.0, 120.0))
+    for k in np.flatnonzero(drawing):
+        canvas.touch(tip[k], force[k], times[k])
+    canvas.lift()
+    return {
+        "canvas": canvas,
+        "times_s": times,
+        "reference_mm": reference,
+        "tip_mm": tip,
+        "force_n": force,
+        "drawing": drawing,
+    }
+
+
+def test_plot_canvas_places_the_page_in_millimetres_and_zooms_on_ink_and_plan():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    run = _run()
+    plan = [run["reference_mm"][run["drawing"]]]
+    ax = plot_canvas(run["canvas"], plan_strokes=plan, margin_mm=5.0)
+    assert ax.images[0].get_extent() == [0.0, 100.0, 0.0, 120.0]
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    assert x0 == pytest.approx(20.0 - 0.4 - 5.0, abs=0.2) and x1 == pytest.approx(65.4, abs=0.2)
+    assert y0 == pytest.approx(45.0 - 0.4, abs=0.2) and y1 == pytest.approx(55.4, abs=0.2)
+    assert np.allclose(ax.lines[0].get_xydata(), plan[0])
+    whole = plot_canvas(run["canvas"], zoom=False)
+    assert whole.get_xlim() == (0.0, 100.0) and whole.get_ylim() == (0.0, 120.0)
+    matplotlib.pyplot.close("all")
+
+
+def test_plot_canvas_of_a_blank_page_shows_the_page():
+    ax = plot_canvas(Canvas(size_mm=(30.0, 40.0)))
+    assert ax.get_xlim() == (0.0, 30.0) and ax.get_ylim() == (0.0, 40.0)
+    ax.figure.clf()
+
+
+def test_report_png_has_the_four_panels(tmp_path):
+    from matplotlib.image import imread
+
+    path = report_figure(tmp_path / "report.png", metrics={"tracking_rms_mm": 0.1}, **_run())
+    pixels = imread(path)
+    assert pixels.shape[:2] == (975, 1650)  # 11 x 6.5 in at 150 dpi
+    assert pixels[..., :3].std() > 0.05  # not a blank image
+
+
+def test_canvas_figure_writes_an_image(tmp_path):
+    from matplotlib.image import imread
+
+    run = _run()
+    path = canvas_figure(run["canvas"], tmp_path / "canvas.png", dpi=50)
+    assert imread(path).shape[1] == 300  # 6 in at 50 dpi
+
+
+def test_report_figure_names_the_mismatched_input(tmp_path):
+    run = _run()
+    run["force_n"] = run["force_n"][:-1]
+    with pytest.raises(
+        InputError, match=r"report_figure: force_n has 999 samples, times_s has 1000"
+    ):
+        report_figure(tmp_path / "r.png", **run)
+    run = _run()
+    with pytest.raises(InputError, match=r"report_figure: need at least 2 samples, got 1"):
+        report_figure(
+            tmp_path / "r.png", **{k: (v[:1] if k != "canvas" else v) for k, v in run.items()}
+        )
