@@ -1,15 +1,85 @@
 """Exceptions raised by inkarm.
 
 Every error a user can cause derives from :class:`InkarmError`; the CLI prints its message and
-exits with status 2 instead of showing a traceback. Messages name the file, field, index or
-value at fault and say what was expected.
+exits with status 2 instead of showing a traceback. An error carries its facts as fields, not
+only as text: the ``file`` and ``key`` (a dotted path such as ``controller.gains.kp``) where the
+bad ``value`` came from, and the ``choices`` that would have been valid. Callers that know more
+context add it with :meth:`InkarmError.within` instead of rebuilding the message::
+
+    try:
+        LoopConfig(force_n=-1.0)
+    except InputError as e:
+        raise e.within(file="job.toml", key="controller")   # job.toml: controller.force_n: ...
 """
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+from typing import Any
+
+_UNSET: Any = object()
+
+
+def closest(name: str, choices: Iterable[str]) -> str | None:
+    """The valid name closest to ``name`` (difflib ratio >= 0.6), else None."""
+    match = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1, cutoff=0.6)
+    return match[0] if match else None
+
 
 class InkarmError(Exception):
-    """Base class of every error inkarm raises on purpose."""
+    """Base class of every error inkarm raises on purpose.
+
+    Attributes:
+        message: What is wrong and what was expected, without the location.
+        file: The file the input came from, or None.
+        key: Dotted key (``controller.force_n``) or field name at fault, or None.
+        value: The offending value (``InkarmError.NO_VALUE`` when none applies).
+        choices: The valid names when the value had to be one of them, else ().
+    """
+
+    NO_VALUE: Any = _UNSET
+
+    def __init__(
+        self,
+        message: str = "",
+        *,
+        file: str | None = None,
+        key: str | None = None,
+        value: Any = _UNSET,
+        choices: Iterable[str] = (),
+    ):
+        self.message = str(message)
+        self.file = None if file is None else str(file)
+        self.key = key
+        self.value = value
+        self.choices = tuple(choices)
+        super().__init__(self.message)
+
+    def __str__(self) -> str:
+        return ": ".join(part for part in (self.file, self.key, self.message) if part)
+
+    def __reduce__(self):
+        return _rebuild, (type(self), self.message, self.file, self.key, self.value, self.choices,
+                          self.__dict__)
+
+    def within(self, file: str | None = None, key: str | None = None) -> InkarmError:
+        """Add context in place and return self: ``key`` is prefixed to this error's key
+        (``controller`` + ``force_n`` -> ``controller.force_n``), ``file`` fills in the file
+        when none is known yet."""
+        if key:
+            self.key = f"{key}.{self.key}" if self.key else key
+        if file is not None and self.file is None:
+            self.file = str(file)
+        self.args = (str(self),)
+        return self
+
+
+def _rebuild(cls, message, file, key, value, choices, state):
+    error = cls.__new__(cls)
+    InkarmError.__init__(error, message, file=file, key=key, value=value, choices=choices)
+    error.__dict__.update(state)
+    return error
 
 
 class InputError(InkarmError, ValueError):
@@ -21,7 +91,8 @@ class PlanError(InputError):
 
 
 class ScenarioError(InputError):
-    """A scenario or plan file (TOML) has unknown keys, wrong types or bad values."""
+    """A scenario, robot profile or plan file (TOML) has unknown keys, wrong types or bad
+    values."""
 
 
 class SolverError(InkarmError):
@@ -29,8 +100,19 @@ class SolverError(InkarmError):
 
 
 class UnreachableError(InkarmError):
-    """A placement or target pose is outside the robot's workspace."""
+    """A placement or target pose is outside the robot's workspace, or a reference would drive
+    a joint beyond its limits."""
 
 
 class SimulationError(InkarmError):
     """The simulation diverged or produced non-finite state."""
+
+
+def unknown_name(what: str, name: str, choices: Iterable[str], *, key: str | None = None,
+                 file: str | None = None, cls: type[InkarmError] = InputError) -> InkarmError:
+    """The error for a name that is not one of ``choices``, suggesting the closest one."""
+    choices = tuple(choices)
+    hint = closest(name, choices)
+    suggestion = f" (did you mean {hint!r}?)" if hint else ""
+    return cls(f"unknown {what} {name!r}{suggestion}; expected one of "
+               f"{', '.join(map(repr, choices))}", file=file, key=key, value=name, choices=choices)

@@ -20,13 +20,13 @@ def load_toml(path: str | Path, what: str = "file") -> dict:
     """Parse a TOML file, naming the file in every error."""
     path = Path(path)
     if not path.is_file():
-        raise ScenarioError(f"{path}: no such {what}")
+        raise ScenarioError(f"no such {what}", file=str(path))
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as e:
-        raise ScenarioError(f"{path}: not valid TOML: {e}") from None
+        raise ScenarioError(f"not valid TOML: {e}", file=str(path)) from None
     except UnicodeDecodeError as e:
-        raise ScenarioError(f"{path}: not UTF-8 text: {e}") from None
+        raise ScenarioError(f"not UTF-8 text: {e}", file=str(path)) from None
 
 
 class TomlReader:
@@ -38,8 +38,10 @@ class TomlReader:
     def __init__(self, source: str):
         self.source = source
 
-    def error(self, key: str, message: str) -> ScenarioError:
-        return ScenarioError(f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}")
+    def error(self, key: str, message: str, value=ScenarioError.NO_VALUE,
+              choices=()) -> ScenarioError:
+        return ScenarioError(message, file=self.source, key=key or None, value=value,
+                             choices=choices)
 
     def table(self, value, key: str) -> dict:
         if not isinstance(value, dict):
@@ -53,7 +55,8 @@ class TomlReader:
                 close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
                 hint = f" (did you mean '{close[0]}'?)" if close else ""
                 raise self.error(
-                    where, f"unknown key{hint}; valid keys here: {', '.join(allowed)}"
+                    where, f"unknown key{hint}; valid keys here: {', '.join(allowed)}",
+                    value=name, choices=allowed,
                 )
 
     def number(self, value, key: str, minimum: float | None = None, strict: bool = False) -> float:
@@ -86,7 +89,8 @@ class TomlReader:
         if value not in options:
             close = difflib.get_close_matches(value, options, n=1, cutoff=0.6)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise self.error(key, f"unknown value {value!r}{hint}; expected one of {', '.join(map(repr, options))}")
+            raise self.error(key, f"unknown value {value!r}{hint}; expected one of "
+                             f"{', '.join(map(repr, options))}", value=value, choices=options)
         return value
 
     def text(self, value, key: str) -> str:
