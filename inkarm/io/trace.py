@@ -1,35 +1,51 @@
 """Traces to analyse or restyle: a CSV of time-stamped samples, or the paths of an SVG file.
 
-CSV files are read with :meth:`Drawing.from_csv` (``t,x,y[,z][,stroke]``). In an SVG file the
-``d`` attribute of every ``<path>`` (commands M, L, H, V, C, S, Q, T, A, Z, absolute and
-relative) and the ``points`` of every ``<polyline>`` and ``<polygon>`` are flattened, mapped
-to the page frame in [mm] (y up, origin at the page's lower-left corner, ``transform``
-attributes applied) and sampled uniformly in arc length, each sub-path a stroke traced at a
-constant ``speed``; consecutive samples are at most ``speed / rate`` apart. Other shapes
-(``<line>``, ``<rect>``, ``<circle>``, ``<use>``, text) and anything inside ``<defs>`` are not
-drawn; an SVG with nothing drawable is refused.
+CSV files are read with :meth:`Drawing.from_csv` (``t,x,y[,z][,stroke]``). SVG files are read
+with the ``svgelements`` library (as vpype does): the ``d`` attribute of every ``<path>``
+(commands M, L, H, V, C, S, Q, T, A, Z, absolute and relative) and the ``points`` of every
+``<polyline>`` and ``<polygon>`` are flattened, mapped to the page frame in [mm] (y up, origin
+at the page's lower-left corner, ``transform`` attributes, nested ``<svg>`` viewports and
+``display="none"`` applied) and sampled uniformly in arc length, each sub-path a stroke traced
+at a constant ``speed``; consecutive samples are at most ``speed / rate`` apart. Other shapes
+(``<line>``, ``<rect>``, ``<circle>``, text) and anything inside ``<defs>``, ``<use>``,
+``<symbol>``, ``<clipPath>``, ``<mask>``, ``<pattern>`` or ``<marker>`` are not drawn; an SVG
+with nothing drawable is refused.
 
-Units: a root ``width``/``height`` with a unit (mm, cm, in, pt, pc, px) and a ``viewBox``
-fix the scale; a bare number is CSS pixels (1/96 in); with no width/height, one user unit is
-one millimetre (as :meth:`Drawing.to_svg` writes).
+Units: a root ``width``/``height`` with a unit (mm, cm, in, pt, pc, px) fixes the page size;
+a bare number is CSS pixels (1/96 in); a ``viewBox`` is fitted into that page as SVG says
+(``preserveAspectRatio``, by default centred and uniformly scaled). With neither width nor
+height, one user unit is one millimetre (as :meth:`Drawing.to_svg` writes) and the page is
+the viewBox, or A4 without one.
+
+Before svgelements sees the file, the XML is parsed and checked here: every ``d``,
+``points`` and ``transform`` that is drawn must follow the SVG grammar (svgelements would
+silently drop what follows a typo), nesting is at most :data:`MAX_DEPTH` elements deep, and
+the flattened drawing at most :data:`MAX_SAMPLES` samples. Every problem is an
+:class:`~inkarm.errors.InputError` naming the file and the element.
 """
 
 from __future__ import annotations
 
+import io
 import math
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+import svgelements as se
 
-from inkarm.core.trajectory import Drawing, Trajectory
-from inkarm.errors import InputError
+from inkarm.core.trajectory import A4_MM, Drawing, Trajectory
+from inkarm.errors import InkarmError, InputError
 
 DEFAULT_SPEED = 50.0
 """Pen speed along an SVG path in [mm/s]."""
 DEFAULT_RATE = 200.0
 """Sampling rate of an SVG path in [Hz]."""
+MAX_DEPTH = 200
+"""Deepest element nesting read from an SVG file (svgelements recurses per level)."""
+MAX_SAMPLES = 2_000_000
+"""Most samples (flattened points, and points after resampling) read from one SVG file."""
 
 _MM_PER_UNIT = {
     "mm": 1.0,
@@ -41,8 +57,23 @@ _MM_PER_UNIT = {
     "": 25.4 / 96,
 }
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+_LENGTH = re.compile(rf"\s*({_NUMBER.pattern})\s*(mm|cm|in|pt|pc|px|)\s*")
 _SEPARATORS = re.compile(r"[\s,]*")
+_COMMANDS = "MmLlHhVvCcSsQqTtAaZz"
 _ARGS = {"M": 2, "L": 2, "H": 1, "V": 1, "C": 6, "S": 4, "Q": 4, "T": 2, "A": 7, "Z": 0}
+_TRANSFORM_ARGS = {
+    "matrix": (6,),
+    "translate": (1, 2),
+    "scale": (1, 2),
+    "rotate": (1, 3),
+    "skewX": (1,),
+    "skewY": (1,),
+}
+_NOT_DRAWN = frozenset(
+    {"defs", "symbol", "clipPath", "mask", "pattern", "marker", "use", "metadata",
+     "foreignObject", "text", "image", "script"}
+)
+_DRAWN = (se.Path, se.Polyline, se.Polygon)
 _CURVE_POINTS = 32
 """Points per curve piece when flattening, before the arc-length resampling."""
 
@@ -54,52 +85,48 @@ def load_trace(
     [mm/s], sampled at ``rate`` [Hz])."""
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"{path}: no such file")
+        raise InputError("no such file", file=str(path))
     suffix = path.suffix.lower()
     if suffix == ".csv":
         return Drawing.from_csv(path)
     if suffix == ".svg":
         return read_svg(path, speed, rate)
-    raise InputError(f"{path}: unknown trace format {suffix!r}; expected .csv or .svg")
+    raise InputError(
+        f"unknown trace format {suffix!r}; expected .csv or .svg", file=str(path), value=suffix
+    )
 
 
 def read_svg(path: str | Path, speed: float = DEFAULT_SPEED, rate: float = DEFAULT_RATE) -> Drawing:
-    """The sub-paths of an SVG file as strokes sampled uniformly in arc length (module docstring)."""
+    """The sub-paths of an SVG file as strokes sampled uniformly in arc length (module docstring).
+
+    Args:
+        path: The SVG file.
+        speed: Pen speed along every sub-path in [mm/s].
+        rate: Sampling rate in [Hz]; samples are at most ``speed / rate`` [mm] apart.
+    """
     path = Path(path)
     for name, value in (("speed", speed), ("rate", rate)):
         if not (np.isfinite(value) and value > 0):
-            raise InputError(f"{path}: SVG trace {name} must be positive, got {value}")
+            raise InputError(
+                f"SVG trace {name} must be positive, got {value}", file=str(path), key=name,
+                value=value,
+            )
     if not path.is_file():
-        raise InputError(f"{path}: no such file")
+        raise InputError("no such file", file=str(path))
+    root = _read_xml(path)
     try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as e:
-        raise InputError(f"{path}: not well-formed XML ({e})") from None
-    if _local(root.tag) != "svg":
-        raise InputError(f"{path}: root element is <{_local(root.tag)}>, expected <svg>")
-    page_w, page_h, to_page = _page_transform(root, path)
-    polylines = []
-    for elem, matrix in _walk(root, to_page, path):
-        tag = _local(elem.tag)
-        where = f"{path}: <{tag}>" + (f" id={elem.get('id')!r}" if elem.get("id") else "")
-        if tag == "path":
-            pieces = parse_path_data(elem.get("d", ""), where)
-        else:
-            pieces = [_parse_points(elem.get("points", ""), tag == "polygon", where)]
-        polylines += [_apply(matrix, p) for p in pieces]
-    spacing = speed / rate
-    strokes = []
-    for poly in polylines:
-        pos = resample_arc_length(poly, spacing)
-        if pos is not None:
-            length = np.linalg.norm(np.diff(pos, axis=0), axis=1)
-            t = np.concatenate([[0.0], np.cumsum(length)]) / speed
-            strokes.append(Trajectory(t=t, pos=pos))
+        page = _page(root)
+        _check_and_prune(root)
+        polylines = _flatten_document(root, page)
+    except InkarmError as e:
+        raise e.within(file=str(path)) from None
+    strokes = _strokes(polylines, speed, speed / rate, path)
     if not strokes:
         raise InputError(
-            f"{path}: no drawable <path>, <polyline> or <polygon> (of non-zero length) found"
+            "no drawable <path>, <polyline> or <polygon> (of non-zero length) found",
+            file=str(path),
         )
-    return Drawing(strokes, page_size=(page_w, page_h))
+    return Drawing(strokes, page_size=page[:2])
 
 
 def resample_arc_length(points: np.ndarray, spacing: float) -> np.ndarray | None:
@@ -115,314 +142,295 @@ def resample_arc_length(points: np.ndarray, spacing: float) -> np.ndarray | None
     return np.column_stack([np.interp(targets, s, c) for c in points.T])
 
 
-# -- document structure --------------------------------------------------------------------
+def parse_path_data(d: str, where: str = "path") -> list[np.ndarray]:
+    """Flatten SVG path data into polylines in user units, one (n, 2) array per sub-path.
+
+    The data is checked against the SVG path grammar first (InputError naming ``where``
+    and the character at fault), then read by svgelements; curves (quadratic and cubic
+    Beziers, elliptical arcs) become ``_CURVE_POINTS`` points each, ending exactly on their
+    end points.
+    """
+    check_path_data(d, where)
+    return _path_polylines(_svgelements(lambda: se.Path(d), where), where)
 
 
-def _local(tag: str) -> str:
-    return tag.rsplit("}", 1)[-1]
+# -- the XML document ----------------------------------------------------------------------
 
 
-def _length_mm(value: str | None, path: Path, name: str) -> float | None:
+def _local(tag) -> str:
+    return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
+
+
+def _read_xml(path: Path) -> ET.Element:
+    """The root <svg> element; expat refuses malformed XML and entity-expansion bombs."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as e:
+        raise InputError(f"not well-formed XML ({e})", file=str(path)) from None
+    except (OSError, UnicodeError, ValueError) as e:
+        raise InputError(f"cannot read it as XML ({e})", file=str(path)) from None
+    if _local(root.tag) != "svg":
+        raise InputError(
+            f"root element is <{_local(root.tag)}>, expected <svg>", file=str(path),
+            value=_local(root.tag),
+        )
+    return root
+
+
+def _length_mm(value: str | None, name: str) -> float | None:
+    """A root width or height in [mm]; None when absent."""
     if value is None:
         return None
-    m = re.fullmatch(
-        r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(mm|cm|in|pt|pc|px|)\s*", value
-    )
+    m = _LENGTH.fullmatch(value)
     if not m or float(m.group(1)) <= 0:
         raise InputError(
-            f"{path}: <svg {name}={value!r}>: expected a positive length in mm, cm, in, pt, pc or px"
+            f"<svg {name}={value!r}>: expected a positive length in mm, cm, in, pt, pc or px",
+            value=value,
         )
     return float(m.group(1)) * _MM_PER_UNIT[m.group(2)]
 
 
-def _page_transform(root: ET.Element, path: Path) -> tuple[float, float, np.ndarray]:
-    """Page size in [mm] and the affine map from root user units to the page frame."""
-    width = _length_mm(root.get("width"), path, "width")
-    height = _length_mm(root.get("height"), path, "height")
+def _page(root: ET.Element) -> tuple[float, float, float]:
+    """(width, height, px_per_mm): the page size in [mm] (module docstring) and the size of
+    one CSS pixel; the root's width and height are rewritten in those pixels, so that
+    svgelements fits the viewBox without its own (6-digit) unit constants."""
+    width = _length_mm(root.get("width"), "width")
+    height = _length_mm(root.get("height"), "height")
     box = root.get("viewBox")
+    vb = None
     if box is not None:
         try:
-            min_x, min_y, vb_w, vb_h = (float(v) for v in box.replace(",", " ").split())
+            vb = [float(v) for v in box.replace(",", " ").split()]
         except ValueError:
-            raise InputError(f"{path}: <svg viewBox={box!r}>: expected four numbers") from None
-        if vb_w <= 0 or vb_h <= 0:
-            raise InputError(f"{path}: <svg viewBox={box!r}>: width and height must be positive")
-        sx = width / vb_w if width else (height / vb_h if height else 1.0)
-        sy = height / vb_h if height else sx
+            vb = []
+        if len(vb) != 4 or not all(map(math.isfinite, vb)):
+            raise InputError(f"<svg viewBox={box!r}>: expected four numbers", value=box)
+        if vb[2] <= 0 or vb[3] <= 0:
+            raise InputError(
+                f"<svg viewBox={box!r}>: width and height must be positive", value=box
+            )
+    if width is None and height is None:  # one user unit is one millimetre
+        w, h = (vb[2], vb[3]) if vb else A4_MM
+        px_per_mm = 1.0
     else:
-        min_x = min_y = 0.0
-        sx = sy = 1.0 if width is None and height is None else 25.4 / 96
-        vb_w = (width or 210.0) / sx
-        vb_h = (height or 297.0) / sy
-    page_w, page_h = vb_w * sx, vb_h * sy
-    # x_page = (x - min_x) sx; y_page = page_h - (y - min_y) sy: the page's y axis points up.
-    to_page = np.array([[sx, 0.0, -min_x * sx], [0.0, -sy, page_h + min_y * sy], [0.0, 0.0, 1.0]])
-    return page_w, page_h, to_page
+        aspect = vb[2] / vb[3] if vb else A4_MM[0] / A4_MM[1]
+        w = width if width is not None else height * aspect
+        h = height if height is not None else width / aspect
+        px_per_mm = 96 / 25.4
+    root.set("width", repr(w * px_per_mm))
+    root.set("height", repr(h * px_per_mm))
+    return w, h, px_per_mm
 
 
-def _walk(elem: ET.Element, matrix: np.ndarray, path: Path):
-    """Yield (element, user-to-page matrix) for every path, polyline and polygon, skipping
-    <defs>, <symbol>, <clipPath>, <mask> and <pattern> (not drawn)."""
-    for child in elem:
-        tag = _local(child.tag)
-        if tag in ("defs", "symbol", "clipPath", "mask", "pattern"):
+def _check_and_prune(root: ET.Element) -> None:
+    """Remove the elements that are not drawn and check the attributes of those that are,
+    walking the tree without recursion (at most :data:`MAX_DEPTH` levels)."""
+    stack = [(root, 0)]
+    while stack:
+        elem, depth = stack.pop()
+        if depth >= MAX_DEPTH and len(elem):
+            raise InputError(
+                f"elements are nested more than {MAX_DEPTH} deep; flatten the groups",
+                value=MAX_DEPTH + 1,
+            )
+        for child in list(elem):
+            tag = _local(child.tag)
+            if not tag or tag in _NOT_DRAWN:  # comments, processing instructions, not drawn
+                elem.remove(child)
+                continue
+            where = f"<{tag}>" + (f" id={child.get('id')!r}" if child.get("id") else "")
+            check_transform(child.get("transform"), where)
+            if tag == "path":
+                check_path_data(child.get("d", ""), where)
+            elif tag in ("polyline", "polygon"):
+                _polyline_numbers(child.get("points", ""), where)
+            stack.append((child, depth + 1))
+
+
+def _flatten_document(
+    root: ET.Element, page: tuple[float, float, float]
+) -> list[tuple[str, np.ndarray]]:
+    """(element, polyline in page [mm]) for every drawn sub-path; ``page`` from :func:`_page`."""
+    _, page_h, px_per_mm = page
+    data = ET.tostring(root)
+    svg = _svgelements(
+        lambda: se.SVG.parse(io.BytesIO(data), reify=True, ppi=96.0, on_error="raise"), "<svg>"
+    )
+    mm = 1.0 / px_per_mm
+    out, count = [], 0
+    for elem in _svgelements(lambda: [e for e in svg.elements() if type(e) in _DRAWN], "<svg>"):
+        tag = type(elem).__name__.lower()
+        where = f"<{tag}>" + (f" id={elem.id!r}" if getattr(elem, "id", None) else "")
+        if isinstance(elem, se.Path):
+            pieces = _path_polylines(elem, where)
+        else:
+            pieces = [_shape_points(elem)]
+        for poly in pieces:
+            count += len(poly)
+            if count > MAX_SAMPLES:
+                raise InputError(f"{where}: more than {MAX_SAMPLES} points after flattening")
+            on_page = np.column_stack([poly[:, 0] * mm, page_h - poly[:, 1] * mm])
+            if not np.all(np.isfinite(on_page)):
+                raise InputError(f"{where}: coordinates overflow to infinity or NaN")
+            out.append((where, on_page))
+    return out
+
+
+def _svgelements(call, where: str):
+    """Run a svgelements call; whatever it raises becomes an InputError naming ``where``."""
+    try:
+        return call()
+    except InkarmError:
+        raise
+    except RecursionError:
+        raise InputError(f"{where}: nested too deeply for svgelements") from None
+    except Exception as e:  # noqa: BLE001 - third-party parser, untrusted input: never crash
+        detail = f": {e}" if str(e) else ""
+        raise InputError(
+            f"{where}: svgelements cannot read it ({type(e).__name__}{detail})"
+        ) from None
+
+
+def _strokes(
+    polylines: list[tuple[str, np.ndarray]], speed: float, spacing: float, path: Path
+) -> list[Trajectory]:
+    """Each polyline resampled every ``spacing`` [mm] and timed at ``speed`` [mm/s]."""
+    lengths = [float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) for _, p in polylines]
+    needed = sum(length / spacing + 1 for length in lengths)
+    if needed > MAX_SAMPLES:
+        raise InputError(
+            f"{sum(lengths):.4g} mm of paths sampled every {spacing:g} mm need {needed:.3g} "
+            f"samples, more than {MAX_SAMPLES}; lower the rate or raise the speed",
+            file=str(path),
+        )
+    strokes = []
+    for _, poly in polylines:
+        pos = resample_arc_length(poly, spacing)
+        if pos is not None:
+            step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+            t = np.concatenate([[0.0], np.cumsum(step)]) / speed
+            strokes.append(Trajectory(t=t, pos=pos))
+    return strokes
+
+
+# -- flattening svgelements shapes ----------------------------------------------------------
+
+
+def _xy(point) -> np.ndarray:
+    return np.array([[float(point.x), float(point.y)]])
+
+
+def _path_polylines(path: se.Path, where: str) -> list[np.ndarray]:
+    """One (n, 2) polyline per sub-path of a svgelements Path, in its (reified) coordinates."""
+    segments = list(path)
+    size = sum(1 if isinstance(s, (se.Move, se.Linear)) else _CURVE_POINTS for s in segments)
+    if size > MAX_SAMPLES:
+        raise InputError(f"{where}: d: more than {MAX_SAMPLES} points after flattening")
+    inner = np.linspace(0.0, 1.0, _CURVE_POINTS + 1)[1:-1]
+    subpaths: list[list[np.ndarray]] = []
+    for seg in segments:
+        if isinstance(seg, se.Move):
+            subpaths.append([_xy(seg.end)])
             continue
-        m = matrix @ _parse_transform(child.get("transform"), f"{path}: <{tag}>")
-        if tag in ("path", "polyline", "polygon"):
-            yield child, m
-        yield from _walk(child, m, path)
+        if not subpaths:
+            subpaths.append([_xy(seg.start)])
+        straight = isinstance(seg, se.Linear) or (
+            isinstance(seg, se.Arc) and (seg.rx == 0 or seg.ry == 0)  # SVG: a zero radius is a line
+        )
+        if not straight:
+            subpaths[-1].append(_svgelements(lambda s=seg: np.asarray(s.npoint(inner)), where))
+        subpaths[-1].append(_xy(seg.end))
+    return [np.vstack(parts) for parts in subpaths if len(parts) > 1]
 
 
-def _parse_transform(text: str | None, where: str) -> np.ndarray:
-    """The 3x3 matrix of an SVG ``transform`` list (matrix, translate, scale, rotate, skewX/Y)."""
-    m = np.eye(3)
+def _shape_points(shape) -> np.ndarray:
+    """The vertices of a svgelements Polyline or Polygon (closed), (n, 2)."""
+    pts = np.array([[float(p.x), float(p.y)] for p in shape.points], dtype=float).reshape(-1, 2)
+    if isinstance(shape, se.Polygon) and len(pts):
+        pts = np.vstack([pts, pts[:1]])
+    return pts
+
+
+# -- grammar checks (svgelements is lenient) ------------------------------------------------
+
+
+def check_transform(text: str | None, where: str) -> None:
+    """Raise InputError unless ``text`` is a list of SVG transforms (matrix, translate, scale,
+    rotate, skewX, skewY) with valid argument counts."""
     if not text:
-        return m
+        return
     pos = 0
     for call in re.finditer(r"\s*,?\s*(\w+)\s*\(([^)]*)\)", text):
         if call.start() != pos:
             break
         pos = call.end()
         name, args = call.group(1), [float(v) for v in _NUMBER.findall(call.group(2))]
-        m = m @ _transform_matrix(name, args, where, text)
+        if len(args) not in _TRANSFORM_ARGS.get(name, ()):
+            raise InputError(
+                f"{where}: transform {name}({', '.join(map(str, args))}) not understood in "
+                f"{text!r}; expected matrix(6), translate(1-2), scale(1-2), rotate(1 or 3), "
+                "skewX(1) or skewY(1)",
+                value=text,
+            )
     if text[pos:].strip():
-        raise InputError(f"{where}: cannot parse transform={text!r} near {text[pos : pos + 20]!r}")
-    return m
-
-
-def _transform_matrix(name: str, a: list[float], where: str, text: str) -> np.ndarray:
-    counts = {
-        "matrix": (6,),
-        "translate": (1, 2),
-        "scale": (1, 2),
-        "rotate": (1, 3),
-        "skewX": (1,),
-        "skewY": (1,),
-    }
-    if name not in counts or len(a) not in counts[name]:
         raise InputError(
-            f"{where}: transform {name}({', '.join(map(str, a))}) not understood in {text!r}"
+            f"{where}: cannot parse transform={text!r} near {text[pos : pos + 20]!r}", value=text
         )
-    if name == "matrix":
-        return np.array([[a[0], a[2], a[4]], [a[1], a[3], a[5]], [0, 0, 1]])
-    if name == "translate":
-        return np.array([[1, 0, a[0]], [0, 1, a[1] if len(a) > 1 else 0.0], [0, 0, 1]])
-    if name == "scale":
-        return np.diag([a[0], a[1] if len(a) > 1 else a[0], 1.0])
-    if name == "rotate":
-        c, s = math.cos(math.radians(a[0])), math.sin(math.radians(a[0]))
-        r = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-        if len(a) == 3:
-            shift = np.array([[1, 0, a[1]], [0, 1, a[2]], [0, 0, 1]])
-            r = shift @ r @ np.linalg.inv(shift)
-        return r
-    k = math.tan(math.radians(a[0]))
-    return (
-        np.array([[1, k, 0], [0, 1, 0], [0, 0, 1]])
-        if name == "skewX"
-        else np.array([[1, 0, 0], [k, 1, 0], [0, 0, 1]])
-    )
 
 
-def _apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
-    return points @ matrix[:2, :2].T + matrix[:2, 2]
-
-
-def _parse_points(text: str, closed: bool, where: str) -> np.ndarray:
-    values = _numbers_only(text, where, "points")
-    if len(values) % 2 or len(values) < 4:
-        raise InputError(
-            f"{where}: points={text[:40]!r}: expected an even count of at least 4 numbers"
-        )
-    pts = np.array(values).reshape(-1, 2)
-    return np.vstack([pts, pts[:1]]) if closed else pts
-
-
-def _numbers_only(text: str, where: str, attribute: str) -> list[float]:
-    values, pos = [], 0
+def _polyline_numbers(text: str, where: str) -> None:
+    """Raise InputError unless ``points`` holds an even count of at least 4 numbers."""
+    values, pos = 0, 0
     while True:
         pos = _SEPARATORS.match(text, pos).end()
         if pos == len(text):
-            return values
+            break
         m = _NUMBER.match(text, pos)
         if not m:
             raise InputError(
-                f"{where}: {attribute}: unexpected {text[pos : pos + 10]!r} at character {pos}"
+                f"{where}: points: unexpected {text[pos : pos + 10]!r} at character {pos}",
+                value=text,
             )
-        values.append(float(m.group()))
-        pos = m.end()
-
-
-# -- path data -----------------------------------------------------------------------------
-
-
-class _Scanner:
-    """Reads commands, numbers and arc flags from SVG path data."""
-
-    def __init__(self, text: str, where: str):
-        self.text, self.pos, self.where = text, 0, where
-
-    def skip(self) -> None:
-        self.pos = _SEPARATORS.match(self.text, self.pos).end()
-
-    def done(self) -> bool:
-        self.skip()
-        return self.pos >= len(self.text)
-
-    def command_ahead(self) -> str | None:
-        """The command letter at the read position, if any, without consuming it."""
-        self.skip()
-        c = self.text[self.pos : self.pos + 1]
-        return c if c and c in "MmLlHhVvCcSsQqTtAaZz" else None
-
-    def command(self) -> str | None:
-        c = self.command_ahead()
-        if c is not None:
-            self.pos += 1
-        return c
-
-    def number_ahead(self) -> bool:
-        self.skip()
-        return _NUMBER.match(self.text, self.pos) is not None
-
-    def number(self) -> float:
-        self.skip()
-        m = _NUMBER.match(self.text, self.pos)
-        if not m:
-            self.fail("a number")
-        self.pos = m.end()
-        return float(m.group())
-
-    def flag(self) -> bool:
-        self.skip()
-        c = self.text[self.pos : self.pos + 1]
-        if c not in ("0", "1"):
-            self.fail("an arc flag 0 or 1")
-        self.pos += 1
-        return c == "1"
-
-    def fail(self, expected: str):
-        got = self.text[self.pos : self.pos + 10] or "end of data"
+        values, pos = values + 1, m.end()
+    if values % 2 or values < 4:
         raise InputError(
-            f"{self.where}: d: expected {expected} at character {self.pos}, got {got!r}"
+            f"{where}: points={text[:40]!r}: expected an even count of at least 4 numbers",
+            value=text,
         )
 
 
-def parse_path_data(d: str, where: str = "path") -> list[np.ndarray]:
-    """Flatten SVG path data into polylines in user units, one (n, 2) array per sub-path.
-
-    Curves (quadratic and cubic Beziers, elliptical arcs) are flattened into ``_CURVE_POINTS``
-    points each; the arc-length resampling comes after. ``where`` names the element in errors.
-    """
-    scan = _Scanner(d, where)
-    subpaths: list[list[np.ndarray]] = []
-    current = start = np.zeros(2)
-    prev_cmd, prev_ctrl = "", None
-    cmd = scan.command()
-    if cmd is None and not scan.done():
-        scan.fail("a path command (M, L, C, ...)")
-    if cmd is not None and cmd not in "Mm":
-        raise InputError(f"{where}: d: path data must start with M or m, got {cmd!r}")
-    while cmd is not None:
-        upper, relative = cmd.upper(), cmd.islower()
-        first = True
-        while first or (upper != "Z" and not scan.done() and scan.command_ahead() is None):
-            if not first and not scan.number_ahead():
-                scan.fail("a number or a path command")
-            args = [
-                scan.flag() if upper == "A" and n in (3, 4) else scan.number()
-                for n in range(_ARGS[upper])
-            ]
-            base = current if relative else np.zeros(2)
-            if upper == "M":
-                current = start = base + args
-                subpaths.append([current[None]])
-                # Further coordinate pairs after a moveto are implicit linetos.
-                upper = "L"
-                prev_ctrl = None
-            elif upper == "Z":
-                subpaths[-1].append(start[None])
-                current = start
-                prev_ctrl = None
-            else:
-                if not subpaths:
-                    subpaths.append([current[None]])
-                points, end, prev_ctrl = _segment(
-                    upper, args, base, current, prev_cmd, prev_ctrl, where
-                )
-                subpaths[-1].append(points)
-                current = end
-            prev_cmd, first = upper, False
-        cmd = scan.command()
-        if cmd is None and not scan.done():
-            scan.fail("a path command")
-    return [np.vstack(parts) for parts in subpaths if sum(len(p) for p in parts) > 1]
+def check_path_data(d: str, where: str = "path") -> None:
+    """Raise InputError at the first character of ``d`` that breaks the SVG path grammar:
+    data starts with M or m, each command takes whole groups of its arguments (numbers, arc
+    flags 0 or 1), repeated groups continue the command."""
+    pos = _SEPARATORS.match(d).end()
+    if pos < len(d) and d[pos] not in "Mm":
+        if d[pos] in _COMMANDS:
+            raise InputError(f"{where}: d: path data must start with M or m, got {d[pos]!r}",
+                             value=d)
+        _grammar_error(d, pos, "a path command (M, L, C, ...)", where)
+    while pos < len(d):
+        if d[pos] not in _COMMANDS:
+            _grammar_error(d, pos, "a path command", where)
+        command = d[pos].upper()
+        pos, first = pos + 1, True
+        while _ARGS[command] and (first or (pos < len(d) and d[pos] not in _COMMANDS)):
+            for k in range(_ARGS[command]):
+                pos = _SEPARATORS.match(d, pos).end()
+                if command == "A" and k in (3, 4):
+                    if d[pos : pos + 1] not in ("0", "1"):
+                        _grammar_error(d, pos, "an arc flag 0 or 1", where)
+                    pos += 1
+                    continue
+                m = _NUMBER.match(d, pos)
+                if not m:
+                    expected = "a number" if first or k else "a number or a path command"
+                    _grammar_error(d, pos, expected, where)
+                pos = m.end()
+            pos, first = _SEPARATORS.match(d, pos).end(), False
+        pos = _SEPARATORS.match(d, pos).end()
 
 
-def _segment(upper, args, base, current, prev_cmd, prev_ctrl, where):
-    """Flattened points (excluding ``current``), end point and the control point to reflect."""
-    s = np.linspace(0.0, 1.0, _CURVE_POINTS + 1)[1:, None]
-    if upper == "L":
-        end = base + args
-        return end[None], end, None
-    if upper == "H":
-        end = np.array([args[0] + base[0], current[1]])
-        return end[None], end, None
-    if upper == "V":
-        end = np.array([current[0], args[0] + base[1]])
-        return end[None], end, None
-    if upper in ("C", "S"):
-        if upper == "C":
-            c1, c2, end = base + args[0:2], base + args[2:4], base + args[4:6]
-        else:
-            c1 = 2 * current - prev_ctrl if prev_cmd in ("C", "S") else current
-            c2, end = base + args[0:2], base + args[2:4]
-        pts = (
-            ((1 - s) ** 3) * current
-            + 3 * ((1 - s) ** 2) * s * c1
-            + 3 * (1 - s) * s * s * c2
-            + s**3 * end
-        )
-        return pts, end, c2
-    if upper in ("Q", "T"):
-        if upper == "Q":
-            c, end = base + args[0:2], base + args[2:4]
-        else:
-            c = 2 * current - prev_ctrl if prev_cmd in ("Q", "T") else current
-            end = base + args[0:2]
-        pts = ((1 - s) ** 2) * current + 2 * (1 - s) * s * c + s * s * end
-        return pts, end, c
-    end = base + args[5:7]
-    return _arc(current, args[0], args[1], args[2], args[3], args[4], end), end, None
-
-
-def _arc(p0, rx, ry, phi_deg, large, sweep, p1) -> np.ndarray:
-    """Points of an SVG elliptical arc from p0 to p1 (SVG 1.1 implementation notes F.6.5-6)."""
-    rx, ry = abs(rx), abs(ry)
-    if rx == 0 or ry == 0 or np.allclose(p0, p1):
-        return p1[None]
-    phi = math.radians(phi_deg)
-    cos_p, sin_p = math.cos(phi), math.sin(phi)
-    rot = np.array([[cos_p, -sin_p], [sin_p, cos_p]])
-    x1, y1 = rot.T @ ((p0 - p1) / 2)
-    scale = (x1 / rx) ** 2 + (y1 / ry) ** 2
-    if scale > 1:  # radii too small to reach p1: scale them up (F.6.6)
-        rx, ry = rx * math.sqrt(scale), ry * math.sqrt(scale)
-    num = max(rx * rx * ry * ry - rx * rx * y1 * y1 - ry * ry * x1 * x1, 0.0)
-    coef = math.sqrt(num / (rx * rx * y1 * y1 + ry * ry * x1 * x1))
-    if large == sweep:
-        coef = -coef
-    cx1, cy1 = coef * rx * y1 / ry, -coef * ry * x1 / rx
-    centre = rot @ np.array([cx1, cy1]) + (p0 + p1) / 2
-    theta0 = math.atan2((y1 - cy1) / ry, (x1 - cx1) / rx)
-    theta1 = math.atan2((-y1 - cy1) / ry, (-x1 - cx1) / rx)
-    dtheta = theta1 - theta0
-    if sweep and dtheta < 0:
-        dtheta += 2 * math.pi
-    elif not sweep and dtheta > 0:
-        dtheta -= 2 * math.pi
-    theta = theta0 + dtheta * np.linspace(0.0, 1.0, _CURVE_POINTS + 1)[1:]
-    ellipse = np.column_stack([rx * np.cos(theta), ry * np.sin(theta)])
-    pts = ellipse @ rot.T + centre
-    pts[-1] = p1
-    return pts
+def _grammar_error(d: str, pos: int, expected: str, where: str):
+    got = d[pos : pos + 10] or "end of data"
+    raise InputError(f"{where}: d: expected {expected} at character {pos}, got {got!r}", value=d)

@@ -219,3 +219,107 @@ def test_bad_svg_documents_are_refused(tmp_path):
         read_svg(write_svg(tmp_path, "", 'viewBox="0 0 1"'))
     with pytest.raises(InputError, match="SVG trace speed must be positive"):
         read_svg(write_svg(tmp_path, '<path d="M0 0 L1 1"/>'), speed=0.0)
+
+
+# -- svgelements: what it is handed and what it may raise ------------------------------------
+
+
+def test_viewbox_is_fitted_into_the_page_uniformly_and_centred(tmp_path):
+    wide = write_svg(
+        tmp_path, '<path d="M0 0 L100 0"/>', 'width="100mm" height="50mm" viewBox="0 0 100 100"'
+    )
+    (stroke,) = read_svg(wide).strokes  # preserveAspectRatio xMidYMid meet: scale 0.5
+    np.testing.assert_allclose(stroke.pos[[0, -1]], [[25, 50], [75, 50]], atol=1e-9)
+    boxed = read_svg(write_svg(tmp_path, '<path d="M0 0 L10 0"/>', 'viewBox="0 0 40 30"'))
+    assert boxed.page_size == pytest.approx((40.0, 30.0))  # no width/height: 1 unit = 1 mm
+    assert boxed.strokes[0].length == pytest.approx(10.0)
+
+
+def test_elements_that_are_not_drawn_are_ignored_even_when_broken(tmp_path):
+    body = (
+        '<mask><path d="M0 0 L3 3"/></mask><symbol id="s"><path d="M0 0 L1 1"/></symbol>'
+        '<defs><path d="garbage"/></defs><text>hi</text><!-- a comment -->'
+        '<g id="a"><use href="#a"/><use href="#s"/></g>'  # a self-referencing <use>: no loop
+        '<path d="M0 0 L10 0"/>'
+    )
+    (stroke,) = read_svg(write_svg(tmp_path, body)).strokes
+    assert stroke.length == pytest.approx(10.0)
+
+
+def test_display_none_is_not_drawn(tmp_path):
+    body = '<g display="none"><path d="M0 0 L3 3"/></g><path d="M0 0 L10 0"/>'
+    assert len(read_svg(write_svg(tmp_path, body)).strokes) == 1
+
+
+def test_deep_nesting_up_to_the_limit_is_read_and_beyond_it_is_refused(tmp_path):
+    from inkarm.io.trace import MAX_DEPTH
+
+    def nested(depth):
+        inner = '<path d="M0 0 L1 0"/>'
+        return '<g transform="translate(0.5)">' * depth + inner + "</g>" * depth
+
+    (stroke,) = read_svg(write_svg(tmp_path, nested(MAX_DEPTH - 1))).strokes
+    assert stroke.pos[0, 0] == pytest.approx(0.5 * (MAX_DEPTH - 1))
+    with pytest.raises(InputError, match=rf"deep\.svg: elements are nested more than {MAX_DEPTH}"):
+        read_svg(write_svg(tmp_path, nested(20_000), name="deep.svg"))
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("this is not XML", r"hostile\.svg: not well-formed XML"),
+        (b"\x89PNG\r\n\x1a\n\x00", r"hostile\.svg: not well-formed XML"),
+        ("", r"hostile\.svg: not well-formed XML"),
+        (
+            '<!DOCTYPE s [<!ENTITY a "aaaaaaaaaa">'
+            + "".join(
+                f'<!ENTITY {chr(98 + i)} "{("&" + chr(97 + i) + ";") * 10}">' for i in range(8)
+            )
+            + ']><svg><path id="&i;" d="M0 0 L1 1"/></svg>',
+            r"hostile\.svg: not well-formed XML \(limit on input amplification",
+        ),
+        (
+            (
+                '<!DOCTYPE s [<!ENTITY x SYSTEM "file:///etc/passwd">]>'
+                '<svg><path id="&x;" d="M0 0 L1 1"/></svg>'
+            ),
+            r"hostile\.svg: not well-formed XML \(reference to external entity",
+        ),
+        ("<svg><rect width='5' height='5'/></svg>", r"hostile\.svg: no drawable <path>"),
+        (
+            "<svg><path id='g' d='M0 0 L 5 5 @@@'/></svg>",
+            r"hostile\.svg: <path> id='g': d: expected a number or a path command at character 11",
+        ),
+        ("<svg><path d='M0 0 Z 5'/></svg>", r"hostile\.svg: <path>: d: expected a path command"),
+        ("<svg><path d='#'/></svg>", r"hostile\.svg: <path>: d: expected a path command \(M, L"),
+        ("<svg><path d='M0 0 L1e999 0'/></svg>", r"hostile\.svg: <path>: coordinates overflow"),
+        ("<svg><path d='M0 0 L1e12 0'/></svg>", r"hostile\.svg: 1e\+12 mm of paths .* samples"),
+        ("<svg viewBox='0 0 nan 1'/>", r"hostile\.svg: <svg viewBox='0 0 nan 1'>: expected four"),
+    ],
+)
+def test_bad_or_hostile_svg_gives_an_input_error_naming_the_file(tmp_path, content, message):
+    path = tmp_path / "hostile.svg"
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content)
+    with pytest.raises(InputError, match=message) as info:
+        load_trace(path)
+    assert info.value.file == str(path)
+
+
+def test_whatever_svgelements_raises_becomes_an_input_error(tmp_path, monkeypatch):
+    import svgelements
+
+    def broken(*args, **kwargs):
+        raise IndexError("list index out of range")
+
+    monkeypatch.setattr(svgelements.SVG, "parse", staticmethod(broken))
+    with pytest.raises(
+        InputError, match=r"t\.svg: <svg>: svgelements cannot read it \(IndexError: list index"
+    ):
+        read_svg(write_svg(tmp_path, '<path d="M0 0 L1 1"/>'))
+
+
+def test_zero_radius_arc_is_a_straight_line():
+    np.testing.assert_allclose(polyline("M0 0 A0 5 0 0 1 10 0"), [[0, 0], [10, 0]])
