@@ -1,4 +1,5 @@
-"""``inkarm draw [SCENARIO.toml] [--out DIR]``: draw a scenario with the simulated arm."""
+"""``inkarm draw [SCENARIO.toml] [--robot NAME|FILE] [--out DIR]``: draw a scenario with a
+simulated robot."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import time
 from pathlib import Path
 
 from inkarm.commands import output_folder
+from inkarm.robots.registry import robot_names
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -20,6 +22,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("scenario", nargs="?", default=None,
                    help="scenario file (TOML); default: the embedded letter N")
+    p.add_argument("--robot", metavar="NAME|FILE.toml", default=None,
+                   help="robot profile: a built-in name (inkarm robots: "
+                   f"{', '.join(robot_names())}) or a profile file; default: the scenario's")
     p.add_argument("--out", default="out/draw", help="output folder (default out/draw)")
     p.add_argument("--video", metavar="FILE.mp4", default=None,
                    help="also render an offscreen video (MUJOCO_GL=egl, else osmesa)")
@@ -66,19 +71,30 @@ def run(args: argparse.Namespace) -> int:
         from inkarm.sim.render import require_display
 
         require_display()
+    from inkarm.jobs.outputs import write_run
+    from inkarm.jobs.run import run as run_scenario
     from inkarm.jobs.scenario import load_scenario
-    from inkarm.jobs.scenario import run as run_scenario
 
     output_folder(args.out)
-
     scenario = load_scenario(args.scenario)
-    bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r}")
+    if args.robot is not None:
+        key = "robot.file" if args.robot.endswith(".toml") else "robot.name"
+        robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
+        scenario = scenario.with_overrides({"robot": {}, key: robot})
+    bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r} ({scenario.robot.name})")
     try:
-        result = run_scenario(scenario, args.out, progress=bar, video=args.video,
-                              fps=args.fps, camera=args.camera)
+        result = run_scenario(scenario, progress=bar)
     finally:
         if bar is not None:
             bar.close()
+    files = write_run(result, args.out)
+    out = Path(args.out)
+    for note in result.notes:
+        print(f"note: {note}")
+    if not result.ok:
+        print(f"inkarm draw: error: the run failed: {result.reason} (partial trace and canvas "
+              f"kept in {out}, status in {files['status.json']})", file=sys.stderr)
+        return 1
     m = result.metrics
     print(
         f"tracking RMS {m['tracking_rms_mm']:.3f} mm, max {m['tracking_max_mm']:.3f} mm; "
@@ -91,13 +107,23 @@ def run(args: argparse.Namespace) -> int:
     print(f"pictures: {out / 'canvas.png'} (ink), {out / 'report.png'} (ink over plan, "
           f"tracking error, force, speed)")
     print(f"data: {out / 'metrics.json'}, {out / 'trace.npz'}, {out / 'reference.csv'}")
-    if "video" in result.files:
-        print(f"video: {result.files['video']}")
+    threshold = scenario.controller.contact_threshold_n
+    if args.video:
+        from inkarm.sim.render import render_log_video
+
+        bar = None if args.quiet else ProgressBar("video")
+        try:
+            video = render_log_video(result.log, args.video, result.cell,
+                                     px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make(),
+                                     fps=args.fps, camera=args.camera,
+                                     contact_threshold_n=threshold, progress=bar)
+        finally:
+            if bar is not None:
+                bar.close()
+        print(f"video: {video}")
     if args.viewer:
-        from inkarm.control.loop import LoopConfig
-        from inkarm.ink.canvas import make_ink
         from inkarm.sim.render import open_viewer
 
-        open_viewer(result.log, result.cell, ink=make_ink(scenario.ink_model, **scenario.ink),
-                    contact_threshold_n=LoopConfig(**scenario.controller).contact_threshold_n)
+        open_viewer(result.log, result.cell, ink=scenario.ink.make(),
+                    contact_threshold_n=threshold)
     return 0

@@ -23,120 +23,11 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 from scipy.linalg.lapack import dposv as _cholesky_solve
 
+from inkarm.control.kinematics import ArmKinematics
 from inkarm.errors import InputError, UnreachableError
-
-
-class ArmKinematics:
-    """Kinematics and rigid-body dynamics of an arm on the controller's own MjModel/MjData.
-
-    Only the hinge joints named in ``joint_names`` (default: every hinge joint) are controlled;
-    other joints (the pen slide) stay at their reference value. Never shares MjData with a plant.
-    """
-
-    def __init__(self, model: mujoco.MjModel, site: str = "pen_tip", joint_names=None):
-        self.model = model
-        self.data = mujoco.MjData(model)
-        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
-        if sid < 0:
-            raise InputError(f"kinematic model: no site named {site!r}")
-        self.site_id = sid
-        if joint_names is None:
-            joint_names = [
-                model.joint(j).name
-                for j in range(model.njnt)
-                if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
-            ]
-        ids = []
-        for name in joint_names:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-            if jid < 0:
-                raise InputError(f"kinematic model: no joint named {name!r}")
-            ids.append(jid)
-        self.joint_names = tuple(joint_names)
-        self.qpos_adr = _index([model.jnt_qposadr[j] for j in ids])
-        self.dof_adr = _index([model.jnt_dofadr[j] for j in ids])
-        self.n = len(ids)
-        self.lower = model.jnt_range[ids, 0].copy()
-        self.upper = model.jnt_range[ids, 1].copy()
-        self._jacp = np.zeros((3, model.nv))
-        self._jacr = np.zeros((3, model.nv))
-        self._bias = np.zeros(model.nv)
-        self._dense_mass = np.zeros((model.nv, model.nv))
-        # Views into MjData and the Jacobian buffers (their memory never moves): an attribute
-        # look-up on MjData builds a new array object each time, which the per-period calls
-        # (bias, IK iterations) would pay for again and again.
-        self._qpos = self.data.qpos
-        self._qvel = self.data.qvel
-        self._site_xpos = self.data.site_xpos[sid]
-        self._site_xmat = self.data.site_xmat[sid].reshape(3, 3)
-
-    def _set(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
-        self._qpos[self.qpos_adr] = q
-        if qd is not None:
-            self._qvel[self.dof_adr] = qd
-
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Site position (3,) in [m] and orientation (3, 3) (columns: site axes) at ``q``."""
-        self._set(q)
-        mujoco.mj_kinematics(self.model, self.data)
-        return (
-            self.data.site_xpos[self.site_id].copy(),
-            self.data.site_xmat[self.site_id].reshape(3, 3).copy(),
-        )
-
-    def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(p, R, Jp, Jr): site pose and its translational/rotational Jacobians (3, n)."""
-        return tuple(a.copy() for a in self.jacobian_views(q))
-
-    def jacobian_views(
-        self, q: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`jacobian` without the copies: views into this object's buffers, valid until
-        its next evaluation (for the IK iterations, which use them at once)."""
-        m, d = self.model, self.data
-        self._set(q)
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.site_id)
-        return (
-            self._site_xpos,
-            self._site_xmat,
-            self._jacp[:, self.dof_adr],
-            self._jacr[:, self.dof_adr],
-        )
-
-    def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """Bias force c(q, qd) = C(q, qd) qd + g(q) in [N m] (n,): gravity, Coriolis and
-        centrifugal terms by recursive Newton-Euler (no passive spring or damper forces)."""
-        self._set(q, qd)
-        m, d = self.model, self.data
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_comVel(m, d)
-        mujoco.mj_rne(m, d, 0, self._bias)
-        return self._bias[self.dof_adr]
-
-    def mass(self, q: np.ndarray) -> np.ndarray:
-        """Joint-space inertia M(q) (n, n) in [kg m^2], armature included."""
-        self._set(q)
-        m, d = self.model, self.data
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_makeM(m, d)
-        mujoco.mj_fullM(m, d, self._dense_mass)
-        return self._dense_mass[self.dof_adr][:, self.dof_adr].copy()
-
-
-def _index(addresses: list[int]) -> slice | np.ndarray:
-    """A slice when the addresses are consecutive (cheaper to index with), else an array."""
-    first = int(addresses[0])
-    if list(addresses) == list(range(first, first + len(addresses))):
-        return slice(first, first + len(addresses))
-    return np.array(addresses)
 
 
 @dataclass(frozen=True)
@@ -153,6 +44,8 @@ class IKConfig:
         tol_pos: Convergence tolerance on the tip position in [m].
         tol_tilt: Convergence tolerance on the pen axis tilt in [rad].
         max_iter: Iteration cap of :func:`solve_ik`.
+        position_weight: w_p, weight of the three tip-position rows.
+        tilt_weight: w_t, weight of the two pen-tilt rows (0: the tilt is free).
     """
 
     damping: float = 1e-4
@@ -163,6 +56,27 @@ class IKConfig:
     tol_pos: float = 1e-6
     tol_tilt: float = 1e-5
     max_iter: int = 300
+    position_weight: float = 1.0
+    tilt_weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("damping", "max_step", "posture_gain", "limit_margin", "limit_gain",
+                     "tol_pos", "tol_tilt", "position_weight", "tilt_weight"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise InputError(f"expected a finite number >= 0, got {value}", key=name,
+                                 value=value)
+        if self.position_weight == 0:
+            raise InputError("the tip position is the task: its weight must be > 0",
+                             key="position_weight", value=0.0)
+        weights = [self.position_weight] * 3 + [self.tilt_weight] * 2
+        object.__setattr__(self, "_row_weights",
+                           None if weights == [1.0] * 5 else np.array(weights))
+
+    def converged(self, pos_error: float, tilt_error: float) -> bool:
+        """Whether a tip error [m] and tilt error [rad] are within tolerance (the tilt only
+        counts when its rows do)."""
+        return pos_error < self.tol_pos and (self.tilt_weight == 0 or tilt_error < self.tol_tilt)
 
 
 @dataclass(frozen=True)
@@ -245,6 +159,10 @@ def dls_update(
     The task and null-space terms share one solve, by linearity:
     J^T A^-1 e + (I - J^T A^-1 J) dq0 = J^T A^-1 (e - J dq0) + dq0 with A = J J^T + lambda^2 I,
     solved by Cholesky (A is symmetric positive definite)."""
+    w = cfg._row_weights
+    if w is not None:
+        J = w[:, None] * J
+        e = w * e
     A = J @ J.T
     A += cfg.damping**2 * _EYE5
     rhs = e if dq0 is None else e - J @ dq0
@@ -317,7 +235,7 @@ def solve_ik(
         pos_err, tilt_err = task_error(e)
         # (the largest joint move as a list max: cheaper than numpy's on 7 numbers)
         settled = not null_space or max(map(abs, (q_next - q).tolist())) < 1e-4
-        if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt and settled:
+        if cfg.converged(pos_err, tilt_err) and settled:
             return IKResult(q, True, pos_err, tilt_err, it)
         q = q_next
     pos_err, tilt_err = task_error(e)
@@ -375,7 +293,7 @@ class PathTracker:
         for _ in range(self.max_refine):
             e = pen_error(self._p, self._R, p_goal, axis)
             pos_err, tilt_err = task_error(e)
-            if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
+            if cfg.converged(pos_err, tilt_err):
                 return pos_err, tilt_err
             self.q = dls_update(self.q, e, self._J, None, cfg, lower, upper)
             self._evaluate()
@@ -408,7 +326,8 @@ def track_path(
         q = tracker.q
         # (q is clipped to the limits: the smallest distance to one, as a list min)
         clearance = min(np.minimum(q - kin.lower, kin.upper - q).tolist())
-        if pos_err > 100 * cfg.tol_pos or tilt_err > 100 * cfg.tol_tilt or not clearance > 1e-9:
+        tilt_bad = cfg.tilt_weight > 0 and tilt_err > 100 * cfg.tol_tilt
+        if pos_err > 100 * cfg.tol_pos or tilt_bad or not clearance > 1e-9:
             at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
             where = label(i) if label is not None else f"sample {i}"
             why = (

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from inkarm.errors import InputError
@@ -57,25 +56,6 @@ class PagePlacement:
         object.__setattr__(self, "origin_m", origin)
         object.__setattr__(self, "rotation", rot)
         object.__setattr__(self, "size_mm", (w, h))
-
-    @staticmethod
-    def from_model(
-        model: mujoco.MjModel, site: str = "paper_origin", geom: str = "paper"
-    ) -> PagePlacement:
-        """The placement of the sheet in a cell model: the pose of ``site`` and the size of the
-        box ``geom``."""
-        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
-        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, geom)
-        if sid < 0 or gid < 0:
-            raise InputError(f"model has no site {site!r} or geom {geom!r} to place the page from")
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
-        size = 2.0 * MM_PER_M * model.geom_size[gid][:2]
-        return PagePlacement(
-            data.site_xpos[sid].copy(),
-            data.site_xmat[sid].reshape(3, 3).copy(),
-            (float(size[0]), float(size[1])),
-        )
 
     @property
     def normal(self) -> np.ndarray:

@@ -1,34 +1,116 @@
 """The Plant protocol: what every backend (MuJoCo, Dynamixel bus, GRBL plotter) implements.
 
 Controllers see only this interface and a kinematic model, never the simulator or a port.
-Joint quantities are SI (rad, rad/s, N m); the page-to-robot transform converts from mm once.
+Joint quantities are SI (rad, rad/s, N m, A); page quantities are millimetres.
+
+A plant says what it can sense (:attr:`Plant.senses`: a subset of :data:`SENSES`) and which
+commands it takes (:attr:`Plant.commands`: a subset of :data:`COMMANDS`); a reading leaves the
+senses it lacks at None. :meth:`Plant.step` advances a simulation by one period, or waits on a
+real device until its clock has reached the next period.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+SENSES = frozenset({"force", "tip", "current", "torque"})
+COMMANDS = frozenset({"torque", "position", "pen"})
 
-@dataclass
+
+@dataclass(slots=True)
 class PlantState:
     """A reading of the plant.
 
     Attributes:
         time: Plant time in [s].
-        q: Joint positions in [rad] (or [m] for prismatic joints), shape (nq,).
-        qd: Joint velocities, shape (nq,).
-        torque: Measured joint torque/effort where the device has it, else None.
+        q: Joint positions in [rad] (or [m] for prismatic joints), shape (n,).
+        qd: Joint velocities, shape (n,).
+        force: Pen contact force along the paper normal in [N], where sensed.
+        tip_mm: Pen tip (x, y, z) in the page frame in [mm], where measured.
+        current: Motor currents in [A], (n,), where sensed.
+        torque: Joint torques in [N m] (applied or measured), (n,), where known.
         errors: Device error flags or messages, empty when healthy.
     """
 
     time: float
     q: np.ndarray
     qd: np.ndarray
+    force: float | None = None
+    tip_mm: np.ndarray | None = None
+    current: np.ndarray | None = None
     torque: np.ndarray | None = None
-    errors: list[str] = field(default_factory=list)
+    errors: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class TorqueCommand:
+    """Hold joint torques ``torque`` (n,) in [N m] until the next command."""
+
+    torque: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class PositionCommand:
+    """Joint position goals ``q`` (n,) in [rad] for a device with its own servo loop, with
+    velocity [rad/s] and acceleration [rad/s^2] feed-forward where it takes them."""
+
+    q: np.ndarray
+    qd: np.ndarray | None = None
+    qdd: np.ndarray | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class PenCommand:
+    """Put a separately actuated pen down or lift it."""
+
+    down: bool
+
+
+Command = TorqueCommand | PositionCommand | PenCommand
+COMMAND_KIND = {TorqueCommand: "torque", PositionCommand: "position", PenCommand: "pen"}
+
+
+class Clock(Protocol):
+    """Where a plant's time comes from."""
+
+    def now(self) -> float:
+        """Current time in [s]."""
+        ...
+
+    def wait_until(self, t: float) -> None:
+        """Return once ``now() >= t``."""
+        ...
+
+
+@dataclass
+class SimulatedClock:
+    """A clock that only moves when the simulation advances it (never sleeps)."""
+
+    time: float = 0.0
+
+    def now(self) -> float:
+        return self.time
+
+    def wait_until(self, t: float) -> None:
+        self.time = max(self.time, t)
+
+
+@dataclass
+class WallClock:
+    """Monotonic wall-clock time, from when the clock was made; waits by sleeping."""
+
+    start: float = field(default_factory=time.monotonic)
+
+    def now(self) -> float:
+        return time.monotonic() - self.start
+
+    def wait_until(self, t: float) -> None:
+        while (remaining := t - self.now()) > 0:
+            time.sleep(min(remaining, 0.05))
 
 
 @runtime_checkable
@@ -40,19 +122,22 @@ class Plant(Protocol):
         """Control period in [s]."""
         ...
 
+    @property
+    def senses(self) -> frozenset[str]:
+        """What :meth:`read` fills in beyond time, q and qd (a subset of :data:`SENSES`)."""
+        ...
+
+    @property
+    def commands(self) -> frozenset[str]:
+        """The command kinds :meth:`command` takes (a subset of :data:`COMMANDS`)."""
+        ...
+
     def read(self) -> PlantState:
         """Current state."""
         ...
 
-    def command(
-        self,
-        torque: np.ndarray | None = None,
-        q_goal: np.ndarray | None = None,
-        qd_ff: np.ndarray | None = None,
-        pen_down: bool | None = None,
-    ) -> None:
-        """Set joint torques, or joint position goals with velocity feed-forward (and the pen
-        state where the device has a separate pen actuator)."""
+    def command(self, command: Command) -> None:
+        """Apply a typed command until the next one of its kind."""
         ...
 
     def step(self) -> None:
@@ -60,5 +145,12 @@ class Plant(Protocol):
         ...
 
     def close(self) -> None:
-        """Leave the device safe: pen up, torque off. Idempotent."""
+        """Leave the device safe: pen up, then torque off or hold. Idempotent."""
         ...
+
+
+def unsupported(plant: object, command: Command) -> str:
+    """The message for a command kind a plant does not take."""
+    kinds = ", ".join(sorted(getattr(plant, "commands", ())))
+    return (f"{type(plant).__name__} does not take {COMMAND_KIND[type(command)]} commands; it "
+            f"takes: {kinds}")

@@ -22,9 +22,13 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from inkarm.core.plant import PlantState
+from inkarm.core.plant import (
+    PlantState,
+        TorqueCommand,
+    unsupported,
+)
 from inkarm.errors import InputError, SimulationError
-from inkarm.sim.cell import JOINT_NAMES, CellConfig, build_model
+from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_SLIDE, PEN_TIP, Cell, build_model
 
 _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
@@ -41,19 +45,11 @@ def _index(addresses: list[int]) -> slice | np.ndarray:
     return np.array(addresses)
 
 
-@dataclass
+@dataclass(slots=True)
 class SimState(PlantState):
-    """A :class:`PlantState` plus what only a simulator can measure.
+    """A :class:`PlantState` plus what only a simulator can measure: the pen slide's
+    compression in [mm]."""
 
-    Attributes:
-        pen_force: Normal force of the paper on the pen tip in [N] (0 when not touching),
-            from the last physics step.
-        tip_mm: Pen tip position (x, y, z) in the page frame in [mm].
-        pen_compression_mm: Pen slide compression in [mm].
-    """
-
-    pen_force: float = 0.0
-    tip_mm: np.ndarray | None = None
     pen_compression_mm: float = 0.0
 
 
@@ -74,7 +70,8 @@ class MujocoPlant:
     def __init__(
         self,
         model: mujoco.MjModel | None = None,
-        config: CellConfig | None = None,
+        cell: Cell | None = None,
+        joint_names=None,
         substeps: int = 3,
         canvas=None,
         q0=None,
@@ -82,7 +79,12 @@ class MujocoPlant:
     ):
         if int(substeps) < 1:
             raise InputError(f"MujocoPlant: substeps must be >= 1, got {substeps}")
-        self.model = build_model(config) if model is None else model
+        from inkarm.sim.cell import make_cell
+
+        cell = cell or make_cell()
+        joint_names = tuple(joint_names or cell.robot.joint_names)
+        self.joint_names = joint_names
+        self.model = build_model(cell) if model is None else model
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
         self.data = mujoco.MjData(self.model)
         self.substeps = int(substeps)
@@ -90,19 +92,19 @@ class MujocoPlant:
         self.max_joint_speed = float(max_joint_speed)
         self._max_speed_sq = self.max_joint_speed**2
         m = self.model
-        joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in JOINT_NAMES]
+        joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in joint_names]
         if min(joint_ids) < 0:
-            raise InputError(f"MujocoPlant: the model lacks one of the joints {JOINT_NAMES}")
+            raise InputError(f"MujocoPlant: the model lacks one of the joints {joint_names}")
         self._qpos_adr = _index([m.jnt_qposadr[j] for j in joint_ids])
         self._dof_adr = _index([m.jnt_dofadr[j] for j in joint_ids])
-        slide = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")
-        self._tip_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "pen_tip")
-        self._tip_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "pen_tip")
-        origin_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+        slide = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, PEN_SLIDE)
+        self._tip_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, PEN_TIP)
+        self._tip_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, PEN_TIP)
+        origin_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, PAPER_ORIGIN)
         if min(slide, self._tip_site, self._tip_geom, origin_site) < 0:
             raise InputError(
-                "MujocoPlant: the model needs joint pen_slide, site pen_tip, geom pen_tip and "
-                "site paper_origin"
+                f"MujocoPlant: the model needs joint {PEN_SLIDE}, site and geom {PEN_TIP} and "
+                f"site {PAPER_ORIGIN}"
             )
         self._slide_adr = m.jnt_qposadr[slide]
         self._contact = np.zeros(6)
@@ -110,14 +112,14 @@ class MujocoPlant:
         self._pen_force = 0.0
         self._closed = False
 
-        key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home")
+        key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY)
         if key >= 0:
             mujoco.mj_resetDataKeyframe(m, self.data, key)
         if q0 is not None:
             q0 = np.asarray(q0, dtype=float)
-            if q0.shape != (len(JOINT_NAMES),):
+            if q0.shape != (len(joint_names),):
                 raise InputError(
-                    f"MujocoPlant q0: expected {len(JOINT_NAMES)} angles, got shape {q0.shape}"
+                    f"MujocoPlant q0: expected {len(joint_names)} angles, got shape {q0.shape}"
                 )
             self.data.qpos[self._qpos_adr] = q0
         mujoco.mj_forward(m, self.data)
@@ -139,6 +141,9 @@ class MujocoPlant:
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
 
+    senses = frozenset({"force", "tip", "torque"})
+    commands = frozenset({"torque"})
+
     @property
     def dt(self) -> float:
         """Control period in [s]."""
@@ -158,20 +163,18 @@ class MujocoPlant:
             q=self._qpos[self._qpos_adr].copy(),
             qd=self._qvel[self._dof_adr].copy(),
             torque=self._ctrl.copy(),
-            pen_force=self._pen_force,
+            force=self._pen_force,
             tip_mm=self._tip_mm(),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
         )
 
-    def command(self, torque=None, q_goal=None, qd_ff=None, pen_down=None) -> None:
-        """Hold joint torques ``torque`` (7,) in [N m] (clamped to the motor limits) until the
-        next command. The simulated arm has no position servo nor separate pen actuator."""
-        if q_goal is not None or qd_ff is not None:
-            raise InputError(
-                "MujocoPlant.command: the simulated arm takes joint torques, not q_goal/qd_ff"
-            )
-        if torque is not None:
-            self._ctrl[:] = torque
+    def command(self, command) -> None:
+        """Hold the joint torques of a :class:`TorqueCommand` [N m] (clamped to the motor
+        limits) until the next command. The simulated arm has no position servo nor separate
+        pen actuator."""
+        if type(command) is not TorqueCommand:
+            raise InputError(unsupported(self, command))
+        self._ctrl[:] = command.torque
 
     def step(self) -> None:
         """Advance one control period; feed the canvas; raise SimulationError on divergence."""

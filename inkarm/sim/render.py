@@ -51,11 +51,12 @@ from typing import TYPE_CHECKING, Self
 import numpy as np
 
 from inkarm.errors import InkarmError, InputError
+from inkarm.sim.cell import PAPER, PAPER_ORIGIN
 
 if TYPE_CHECKING:  # mujoco must not be imported before configure_gl() has run
-    from inkarm.control.loop import DrawLog
+    from inkarm.core.log import DrawLog
     from inkarm.ink.canvas import InkModel
-    from inkarm.sim.cell import CellConfig
+    from inkarm.sim.cell import Cell
 
 PAPER_TEXTURE = "paper_ink"
 PAPER_RGB = (246, 244, 236)  # off-white paper
@@ -151,7 +152,7 @@ def add_paper_texture(
     spec,
     canvas,
     *,
-    geom_name: str = "paper",
+    geom_name: str = PAPER,
     max_texture_px: int = 1024,
     paper_rgb: tuple[int, int, int] = PAPER_RGB,
 ) -> None:
@@ -276,7 +277,7 @@ def look_at_paper(
     model,
     data,
     *,
-    geom_name: str = "paper",
+    geom_name: str = PAPER,
     azimuth_deg: float = 90.0,
     elevation_deg: float = -60.0,
     distance_scale: float = 1.3,
@@ -425,7 +426,7 @@ DRAWING_CAMERA = "drawing"
 
 
 def replay_model(
-    cell: CellConfig | None,
+    cell: Cell | None,
     canvas,
     *,
     width: int = 640,
@@ -433,12 +434,12 @@ def replay_model(
     max_texture_px: int = 1024,
     drawing_box_mm: tuple[float, float, float, float] | None = None,
 ):
-    """The drawing cell of ``cell`` (default :class:`CellConfig`) compiled with its paper
+    """The drawing cell of ``cell`` (default: :func:`inkarm.sim.cell.make_cell`) compiled with its paper
     textured for ``canvas``, an offscreen buffer of at least width x height pixels and a
     camera :data:`DRAWING_CAMERA` framing ``drawing_box_mm`` (:func:`add_drawing_camera`)."""
-    from inkarm.sim.cell import CellConfig, build_spec
+    from inkarm.sim.cell import build_spec, make_cell
 
-    cell = cell or CellConfig()
+    cell = cell or make_cell()
     spec = build_spec(cell)
     add_paper_texture(spec, canvas, max_texture_px=max_texture_px)
     add_drawing_camera(spec, cell, drawing_box_mm)
@@ -460,7 +461,7 @@ def ink_box_mm(
 
 def add_drawing_camera(
     spec,
-    cell: CellConfig,
+    cell: Cell,
     box_mm: tuple[float, float, float, float] | None = None,
     *,
     elevation_deg: float = 35.0,
@@ -551,22 +552,23 @@ class LogReplay:
         canvas,
         *,
         pen_stiffness_n_per_mm: float,
+        joint_names,
         contact_threshold_n: float = 0.02,
     ):
         import mujoco
 
-        from inkarm.sim.cell import JOINT_NAMES
+        from inkarm.sim.cell import HOME_KEY, PEN_SLIDE
 
         _check_log(log)
         if not pen_stiffness_n_per_mm > 0:
             raise InputError(
                 f"LogReplay: pen_stiffness_n_per_mm must be > 0, got {pen_stiffness_n_per_mm}"
             )
-        joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in JOINT_NAMES]
-        slide = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")
+        joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in joint_names]
+        slide = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, PEN_SLIDE)
         if min(joints) < 0 or slide < 0:
             raise InputError(
-                f"LogReplay: the model needs the joints {', '.join(JOINT_NAMES)} and pen_slide"
+                f"LogReplay: the model needs the joints {', '.join(joint_names)} and {PEN_SLIDE}"
             )
         self.model = model
         self.data = mujoco.MjData(model)
@@ -582,7 +584,7 @@ class LogReplay:
         self._touching = np.asarray(log.force, float) > self.contact_threshold_n
         self._next_row = 0  # the first row not yet fed to the canvas
         self.row = 0  # the log row shown
-        key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY)
         if key >= 0:
             mujoco.mj_resetDataKeyframe(model, self.data, key)
 
@@ -638,7 +640,7 @@ def frame_times(time_s: np.ndarray, fps: float) -> np.ndarray:
 def render_log_video(
     log: DrawLog,
     path: str | Path,
-    cell: CellConfig | None = None,
+    cell: Cell | None = None,
     *,
     px_per_mm: float = 10.0,
     ink: InkModel | str = "marker",
@@ -665,7 +667,7 @@ def render_log_video(
     imported: :func:`configure_gl`) and the optional ``imageio-ffmpeg``.
     """
     from inkarm.ink.canvas import Canvas
-    from inkarm.sim.cell import CellConfig
+    from inkarm.sim.cell import make_cell
 
     path = Path(path)
     if path.suffix.lower() != ".mp4":
@@ -676,7 +678,7 @@ def render_log_video(
         raise InputError(f"render_log_video: frame size must be >= 1 x 1, got {width} x {height}")
     require_ffmpeg("render_log_video")
     _check_log(log)
-    cell = cell or CellConfig()
+    cell = cell or make_cell()
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=px_per_mm, ink=ink)
     box = ink_box_mm(log, contact_threshold_n)
     model = replay_model(cell, canvas, width=width, height=height, drawing_box_mm=box)
@@ -686,6 +688,7 @@ def render_log_video(
         log,
         canvas,
         pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
+        joint_names=cell.robot.joint_names,
         contact_threshold_n=contact_threshold_n,
     )
     times = frame_times(np.asarray(log.time, float), fps)
@@ -746,7 +749,7 @@ def require_display(timeout_s: float = 30.0) -> None:
 
 def open_viewer(
     log: DrawLog,
-    cell: CellConfig | None = None,
+    cell: Cell | None = None,
     *,
     ink: InkModel | str = "marker",
     contact_threshold_n: float = 0.02,
@@ -759,7 +762,7 @@ def open_viewer(
     import time as _time
 
     from inkarm.ink.canvas import make_ink
-    from inkarm.sim.cell import CellConfig, build_spec
+    from inkarm.sim.cell import build_spec, make_cell
 
     if not speed > 0:
         raise InputError(f"open_viewer: speed must be > 0, got {speed}")
@@ -769,13 +772,14 @@ def open_viewer(
     import mujoco
     import mujoco.viewer  # loads GLFW: only once a display is known to work
 
-    cell = cell or CellConfig()
+    cell = cell or make_cell()
     model = build_spec(cell).compile()
     replay = LogReplay(
         model,
         log,
         None,
         pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
+        joint_names=cell.robot.joint_names,
         contact_threshold_n=contact_threshold_n,
     )
     t0, t1 = float(log.time[0]), float(log.time[-1])
@@ -828,7 +832,7 @@ class ViewerInk:
     ):
         import mujoco
 
-        origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+        origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, PAPER_ORIGIN)
         if origin < 0:
             raise InputError("ViewerInk: the model has no site paper_origin")
         self._origin = data.site_xpos[origin].copy()
@@ -878,7 +882,7 @@ class ViewerInk:
         scene.ngeom += 1
 
 
-def _aim_at_ink(camera, model, data, cell: CellConfig, box_mm) -> None:
+def _aim_at_ink(camera, model, data, cell: Cell, box_mm) -> None:
     """Point the free MjvCamera ``camera`` at the centre of ``box_mm`` (page [mm]; the page's
     centre when None) as the :data:`DRAWING_CAMERA` does: from the writer's side, 35 deg above
     the paper, far enough back to show the wrist and pen too."""
@@ -886,7 +890,7 @@ def _aim_at_ink(camera, model, data, cell: CellConfig, box_mm) -> None:
 
     width_mm, height_mm = cell.paper_size_mm
     x0, y0, x1, y1 = box_mm if box_mm is not None else (0.0, 0.0, width_mm, height_mm)
-    origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "paper_origin")
+    origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, PAPER_ORIGIN)
     centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0]) / 1000.0
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
     camera.lookat[:] = data.site_xpos[origin] + data.site_xmat[origin].reshape(3, 3) @ centre

@@ -1,0 +1,101 @@
+"""LoopConfig: the sequencing and force-control settings of a drawing run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from inkarm.errors import InputError
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    """Sequencing and force-control settings. Lengths in [mm], times in [s], forces in [N].
+
+    Attributes:
+        force_n: Contact force set point F*.
+        pen_stiffness_n_per_mm: Pen spring rate; the kinematic model's when None.
+        hover_mm: Pen height above the paper while travelling.
+        descend_s: Duration of the descent from hover to the nominal pen compression.
+        lift_s: Duration of the lift back to hover height.
+        travel_speed_mm_s: Peak speed of the minimum-jerk travel between strokes.
+        joint_speed_rad_s: Peak joint speed of the joint-space approach and home moves.
+        nib_friction: Nib-paper friction coefficient of the drag feed-forward; the kinematic
+            model's when None.
+        force_gain_mm_per_ns: k_F of the force integrator dz/dt = k_F (F* - F), in [mm/(N s)].
+        correction_limit_mm: Bound of the force loop's correction along the normal.
+        settle_tol_n: |F - F*| below which the descent counts as settled.
+        settle_s: How long the force must stay settled before the stroke starts.
+        settle_timeout_s: Longest wait at the end of a descent.
+        contact_threshold_n: Force above which the pen counts as touching.
+        posture_rate: Null-space pull towards the home posture, in [1/s].
+        ik_period_s: Spacing of the IK solutions along the path; a cubic spline fills in.
+        go_home: Return to the home pose at the end.
+        command: "torque" (PID torques) or "position" (q goals with velocity feed-forward, for
+            plants with their own servo loop).
+        speed_limits: What to do when the planned joint speed exceeds a joint's limit in the
+            robot profile: "slow" (draw slower, stretching time by the excess, and say so) or
+            "refuse" (raise, naming the joint).
+    """
+
+    force_n: float = 1.0
+    pen_stiffness_n_per_mm: float | None = None
+    hover_mm: float = 8.0
+    descend_s: float = 0.3
+    lift_s: float = 0.2
+    travel_speed_mm_s: float = 150.0
+    joint_speed_rad_s: float = 0.8
+    nib_friction: float | None = None
+    force_gain_mm_per_ns: float = 40.0
+    correction_limit_mm: float = 3.0
+    settle_tol_n: float = 0.05
+    settle_s: float = 0.03
+    settle_timeout_s: float = 0.6
+    contact_threshold_n: float = 0.02
+    posture_rate: float = 0.5
+    ik_period_s: float = 0.012
+    go_home: bool = True
+    command: str = "torque"
+    speed_limits: str = "slow"
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, float) and not np.isfinite(value):
+                raise InputError(f"expected a finite number, got {value}", key=f.name,
+                                 value=value)
+        for name in (
+            "force_n",
+            "hover_mm",
+            "descend_s",
+            "lift_s",
+            "travel_speed_mm_s",
+            "joint_speed_rad_s",
+            "ik_period_s",
+        ):
+            if getattr(self, name) <= 0:
+                raise InputError(f"expected > 0, got {getattr(self, name)}", key=name,
+                                 value=getattr(self, name))
+        for name in (
+            "force_gain_mm_per_ns",
+            "correction_limit_mm",
+            "settle_tol_n",
+            "settle_s",
+            "settle_timeout_s",
+            "contact_threshold_n",
+            "posture_rate",
+        ):
+            if getattr(self, name) < 0:
+                raise InputError(f"expected >= 0, got {getattr(self, name)}", key=name,
+                                 value=getattr(self, name))
+        if self.nib_friction is not None and not self.nib_friction >= 0:
+            raise InputError(f"expected >= 0, got {self.nib_friction}", key="nib_friction",
+                             value=self.nib_friction)
+        if self.command not in ("torque", "position"):
+            raise InputError(f"expected 'torque' or 'position', got {self.command!r}",
+                             key="command", value=self.command, choices=("torque", "position"))
+        if self.speed_limits not in ("slow", "refuse"):
+            raise InputError(f"expected 'slow' or 'refuse', got {self.speed_limits!r}",
+                             key="speed_limits", value=self.speed_limits,
+                             choices=("slow", "refuse"))

@@ -1,0 +1,296 @@
+"""Joint references for arms: the pen path by inverse kinematics, splined, with feed-forward.
+
+Why inverse kinematics runs ahead of time, with feedback online
+---------------------------------------------------------------
+Seed 001's sensory-motor model inverts kinematics inside the loop, from the sensed state. Here
+the kinematic inversion is solved once, before the run, on the controller's own kinematic model
+(closed-loop IK on knots every ``ik_period_s`` along the whole reference,
+:func:`inkarm.control.ik.track_path`, joined by a clamped cubic spline); the loop
+(:mod:`inkarm.control.loop`) closes on the senses every control period. Reasons: (1) an
+unreachable point, a joint limit or a joint speed above the robot's datasheet limit is found
+before anything moves, naming the point or joint, which a real arm needs; (2) the per-period
+cost drops to a PID and one bias evaluation, so a Python loop keeps a hardware period and the
+simulation runs at >= 30x real time (``benchmarks/bench_draw.py``); (3) an online IK would only
+re-solve the same equations from a state that differs from the plan by the tracking error, which
+joint feedback already removes. What online IK would add, bending the path itself to sensed
+surprises, is here limited to the pen-normal force loop.
+
+Feed-forward terms planned here: the inertial M(q*) qdd*, the planned contact force carried
+through J(q*)^T f with f = F* (mu u - n): the set-point force into the paper plus the nib's
+Coulomb drag along the planned direction of motion u, and the joint direction J5^+ (-n) along
+which the force loop moves the pen reference.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from inkarm.control.config import LoopConfig
+from inkarm.control.ik import IKConfig, pen_jacobian, solve_ik, track_path
+from inkarm.control.kinematics import ArmKinematics
+from inkarm.control.sequencing import PenPath, minimum_jerk, pen_depth_mm, ticks
+from inkarm.core.log import APPROACH, DRAW, HOME, PHASES
+from inkarm.core.trajectory import Drawing
+from inkarm.errors import InputError, UnreachableError
+from inkarm.models.minjerk import PEAK_SPEED_RATIO
+from inkarm.robots.kinematic import KinematicModel
+
+# Spacing in [s] of the evaluations of the terms that vary with the pose only (inertia matrix,
+# normal direction in joint space), linearly interpolated in between.
+SLOW_TERMS_PERIOD_S = 0.04
+# Speed in [mm/s] below which the nib-drag feed-forward fades out (u = v / sqrt(|v|^2 + v0^2)).
+DRAG_SPEED_MM_S = 5.0
+
+
+@dataclass(frozen=True, eq=False)
+class JointReference:
+    """The planned run, one row per control period (all SI but ``page_mm``).
+
+    q, qd, qdd: joint reference [rad, rad/s, rad/s^2], (K, n); page_mm: planned tip in page
+    [mm], (K, 3); phase, stroke: as in DrawLog; normal_q: J5^+ (-n), joint motion per metre of
+    pen pressed into the paper, (K, n); contact_tau: J^T f, the joint torque that pushes the
+    planned contact force f on the paper while pressing, (K, n); inertia: M(q) qdd
+    feed-forward in [N m], (K, n); settle: rows after which the loop waits for the force to
+    settle (ends of descents).
+    """
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    page_mm: np.ndarray
+    phase: np.ndarray
+    stroke: np.ndarray
+    normal_q: np.ndarray
+    contact_tau: np.ndarray
+    inertia: np.ndarray
+    settle: frozenset[int]
+
+    def __len__(self) -> int:
+        return self.q.shape[0]
+
+
+class JointSpeedError(UnreachableError):
+    """A planned joint speed above the robot's limit; ``joint`` names it and ``excess`` is the
+    ratio of the planned speed to the limit (> 1)."""
+
+    def __init__(self, message: str, joint: str = "", excess: float = 1.0, **context):
+        super().__init__(message, **context)
+        self.joint = joint
+        self.excess = excess
+
+
+def check_reachable(
+    drawing: Drawing,
+    model: KinematicModel,
+    config: LoopConfig | None = None,
+    spacing_mm: float = 10.0,
+    kin: ArmKinematics | None = None,
+    ik: IKConfig | None = None,
+) -> None:
+    """Refuse, before any motion, a drawing that the arm cannot draw on its page.
+
+    Checks that every stroke lies on the sheet and solves IK statically (pen perpendicular,
+    pressed to the nominal compression) at the stroke ends and at points about ``spacing_mm``
+    apart along each stroke, each solve warm-started from the previous one. Raises
+    UnreachableError naming the stroke and the point in page [mm].
+    """
+    if not drawing.strokes:
+        raise InputError("drawing: no strokes to draw")
+    config = config or LoopConfig()
+    ik = ik or IKConfig()
+    kin = kin or ArmKinematics.of(model)
+    placement = model.placement
+    depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm)
+    posture = model.home_q
+    q = posture.copy()
+    # Task-only steps (no posture pull) warm-started along the stroke: a cheap yes/no.
+    cfg = dataclasses.replace(ik, posture_gain=0.0, tol_pos=1e-5, tol_tilt=1e-4, max_iter=200)
+    for k, s in enumerate(drawing.strokes):
+        pos = s.pos[:, :2]
+        off = ~placement.contains(pos)
+        if off.any():
+            x, y = pos[int(np.argmax(off))]
+            raise UnreachableError(
+                f"stroke {k}, point ({x:.1f}, {y:.1f}) mm: off the {placement.size_mm[0]:.0f} x "
+                f"{placement.size_mm[1]:.0f} mm sheet"
+            )
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))])
+        picks = np.unique(
+            np.searchsorted(arc, np.arange(0.0, arc[-1], spacing_mm)).tolist() + [len(pos) - 1]
+        )
+        for i in picks:
+            goal = placement.to_robot([pos[i, 0], pos[i, 1], -depth])
+            result = solve_ik(kin, goal, placement.pen_axis, q, posture, cfg)
+            if not result.converged:
+                raise UnreachableError(
+                    f"stroke {k}, point ({pos[i, 0]:.1f}, {pos[i, 1]:.1f}) mm: out of reach "
+                    f"with the pen perpendicular to the paper (closest tip "
+                    f"{1000 * result.pos_error:.1f} mm away)"
+                )
+            q = result.q
+
+
+def plan_joint_reference(
+    pen: PenPath,
+    model: KinematicModel,
+    config: LoopConfig,
+    q_start: np.ndarray,
+    dt: float,
+    kin: ArmKinematics | None = None,
+    ik: IKConfig | None = None,
+    speed_limits: np.ndarray | None = None,
+) -> JointReference:
+    """The joint reference of the pen path ``pen`` (period ``dt`` [s]) for the arm of ``model``,
+    from ``q_start``: a joint-space approach, the pen path by inverse kinematics, and home.
+
+    Raises UnreachableError naming the stroke and point that the arm cannot reach, and
+    :class:`JointSpeedError` naming the joint whose planned speed exceeds ``speed_limits``
+    [rad/s] (n,)."""
+    ik = ik or IKConfig()
+    kin = kin or ArmKinematics.of(model)
+    placement = model.placement
+    page, phase, stroke = pen.page_mm, pen.phase, pen.stroke
+    posture = model.home_q
+    axis = placement.pen_axis
+    first = solve_ik(kin, placement.to_robot(page[0]), axis, posture, posture, ik)
+    if not first.converged:
+        raise UnreachableError(
+            f"stroke 0, point ({page[0, 0]:.1f}, {page[0, 1]:.1f}) mm: out of reach above the paper"
+        )
+
+    # IK on knots every ik_period_s, a clamped cubic spline in between (the Cartesian part
+    # starts and ends at rest): the joint path is smooth, and the interpolation error is far
+    # below the tracking error where the pen turns smoothly (about (omega h)^4 / 384 of the
+    # radius of a curve); at cusps, where a script letter brakes hard, knots much further
+    # apart than 12 ms round the corner off (0.7 mm more error at 40 ms on a 60 mm "a").
+    stride = max(1, round(config.ik_period_s / dt))
+    knots = _knots(len(page), stride)
+
+    def label(j: int) -> str:
+        i = knots[j]
+        return (
+            f"stroke {stroke[i]} ({PHASES[phase[i]]}), point ({page[i, 0]:.1f}, "
+            f"{page[i, 1]:.1f}) mm"
+        )
+
+    ik_cfg = dataclasses.replace(ik, posture_gain=config.posture_rate * dt * stride,
+                                 limit_gain=0.5)
+    q_knots = track_path(
+        kin, placement.to_robot(page[knots]), axis, first.q, posture, ik_cfg, label
+    )
+    if len(knots) > 1:
+        q_cart = CubicSpline(knots, q_knots, axis=0, bc_type="clamped")(np.arange(len(page)))
+    else:
+        q_cart = q_knots.copy()
+
+    peak = np.full(kin.n, config.joint_speed_rad_s)
+    if speed_limits is not None:
+        peak = np.minimum(peak, speed_limits)
+    q_start = np.asarray(q_start, dtype=float)
+    approach = _joint_move(q_start, q_cart[0], peak, dt)
+    parts_q = [approach, q_cart]
+    parts_phase = [np.full(len(approach), APPROACH, np.int8), phase]
+    parts_stroke = [np.full(len(approach), -1, np.int32), stroke]
+    if config.go_home:
+        home = _joint_move(q_cart[-1], posture, peak, dt)
+        parts_q.append(home)
+        parts_phase.append(np.full(len(home), HOME, np.int8))
+        parts_stroke.append(np.full(len(home), -1, np.int32))
+    q = np.vstack(parts_q)
+    outside = (q < kin.lower) | (q > kin.upper)
+    if outside.any():
+        i = int(np.argmax(outside.any(axis=1)))
+        j = int(np.argmax(outside[i]))
+        raise UnreachableError(
+            f"planned path leaves the range of {kin.joint_names[j]} at t = {i * dt:.3f} s "
+            f"({np.rad2deg(q[i, j]):.1f} deg)"
+        )
+    qd = np.gradient(q, dt, axis=0)
+    if speed_limits is not None:
+        _check_speeds(qd, speed_limits, kin.joint_names, dt)
+    qdd = np.gradient(qd, dt, axis=0)
+    # Slowly varying terms on knots SLOW_TERMS_PERIOD_S apart, linear in between: MuJoCo
+    # evaluates each knot, the linear algebra runs on all knots at once.
+    all_knots = _knots(len(q), max(1, round(SLOW_TERMS_PERIOD_S / dt)))
+    n_k = len(all_knots)
+    tip_k = np.empty((n_k, 3))
+    jac5_k = np.empty((n_k, 5, kin.n))
+    mass_k = np.empty((n_k, kin.n * kin.n))
+    for j, i in enumerate(all_knots):
+        p, R, Jp, Jr = kin.jacobian_views(q[i])
+        tip_k[j] = p
+        jac5_k[j] = pen_jacobian(R, Jp, Jr)
+        mass_k[j] = kin.mass(q[i]).ravel()
+    page_k = placement.to_page(tip_k)
+    jac_k = jac5_k[:, :3].transpose(0, 2, 1).reshape(n_k, kin.n * 3)  # rows of Jp^T
+    # J5^+ (-n): the joint motion that presses the pen along -n, tilt unchanged.
+    normal = placement.normal
+    press = np.concatenate([-normal, [0.0, 0.0]])
+    JJt = jac5_k @ jac5_k.transpose(0, 2, 1)
+    JJt += IKConfig().damping ** 2 * np.eye(5)
+    y = np.linalg.solve(JJt, np.broadcast_to(press, (n_k, 5))[..., None])
+    normal_q_k = (jac5_k.transpose(0, 2, 1) @ y)[..., 0]
+    mass = _lerp_rows(all_knots, mass_k, len(q)).reshape(len(q), kin.n, kin.n)
+    jac_t = _lerp_rows(all_knots, jac_k, len(q)).reshape(len(q), kin.n, 3)
+    page_all = _lerp_rows(all_knots, page_k, len(q))
+    offset = len(approach)
+    page_all[offset : offset + len(page)] = page  # the exact plan where there is one
+
+    # Contact feed-forward while pressing: hold F* against the paper's push F* n, and, while
+    # drawing, the nib's Coulomb drag mu F* opposite the planned velocity (smoothed near rest).
+    velocity = np.gradient(page_all[:, :2], dt, axis=0) @ placement.rotation[:, :2].T
+    speed = np.linalg.norm(velocity, axis=1, keepdims=True)
+    sliding = velocity / np.sqrt(speed**2 + DRAG_SPEED_MM_S**2)
+    sliding[np.concatenate(parts_phase) != DRAW] = 0.0
+    mu = config.nib_friction if config.nib_friction is not None else model.nib_friction
+    contact_force = config.force_n * (mu * sliding - normal)  # what the arm must push with
+    contact_tau = np.einsum("kij,kj->ki", jac_t, contact_force)
+    return JointReference(
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        page_mm=page_all,
+        phase=np.concatenate(parts_phase),
+        stroke=np.concatenate(parts_stroke),
+        normal_q=_lerp_rows(all_knots, normal_q_k, len(q)),
+        contact_tau=contact_tau,
+        inertia=np.einsum("kij,kj->ki", mass, qdd),
+        settle=frozenset(offset + r for r in pen.settle),
+    )
+
+
+def _knots(n: int, stride: int) -> np.ndarray:
+    """Every ``stride``-th index of range(n), the last one always included."""
+    return np.unique(np.append(np.arange(0, n, stride), n - 1))
+
+
+def _lerp_rows(knots: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """Rows ``values`` (len(knots), m) given at indices ``knots``, linearly interpolated to
+    (n, m)."""
+    if len(knots) == 1:
+        return np.repeat(values, n, axis=0)
+    i = np.arange(n)
+    k = np.clip(np.searchsorted(knots, i, side="right") - 1, 0, len(knots) - 2)
+    w = ((i - knots[k]) / (knots[k + 1] - knots[k]))[:, None]
+    return values[k] * (1.0 - w) + values[k + 1] * w
+
+
+def _joint_move(q0: np.ndarray, q1: np.ndarray, peak_speed: np.ndarray, dt: float) -> np.ndarray:
+    """Minimum-jerk joint path from q0 to q1 on which no joint j exceeds ``peak_speed[j]``."""
+    duration = PEAK_SPEED_RATIO * float(np.max(np.abs(q1 - q0) / peak_speed))
+    return q0 + minimum_jerk(ticks(duration, dt))[:, None] * (q1 - q0)
+
+
+def _check_speeds(qd: np.ndarray, limits: np.ndarray, names, dt: float) -> None:
+    """Raise JointSpeedError for the joint whose planned speed most exceeds its limit."""
+    ratio = np.abs(qd) / limits
+    i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    if ratio[i, j] > 1.0:
+        raise JointSpeedError(
+            f"the reference drives joint {names[j]} at {np.rad2deg(abs(qd[i, j])):.1f} deg/s at "
+            f"t = {i * dt:.3f} s, above its {np.rad2deg(limits[j]):.1f} deg/s limit "
+            f"({ratio[i, j]:.2f} x)", joint=names[j], excess=float(ratio[i, j]))

@@ -1,0 +1,103 @@
+"""``run(scenario) -> Run``: draw a scenario in memory, as a pure function.
+
+Nothing is written: :func:`inkarm.jobs.outputs.write_run` writes the files. A Run pickles, so
+regression suites and sweeps can map :func:`run` over processes or machines.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inkarm.analysis.metrics import compute_metrics
+from inkarm.control.loop import run_drawing
+from inkarm.core.log import DrawLog
+from inkarm.core.trajectory import Drawing
+from inkarm.errors import InkarmError, SimulationError
+from inkarm.ink.canvas import Canvas
+from inkarm.jobs.scenario import Scenario, place, source_drawing
+from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
+from inkarm.sim.plant import MujocoPlant
+
+OK, FAILED = "ok", "failed"
+
+
+@dataclass(eq=False)
+class Run:
+    """What a run produced, in memory.
+
+    Attributes:
+        scenario: The scenario that was run.
+        status: "ok", or "failed" when the run started but did not finish (``reason`` says why;
+            the log and canvas hold what happened until then).
+        reason: Why it failed; empty when ok.
+        drawing: The placed drawing, page [mm] and [s].
+        log: One row per control period (:class:`inkarm.core.log.DrawLog`).
+        canvas: The ink on the page.
+        metrics: Tracking, ink, force, joint and timing figures (:mod:`inkarm.analysis.metrics`);
+            empty when failed.
+        notes: What the planner changed (e.g. slowed to the robot's speed limits).
+    """
+
+    scenario: Scenario
+    status: str
+    drawing: Drawing
+    log: DrawLog
+    canvas: Canvas
+    metrics: dict = field(default_factory=dict)
+    reason: str = ""
+    notes: tuple[str, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return self.status == OK
+
+    @property
+    def cell(self) -> Cell:
+        return Cell(self.scenario.cell, self.scenario.robot)
+
+
+def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None) -> Run:
+    """Draw ``scenario`` with the simulated robot; return the :class:`Run`, writing nothing.
+
+    Bad settings and unreachable drawings raise before anything moves (their errors name the
+    scenario file and key); a simulation that diverges returns a Run with status "failed", its
+    reason, and the partial log and canvas. ``progress(fraction, phase)`` is called during the
+    simulation.
+    """
+    cell = Cell(scenario.cell, scenario.robot)
+    try:
+        drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
+        believed = kinematic_model(cell)  # the controller's own model; the plant gets a twin
+        canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
+                        ink=scenario.ink.make())
+        plant = MujocoPlant(build_model(cell), cell=cell,
+                            substeps=_substeps(scenario.robot.control_period_s,
+                                               scenario.cell.timestep))
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    try:
+        log = run_drawing(drawing, plant, believed, scenario.robot.gains, scenario.controller,
+                          progress=progress, speed_limits=scenario.robot.speed_limits)
+    except SimulationError as e:
+        partial = getattr(e, "log", None)
+        return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e))
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    finally:
+        plant.close()
+    plan_strokes = [s.pos[:, :2] for s in drawing.strokes]
+    metrics = compute_metrics(
+        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+        drawing=log.drawing, q=log.q,
+        joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
+        canvas=canvas, plan_strokes=plan_strokes,
+    )
+    return Run(scenario, OK, drawing, log, canvas, metrics, notes=log.notes)
+
+
+def _substeps(period_s: float, timestep_s: float) -> int:
+    """Physics steps per control period (at least one)."""
+    return max(1, int(np.rint(period_s / timestep_s)))

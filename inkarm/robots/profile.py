@@ -1,0 +1,283 @@
+"""Robot profiles: everything that differs between machines, as data.
+
+A profile is a TOML file (the built-in ones are in ``inkarm/robots/data/``; a user's own works
+the same way, ``inkarm draw --robot my_arm.toml``)::
+
+    name = "iiwa14"
+    description = "KUKA LBR iiwa 14 R820, built in code"
+    control_period_s = 0.006          # the period the gains below were tuned at [s]
+
+    [model]                           # the kinematic model: one of
+    builder = "iiwa14"                #   an arm built in code (inkarm.robots.arms.<builder>)
+    # menagerie = "kuka_iiwa_14/iiwa14.xml"   a MuJoCo Menagerie file under $MENAGERIE_ROOT
+    # flange_site = "attachment_site"         its site where the pen holder goes
+
+    [pen]
+    holder_mm = 100.0                 # flange -> pen body (rigid holder) [mm]
+    shaft_mm = 35.0                   # pen body -> tip sphere centre [mm]
+
+    [paper]                           # where this robot's sheet lies by default
+    centre_mm = [600.0, 0.0]          # robot base frame [mm]
+    size_mm = [210.0, 297.0]
+
+    [[joints]]                        # one table per joint, base outwards
+    name = "joint1"
+    range_deg = [-170.0, 170.0]       # optional for Menagerie models (then the model's)
+    speed_deg_s = 85.0                # datasheet speed limit [deg/s]
+    torque_nm = 320.0                 # motor saturation [N m]
+    home_rad = 0.0                    # home pose, pen down above the paper [rad]
+
+    [gains]                           # joint PID at control_period_s, one number or one per joint
+    kp = [...]                        # [N m/rad]; also ki [N m/(rad s)], kd [N m s/rad],
+                                      # integral_limit [N m]; torque_limit defaults to torque_nm
+
+    [backends.dynamixel]              # what a hardware backend needs (servo ids, models, ...)
+
+Units in the file are in the key names; the profile object holds SI (rad, rad/s, N m, m) except
+the paper and pen, which are millimetres like every page quantity.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from inkarm.errors import InputError
+from inkarm.io.toml import TomlReader, load_toml
+from inkarm.robots.gains import PIDGains
+
+TOP_KEYS = ("name", "description", "control_period_s", "model", "pen", "paper", "joints",
+            "gains", "backends")
+JOINT_KEYS = ("name", "range_deg", "speed_deg_s", "torque_nm", "home_rad")
+GAIN_KEYS = ("kp", "ki", "kd", "torque_limit", "integral_limit")
+MODEL_KEYS = ("builder", "menagerie", "flange_site", "armature", "damping")
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One actuated joint. SI: [rad], [rad/s], [N m]."""
+
+    name: str
+    speed_limit: float
+    torque_limit: float
+    home: float
+    range: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class PenMount:
+    """The pen holder on the flange, in [mm]."""
+
+    holder_mm: float = 100.0
+    shaft_mm: float = 35.0
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """Where the kinematic (and simulated) model comes from: a builder in
+    :mod:`inkarm.robots.arms` or a Menagerie file; ``armature`` [kg m^2] and ``damping``
+    [N m s/rad] fill in Menagerie joints that have none."""
+
+    builder: str | None = None
+    menagerie: str | None = None
+    flange_site: str = "attachment_site"
+    armature: tuple[float, ...] = ()
+    damping: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class RobotProfile:
+    """A robot, as data (module docstring). Build one with :func:`load_profile`."""
+
+    name: str
+    joints: tuple[Joint, ...]
+    gains: PIDGains
+    model: ModelSource
+    control_period_s: float = 0.006
+    pen: PenMount = PenMount()
+    paper_centre_mm: tuple[float, float] = (600.0, 0.0)
+    paper_size_mm: tuple[float, float] = (210.0, 297.0)
+    description: str = ""
+    source: str = ""
+    backends: Mapping[str, Mapping] = field(default_factory=dict)  # read-only by convention
+
+    @property
+    def n(self) -> int:
+        """Number of actuated joints."""
+        return len(self.joints)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def home_q(self) -> np.ndarray:
+        """Home pose [rad], (n,)."""
+        return np.array([j.home for j in self.joints])
+
+    @property
+    def speed_limits(self) -> np.ndarray:
+        """Joint speed limits [rad/s], (n,)."""
+        return np.array([j.speed_limit for j in self.joints])
+
+    @property
+    def torque_limits(self) -> np.ndarray:
+        """Motor saturation [N m], (n,)."""
+        return np.array([j.torque_limit for j in self.joints])
+
+    def with_gains(self, **gains) -> RobotProfile:
+        """The same robot with some PID gain vectors replaced (checked by :class:`PIDGains`)."""
+        try:
+            new = dataclasses.replace(self.gains, **gains)
+        except InputError as e:
+            raise e.within(key="gains") from None
+        return dataclasses.replace(self, gains=new)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, RobotProfile):
+            return NotImplemented
+        return self.source == other.source and self.name == other.name and all(
+            np.array_equal(getattr(self.gains, k), getattr(other.gains, k)) for k in GAIN_KEYS
+        ) and (self.joints, self.model, self.pen, self.control_period_s) == (
+            other.joints, other.model, other.pen, other.control_period_s)
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def load_profile(path: str | Path) -> RobotProfile:
+    """Read and check the robot profile at ``path``."""
+    path = Path(path)
+    return parse_profile(load_toml(path, "robot profile"), source=str(path))
+
+
+def gain_vector(rd: TomlReader, value, key: str, n: int) -> np.ndarray:
+    """A PID gain: one number >= 0 for every joint, or a list of ``n``."""
+    if not isinstance(value, list):
+        return np.full(n, rd.number(value, key, 0.0))
+    arr = rd.array(value, key, 1)
+    if arr.shape != (n,):
+        raise rd.error(key, f"expected one number or a list of {n} (one per joint), got "
+                       f"{len(arr)}", value=value)
+    if np.any(arr < 0):
+        raise rd.error(key, f"expected numbers >= 0, got {arr.tolist()}", value=value)
+    return arr
+
+
+def _joint(rd: TomlReader, raw, i: int, menagerie: bool) -> Joint:
+    key = f"joints[{i}]"
+    table = rd.table(raw, key)
+    rd.keys(table, JOINT_KEYS, key)
+    required = ("name", "speed_deg_s", "torque_nm", "home_rad") + (() if menagerie else
+                                                                    ("range_deg",))
+    for name in required:
+        if name not in table:
+            raise rd.error(f"{key}.{name}", "required")
+    joint_range = None
+    if "range_deg" in table:
+        lo, hi = _pair(rd, table["range_deg"], f"{key}.range_deg")
+        if not lo < hi:
+            raise rd.error(f"{key}.range_deg", f"expected [lower, upper] with lower < upper, got "
+                           f"{[lo, hi]}", value=table["range_deg"])
+        joint_range = (float(np.deg2rad(lo)), float(np.deg2rad(hi)))
+    home = rd.number(table["home_rad"], f"{key}.home_rad")
+    if joint_range is not None and not joint_range[0] <= home <= joint_range[1]:
+        raise rd.error(f"{key}.home_rad", f"{home} rad is outside range_deg "
+                       f"{np.rad2deg(joint_range).round(3).tolist()}", value=home)
+    return Joint(
+        name=rd.text(table["name"], f"{key}.name"),
+        speed_limit=float(np.deg2rad(rd.number(table["speed_deg_s"], f"{key}.speed_deg_s", 0.0,
+                                               strict=True))),
+        torque_limit=rd.number(table["torque_nm"], f"{key}.torque_nm", 0.0, strict=True),
+        home=home,
+        range=joint_range,
+    )
+
+
+def _pair(rd: TomlReader, value, key: str) -> tuple[float, float]:
+    arr = rd.array(value, key, 1)
+    if arr.shape != (2,):
+        raise rd.error(key, f"expected 2 numbers, got {len(arr)}", value=value)
+    return float(arr[0]), float(arr[1])
+
+
+def _model(rd: TomlReader, raw, n: int) -> ModelSource:
+    from inkarm.robots.builders import BUILDERS
+
+    table = rd.table(raw, "model")
+    rd.keys(table, MODEL_KEYS, "model")
+    if ("builder" in table) == ("menagerie" in table):
+        raise rd.error("model", "give one of builder (an arm built in code: "
+                       f"{', '.join(BUILDERS)}) and menagerie (a Menagerie model file)")
+    kw = {}
+    if "builder" in table:
+        kw["builder"] = rd.choice(table["builder"], "model.builder", tuple(BUILDERS))
+    else:
+        kw["menagerie"] = rd.text(table["menagerie"], "model.menagerie")
+        if "flange_site" in table:
+            kw["flange_site"] = rd.text(table["flange_site"], "model.flange_site")
+    for name in ("armature", "damping"):
+        if name in table:
+            kw[name] = tuple(gain_vector(rd, table[name], f"model.{name}", n).tolist())
+        elif "menagerie" in kw:
+            kw[name] = (0.0,) * n
+    return ModelSource(**kw)
+
+
+def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
+    """Check parsed TOML ``data`` (module docstring); errors name ``source`` and the key."""
+    rd = TomlReader(source)
+    rd.keys(data, TOP_KEYS, "")
+    for name in ("name", "model", "joints", "gains"):
+        if name not in data:
+            raise rd.error(name, "required")
+    raw_joints = data["joints"]
+    if not isinstance(raw_joints, list) or not raw_joints:
+        raise rd.error("joints", "expected an array of [[joints]] tables, one per joint")
+    n = len(raw_joints)
+    model_table = rd.table(data["model"], "model")
+    joints = tuple(_joint(rd, j, i, "menagerie" in model_table) for i, j in enumerate(raw_joints))
+    names = [j.name for j in joints]
+    if len(set(names)) != n:
+        raise rd.error("joints", f"joint names repeat: {names}", value=names)
+    gains_table = rd.table(data["gains"], "gains")
+    rd.keys(gains_table, GAIN_KEYS, "gains")
+    for name in ("kp", "ki", "kd"):
+        if name not in gains_table:
+            raise rd.error(f"gains.{name}", "required")
+    gains = {k: gain_vector(rd, v, f"gains.{k}", n) for k, v in gains_table.items()}
+    gains.setdefault("torque_limit", np.array([j.torque_limit for j in joints]))
+    gains.setdefault("integral_limit", 0.25 * gains["torque_limit"])
+    try:
+        pid = PIDGains(**gains)
+    except InputError as e:
+        raise e.within(file=source, key="gains") from None
+    pen = rd.table(data.get("pen", {}), "pen")
+    rd.keys(pen, ("holder_mm", "shaft_mm"), "pen")
+    paper = rd.table(data.get("paper", {}), "paper")
+    rd.keys(paper, ("centre_mm", "size_mm"), "paper")
+    kw = {}
+    if "centre_mm" in paper:
+        kw["paper_centre_mm"] = _pair(rd, paper["centre_mm"], "paper.centre_mm")
+    if "size_mm" in paper:
+        w, h = _pair(rd, paper["size_mm"], "paper.size_mm")
+        if not (w > 0 and h > 0):
+            raise rd.error("paper.size_mm", f"expected positive [width, height], got {[w, h]}")
+        kw["paper_size_mm"] = (w, h)
+    backends = rd.table(data.get("backends", {}), "backends")
+    return RobotProfile(
+        name=rd.text(data["name"], "name"),
+        description=rd.text(data.get("description", ""), "description"),
+        joints=joints,
+        gains=pid,
+        model=_model(rd, model_table, n),
+        control_period_s=rd.number(data.get("control_period_s", 0.006), "control_period_s", 0.0,
+                                   strict=True),
+        pen=PenMount(**{k: rd.number(v, f"pen.{k}", 0.0, strict=True) for k, v in pen.items()}),
+        source=source,
+        backends={k: dict(rd.table(v, f"backends.{k}")) for k, v in backends.items()},
+        **kw,
+    )
