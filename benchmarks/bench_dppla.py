@@ -226,7 +226,7 @@ def lqt_word(word: Drawing, rate: float = 200.0) -> Drawing:
 def analysis_table() -> None:
     word = hershey_word()
     traces = [
-        ("harmonic ellipse 60 x 20 mm, 110 Hz", Drawing([harmonic_ellipse(110.0)])),
+        ("harmonic ellipse 120 x 40 mm, 110 Hz", Drawing([harmonic_ellipse(110.0)])),
         ("lemniscate a = 50 mm, 110 Hz", Drawing([lemniscate(110.0)])),
         ("Hershey 'minimum' (scripts), constant 40 mm/s, 200 Hz", word),
         ("Hershey 'minimum', LQT-drawn (order 4), 200 Hz", lqt_word(word)),

@@ -8,7 +8,9 @@ DPPLA places its targets densely where the trajectory bends. Seed 001 measures t
 * the target-based velocity V_T(t_i) = ||Tg_i - Tg_{i-1}|| / (t_i - t_{i-1}) in [mm/s],
   which follows a power law V_T = K (1 / D_s)^gamma with gamma about 1.2 on an ellipse.
   (The paper prints the exponent as 2 in the equation but reports gamma = 1.2 in the text;
-  the fit here estimates gamma.)
+  the fit here estimates gamma.) Gamma reflects the trace's timing: on a 120 x 40 mm ellipse
+  it is about 0.75 with the speed of the 1/3 power law, v ~ r^(1/3) (r the radius of
+  curvature), and about 1.2 with v ~ r^0.6 (tests/analysis/test_gamma_timing.py).
 
 Curvature, precisely: the paper does not say how it estimates curvature. Here the curvature
 of segment i is its *mean curvature over arc length*, the total turning of the sampled
@@ -24,14 +26,14 @@ reversal), so cusps do not make the estimate spiky. Samples that repeat (the pen
 are skipped when taking turning angles, so a stop at a cusp still counts its turn. Density
 and curvature are compared segment by segment, so both have the same resolution.
 
-For figures, the pointwise curvature theta_n / ((|x_{n+1} - x_n| + |x_n - x_{n-1}|) / 2) and
-the density (constant over each segment) are plotted against time, like seed 001's Fig. 4.
+For figures (:mod:`inkarm.plots.density`), the pointwise curvature
+theta_n / ((|x_{n+1} - x_n| + |x_n - x_{n-1}|) / 2) and the density (constant over each
+segment) are plotted against time, like seed 001's Fig. 4.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -217,80 +219,3 @@ def analyse_drawing(
     correlation = float(np.corrcoef(density, curvature)[0, 1])
     law = fit_power_law(1.0 / density, velocity)
     return DrawingAnalysis(tuple(analyses), tuple(skipped), correlation, law)
-
-
-def plot_density_curvature(analysis: Analysis, path: str | Path) -> None:
-    """Seed 001 Fig. 4: target density and normalised curvature against time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    traj, bp = analysis.traj, analysis.result.breakpoints
-    t = traj.t - traj.t[0]
-    kappa = pointwise_curvature(traj.pos)
-    cap = np.percentile(kappa, 99) or 1.0
-    fig, ax = plt.subplots(figsize=(8, 3.5))
-    ax.plot(
-        t,
-        np.minimum(kappa, cap) / cap,
-        color="0.6",
-        lw=0.8,
-        label="pointwise curvature (clipped at 99th pct)",
-    )
-    seg_t = np.repeat(t[bp], 2)[1:-1]
-    scale = max(analysis.curvature.max(), _EPS_MM)
-    ax.plot(
-        seg_t,
-        np.repeat(analysis.curvature, 2) / scale,
-        color="k",
-        lw=1.5,
-        label="segment mean curvature",
-    )
-    ax.plot(
-        seg_t,
-        np.repeat(analysis.density, 2) / analysis.density.max(),
-        "--",
-        color="C3",
-        lw=1.5,
-        label="target density",
-    )
-    for tb in t[bp]:
-        ax.axvline(tb, color="C0", lw=0.3, alpha=0.5)
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("normalised")
-    ax.set_title(
-        f"compression {analysis.compression:.0%}, {analysis.result.k} segments: "
-        f"correlation {analysis.correlation:.2f}"
-    )
-    ax.legend(loc="upper right", fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def plot_power_law(analysis: Analysis, path: str | Path) -> None:
-    """Seed 001 Fig. 5 (right): V_T against 1 / D_s on log-log axes, with the fit."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    x, v, law = 1.0 / analysis.density, analysis.velocity, analysis.power_law
-    if law is None:
-        raise InputError("power law plot: no fit (all segments are equally long)")
-    fig, ax = plt.subplots(figsize=(4.5, 4))
-    ax.loglog(x, v, "o", ms=3, color="C0", label="segments")
-    xs = np.geomspace(x.min(), x.max(), 50)
-    ax.loglog(
-        xs,
-        law.gain * xs**law.gamma,
-        color="C3",
-        label=f"gamma = {law.gamma:.2f}, R2 = {law.r2:.2f}",
-    )
-    ax.set_xlabel("1 / D_s = segment length [mm]")
-    ax.set_ylabel("V_T [mm/s]")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)

@@ -2,8 +2,10 @@
 speed-curvature power law.
 
 Derivatives come from the trajectory's stored velocity when it has one, otherwise from
-second-order finite differences of the positions; higher derivatives are finite differences
-of the velocity. Sample finely (dt of 10 ms or less) for accurate curvature and jerk.
+second-order finite differences of the positions (:meth:`Trajectory.velocity`, the one
+definition of velocity and speed in inkarm); higher derivatives are the same finite
+differences (:func:`inkarm.core.trajectory.time_derivative`) of the velocity. Sample finely
+(dt of 10 ms or less) for accurate curvature and jerk.
 
 Units: positions in [mm], times in [s]; speed in [mm/s], curvature in [1/mm], jerk cost in
 [mm^2/s^5].
@@ -16,19 +18,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import find_peaks
 
-from inkarm.core.trajectory import Trajectory
+from inkarm.core.trajectory import Trajectory, time_derivative
 from inkarm.errors import InputError
 
 
-def _derivative(values: np.ndarray, t: np.ndarray) -> np.ndarray:
-    edge = 2 if t.shape[0] >= 3 else 1
-    return np.gradient(values, t, axis=0, edge_order=edge)
-
-
 def _velocity(traj: Trajectory) -> np.ndarray:
-    if traj.vel is not None:
-        return traj.vel
-    return _derivative(traj.pos, traj.t)
+    return traj.velocity()
 
 
 def _check_samples(traj: Trajectory, minimum: int, what: str) -> None:
@@ -37,21 +32,22 @@ def _check_samples(traj: Trajectory, minimum: int, what: str) -> None:
 
 
 def speed(traj: Trajectory) -> np.ndarray:
-    """Tangential speed |dx/dt| in [mm/s], shape (N,)."""
+    """Tangential speed |dx/dt| in [mm/s], shape (N,): :meth:`Trajectory.speed`, refusing a
+    single sample."""
     _check_samples(traj, 2, "speed")
-    return np.linalg.norm(_velocity(traj), axis=1)
+    return traj.speed()
 
 
 def acceleration(traj: Trajectory) -> np.ndarray:
     """d^2x/dt^2 in [mm/s^2], shape (N, D)."""
     _check_samples(traj, 3, "acceleration")
-    return _derivative(_velocity(traj), traj.t)
+    return time_derivative(_velocity(traj), traj.t)
 
 
 def jerk(traj: Trajectory) -> np.ndarray:
     """d^3x/dt^3 in [mm/s^3], shape (N, D)."""
     _check_samples(traj, 4, "jerk")
-    return _derivative(acceleration(traj), traj.t)
+    return time_derivative(acceleration(traj), traj.t)
 
 
 def curvature(traj: Trajectory) -> np.ndarray:

@@ -33,7 +33,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from inkarm.analysis.density import analyse_drawing, plot_density_curvature, plot_power_law
+    from inkarm.analysis.density import analyse_drawing
     from inkarm.io.trace import load_trace
 
     drawing = load_trace(args.trace, speed=args.speed, rate=args.rate)
@@ -55,10 +55,15 @@ def run(args: argparse.Namespace) -> int:
             f"stroke {i}: {a.traj.n} samples, {a.result.k} segments, correlation {a.correlation:.3f}, {law}{band}"
         )
         if args.out is not None:
+            from inkarm.plots.density import plot_density_curvature, plot_power_law
+            from inkarm.plots.figure import save_figure
+
             stem = f"{args.trace.stem}_stroke{i}"
-            plot_density_curvature(a, args.out / f"{stem}_density_curvature.png")
+            save_figure(
+                plot_density_curvature(a), args.out / f"{stem}_density_curvature.png", dpi=120
+            )
             if a.power_law is not None:
-                plot_power_law(a, args.out / f"{stem}_power_law.png")
+                save_figure(plot_power_law(a), args.out / f"{stem}_power_law.png", dpi=120)
     if result.skipped:
         print(f"skipped strokes too short for 3 segments: {list(result.skipped)}")
     print(f"correlation {result.correlation:.3f}")

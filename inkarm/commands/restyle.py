@@ -75,7 +75,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     from inkarm.io.trace import load_trace
-    from inkarm.plans.restyle import plot_restyle, restyle
+    from inkarm.plans.restyle import restyle
+    from inkarm.plots.figure import save_figure
+    from inkarm.plots.restyle import plot_restyle
 
     cfg = RestyleConfig(
         compression=args.compression,
@@ -93,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     stem = args.trace.stem
     result.drawing.to_csv(args.out / f"{stem}_restyled.csv")
     result.drawing.to_svg(args.out / f"{stem}_restyled.svg")
-    plot_restyle(trace, result, args.out / f"{stem}_restyle.png")
+    save_figure(plot_restyle(trace, result), args.out / f"{stem}_restyle.png", dpi=120)
     targets = sum(r.k + 1 for r in result.targets)
     print(
         f"{len(result.drawing.strokes)} strokes, {targets} targets "

@@ -6,17 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from inkarm.commands import output_folder
-from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError
 from inkarm.plans.handstyles import PRESETS, get_handstyle, load_handstyles
 from inkarm.plans.text import (
     DEFAULT_FONT,
     DEFAULT_HEIGHT,
     PageLayout,
-    TextPlan,
     outline_deviation,
     write_text,
 )
@@ -62,14 +58,10 @@ def check_common(args) -> None:
     output_folder(args.out)
 
 
-def save_figure(fig, path: Path) -> None:
-    import matplotlib.pyplot as plt
-
-    fig.savefig(path, dpi=200)
-    plt.close(fig)
-
-
 def run(args) -> int:
+    from inkarm.plots.figure import save_figure
+    from inkarm.plots.text import plot_text
+
     check_common(args)
     extra = load_handstyles(args.styles) if args.styles else None
     style = get_handstyle(args.style, extra)
@@ -81,12 +73,12 @@ def run(args) -> int:
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
     deviation = max(outline_deviation(tp, drawing).values())
-    fig = write_figure(
+    fig = plot_text(
         tp,
         drawing,
         title=f"{args.style}: {len(drawing.strokes)} strokes, max {deviation:.2f} mm from the font",
     )
-    save_figure(fig, args.out / "write.png")
+    save_figure(fig, args.out / "write.png", dpi=200)
     letters = sum(1 for c in text if not c.isspace())
     print(
         f"{letters} letters in {len(drawing.strokes)} strokes, "
@@ -94,53 +86,3 @@ def run(args) -> int:
         f"wrote {args.out / 'drawing.csv'}, drawing.svg, write.png"
     )
     return 0
-
-
-def ink(
-    ax, drawing: Drawing, width: tuple[float, float] = (0.6, 2.2), colour: str = "black"
-) -> None:
-    """Draw the strokes with a width falling with speed, like ink pooling where the pen is
-    slow (seed 000 sec. 4); ``width`` = (fastest, slowest) line width in points."""
-    from matplotlib.collections import LineCollection
-
-    speeds = np.concatenate([s.speed() for s in drawing.strokes])
-    top = max(float(np.percentile(speeds, 95)), 1e-9)
-    for s in drawing.strokes:
-        segments = np.stack([s.pos[:-1, :2], s.pos[1:, :2]], axis=1)
-        slow = 1.0 - np.clip(0.5 * (s.speed()[:-1] + s.speed()[1:]) / top, 0.0, 1.0)
-        widths = width[0] + (width[1] - width[0]) * slow
-        ax.add_collection(
-            LineCollection(segments, linewidths=widths, colors=colour, capstyle="round", zorder=3)
-        )
-
-
-def write_figure(tp: TextPlan, drawing: Drawing, title: str = ""):
-    """Font strokes in light grey, the Gaussian targets as dots, the stylised ink on top."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    lo, hi = drawing.bounds()
-    pad = 0.3 * tp.font.height
-    w, h = hi[0] - lo[0] + 2 * pad, hi[1] - lo[1] + 2 * pad
-    fig_w = 10.0
-    fig, ax = plt.subplots(figsize=(fig_w, max(1.5, fig_w * h / w + 0.4)))
-    for g in tp.glyphs:
-        for s in g.strokes:
-            ax.plot(*s.T, color="#d4d4d4", lw=4.0, solid_capstyle="round", zorder=1)
-    means = [stroke.means for stroke in tp.plan.strokes]
-    gaps = np.concatenate([np.linalg.norm(np.diff(m, axis=0), axis=1) for m in means] + [[]])
-    spacing = float(np.median(gaps)) if gaps.size else tp.font.height
-    dot = float(np.clip(10.0 * spacing / tp.font.height, 0.6, 2.2))  # dense targets, small dots
-    for m in means:
-        ax.plot(*m.T, "o", color="#e74c3c", ms=dot, mew=0, alpha=0.8, zorder=2)
-    ink(ax, drawing)
-    ax.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.set_aspect("equal")
-    ax.axis("off")
-    if title:
-        ax.set_title(title, fontsize=9, loc="left", color="#555555")
-    fig.tight_layout()
-    return fig

@@ -47,30 +47,65 @@ def check_covariance(cov, dim: int, where: str) -> np.ndarray:
     return c
 
 
-@dataclass(frozen=True)
+def _same(a, b) -> bool:
+    """Value equality that also holds for NumPy arrays (element-wise, NaN equal to NaN, shapes
+    equal) and for dicts, lists and tuples holding them."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        if a.shape != b.shape:
+            return False
+        try:
+            return bool(np.array_equal(a, b, equal_nan=True))
+        except TypeError:  # non-numeric arrays: NaN has no meaning there
+            return bool(np.array_equal(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+    return bool(a == b)
+
+
+@dataclass(frozen=True, eq=False)
 class GaussianTarget:
-    """A target N(mean, cov): mean (D,) in [mm], cov (D, D) in [mm^2], symmetric positive definite."""
+    """A target N(mean, cov): mean (D,) in [mm], cov (D, D) in [mm^2], symmetric positive definite.
+
+    Both arrays are read-only copies, so a target is a value: ``==`` compares the arrays
+    element by element and equal targets hash alike.
+    """
 
     mean: np.ndarray
     cov: np.ndarray
 
     def __post_init__(self) -> None:
-        m = np.asarray(self.mean, dtype=float)
+        m = np.array(self.mean, dtype=float)  # a copy: frozen below without touching the caller's
         if m.ndim != 1 or not 1 <= m.shape[0] <= 3:
             raise PlanError(f"target mean: expected 1 to 3 coordinates, got shape {m.shape}")
         if not np.all(np.isfinite(m)):
             raise PlanError(f"target mean: NaN or inf in {m.tolist()}")
-        object.__setattr__(self, "mean", m)
-        object.__setattr__(self, "cov", check_covariance(self.cov, m.shape[0], "target"))
+        object.__setattr__(self, "mean", _frozen(m))
+        object.__setattr__(self, "cov", _frozen(check_covariance(self.cov, m.shape[0], "target")))
+
+    def __eq__(self, other) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return _same(self.mean, other.mean) and _same(self.cov, other.cov)
+
+    def __hash__(self) -> int:
+        # Python floats hash -0.0 like 0.0, as == has them equal; means and covs are finite.
+        return hash((tuple(self.mean.tolist()), tuple(self.cov.ravel().tolist())))
 
     @property
     def dim(self) -> int:
         return self.mean.shape[0]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class StrokePlan:
     """One pen-down stroke: an ordered sequence of targets, each held ``segment_time`` [s].
+
+    A value: ``==`` compares every field, arrays element by element (NaN velocity rows equal);
+    the hash covers the targets and the timing (equal plans hash alike; ``meta``, a mutable
+    dict, and ``velocities`` are left out of the hash but not of ``==``).
 
     Attributes:
         targets: The Gaussian targets, in order (at least one).
@@ -124,13 +159,28 @@ class StrokePlan:
                 raise PlanError(
                     f"stroke velocity {i}: {vel[i].tolist()}; expected finite values or a row of NaN (free)"
                 )
-            object.__setattr__(self, "velocities", vel)
+            object.__setattr__(self, "velocities", _frozen(vel.copy()))
         vv = float(self.velocity_var)
         if not np.isfinite(vv) or vv <= 0:
             raise PlanError(
                 f"stroke velocity_var: must be a positive variance in (mm/s)^2, got {self.velocity_var}"
             )
         object.__setattr__(self, "velocity_var", vv)
+
+    def __eq__(self, other) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return (
+            self.targets == other.targets
+            and self.segment_time == other.segment_time
+            and self.keypoints == other.keypoints
+            and self.velocity_var == other.velocity_var
+            and _same(self.velocities, other.velocities)
+            and _same(self.meta, other.meta)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.targets, self.segment_time, self.keypoints, self.velocity_var))
 
     @property
     def dim(self) -> int:

@@ -27,6 +27,36 @@ def _as_array(name: str, value, ndim: int) -> np.ndarray:
     return arr
 
 
+def _check_increasing(t: np.ndarray) -> None:
+    """Raise :class:`InputError` unless ``t`` is strictly increasing (NaN fails)."""
+    if t.shape[0] > 1 and not (t[1:] > t[:-1]).all():
+        i = int(np.argmax(~(t[1:] > t[:-1])))
+        raise InputError(
+            f"trajectory t: must be strictly increasing, but t[{i + 1}] = {t[i + 1]} "
+            f"<= t[{i}] = {t[i]}"
+        )
+
+
+def time_derivative(values: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """d values / dt along axis 0 by finite differences, the same shape as ``values``: the one
+    derivative estimate of inkarm (:meth:`Trajectory.velocity`, and the speed, acceleration
+    and jerk of :mod:`inkarm.analysis.kinematics`); zeros for a single sample.
+
+    Central differences inside (second order, also on a non-uniform grid), and second-order
+    one-sided differences at the two ends when there are 3 samples or more (first order with
+    2). Second order at the ends because a pen stroke starts and ends accelerating: a
+    first-order difference there is off by a h / 2 (a the acceleration, h the step), e.g. a
+    stroke starting from rest at constant acceleration gets a start speed of a h / 2 instead
+    of 0, while the second-order difference is exact for any quadratic x(t), as the central
+    differences are inside. The price is a little more noise at the ends (weights -3/2, 2,
+    -1/2 instead of -1, 1), negligible next to that bias for smooth model output.
+    """
+    n = t.shape[0]
+    if n < 2:
+        return np.zeros_like(values, dtype=float)
+    return np.gradient(values, t, axis=0, edge_order=2 if n >= 3 else 1)
+
+
 @dataclass(frozen=True)
 class Trajectory:
     """One pen-down stroke sampled in time.
@@ -55,12 +85,7 @@ class Trajectory:
             raise InputError(f"trajectory pos: expected 1 to 3 columns, got {pos.shape[1]}")
         if t.shape[0] == 0:
             raise InputError("trajectory: no samples")
-        if t.shape[0] > 1 and not (t[1:] > t[:-1]).all():
-            i = int(np.argmax(t[1:] <= t[:-1]))
-            raise InputError(
-                f"trajectory t: must be strictly increasing, but t[{i + 1}] = {t[i + 1]} "
-                f"<= t[{i}] = {t[i]}"
-            )
+        _check_increasing(t)
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "pos", pos)
         if self.vel is not None:
@@ -78,9 +103,11 @@ class Trajectory:
 
     @classmethod
     def from_checked(cls, t: np.ndarray, pos: np.ndarray, vel: np.ndarray | None = None) -> Trajectory:
-        """A trajectory from float arrays its producer has already checked (finite, t strictly
-        increasing, matching shapes), skipping the validation that a movement model's hot path
-        would otherwise pay on every call."""
+        """A trajectory from float arrays its producer has already checked (finite, matching
+        shapes), skipping the validation that a movement model's hot path would otherwise pay
+        on every call. The order of ``t`` is still checked (one vectorised comparison): a
+        decreasing or repeated time raises :class:`InputError`, as in the constructor."""
+        _check_increasing(t)
         traj = object.__new__(cls)
         for name, value in (("t", t), ("pos", pos), ("vel", vel), ("pressure", None)):
             object.__setattr__(traj, name, value)
@@ -107,15 +134,15 @@ class Trajectory:
         return float(np.sum(np.linalg.norm(np.diff(self.pos, axis=0), axis=1)))
 
     def velocity(self) -> np.ndarray:
-        """Velocity in [mm/s], (N, D): the stored one, else second-order finite differences."""
+        """Velocity in [mm/s], (N, D): the stored one, else :func:`time_derivative` of the
+        positions (second-order finite differences, ends included)."""
         if self.vel is not None:
             return self.vel
-        if self.n < 2:
-            return np.zeros_like(self.pos)
-        return np.gradient(self.pos, self.t, axis=0, edge_order=1)
+        return time_derivative(self.pos, self.t)
 
     def speed(self) -> np.ndarray:
-        """Tangential speed |v| in [mm/s], (N,)."""
+        """Tangential speed |v| in [mm/s], (N,), of :meth:`velocity` (the definition that
+        :func:`inkarm.analysis.kinematics.speed` uses too)."""
         return np.linalg.norm(self.velocity(), axis=1)
 
     def shifted(self, dt: float = 0.0, dpos=None) -> Trajectory:
@@ -163,17 +190,19 @@ class Drawing:
     """An ordered list of pen-down strokes on a page; the pen is up between strokes.
 
     Attributes:
-        strokes: The strokes, in drawing order. Stroke times are absolute and non-overlapping
-            when the drawing came from a timed plan; they may also each start at 0.
+        strokes: The strokes, in drawing order, as a tuple (any sequence given is stored as
+            one, so a frozen drawing cannot gain or lose strokes). Stroke times are absolute
+            and non-overlapping when the drawing came from a timed plan; they may also each
+            start at 0.
         page_size: (width, height) of the page in [mm].
     """
 
-    strokes: list[Trajectory]
+    strokes: tuple[Trajectory, ...]
     page_size: tuple[float, float] = A4_MM
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        strokes = list(self.strokes)
+        strokes = tuple(self.strokes)
         for i, s in enumerate(strokes):
             if not isinstance(s, Trajectory):
                 raise InputError(f"drawing stroke {i}: expected a Trajectory, got {type(s).__name__}")

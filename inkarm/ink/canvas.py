@@ -343,11 +343,16 @@ class Canvas:
         return self.pixel_centres_mm(rows, cols)
 
     def to_png(self, path: str | Path) -> Path:
-        """Write the page as a greyscale PNG (black ink on white) and return its path."""
-        from matplotlib.image import imsave
+        """Write the page as a PNG, black ink on white, and return its path.
+
+        8-bit RGBA, grey (R = G = B) and opaque, row 0 at the top: the pixels that
+        ``matplotlib.image.imsave(path, image, cmap="gray_r", vmin=0, vmax=1)`` wrote (see
+        :func:`png_pixels`), written with Pillow.
+        """
+        from PIL import Image
 
         path = Path(path)
-        imsave(path, self.image, cmap="gray_r", vmin=0.0, vmax=1.0)
+        Image.fromarray(png_pixels(self.image)).save(path, format="PNG")
         return path
 
     def take_dirty_box(self) -> tuple[int, int, int, int] | None:
@@ -457,6 +462,24 @@ def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
     rows = np.asarray(rows, dtype=float)
     cols = np.asarray(cols, dtype=float)
     return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
+
+
+# Grey level of each of 256 darkness bins: matplotlib's "gray_r" lookup table, 1 - i / 255,
+# scaled by 255 and truncated to 8 bits as its colormaps do (so some levels are one below
+# 255 - i). Kept bit for bit so that PNGs match the ones matplotlib's imsave used to write.
+_GREY_LEVELS = np.trunc((1.0 - np.linspace(0.0, 1.0, 256)) * 255.0).astype(np.uint8)
+
+
+def png_pixels(image) -> np.ndarray:
+    """8-bit RGBA pixels (rows, cols, 4) of a darkness image in [0, 1]: grey, white where
+    blank and black where fully inked, opaque. Darkness d falls in bin floor(256 d) (d = 1 in
+    the last), whose grey level is ``_GREY_LEVELS``; values outside [0, 1] are clipped."""
+    darkness = np.clip(np.asarray(image, dtype=float), 0.0, 1.0)
+    grey = _GREY_LEVELS[np.minimum((darkness * 256.0).astype(np.intp), 255)]
+    return np.concatenate(
+        [np.repeat(grey[..., None], 3, axis=-1), np.full(grey.shape + (1,), 255, np.uint8)],
+        axis=-1,
+    )
 
 
 def _offsets(starts: np.ndarray, n: int) -> np.ndarray:

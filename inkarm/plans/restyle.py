@@ -21,7 +21,6 @@ segment length, h = 1): every target shares the same slanted ellipse, a uniform 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -156,47 +155,3 @@ def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
         raise InputError("restyle: the trace has no stroke with at least 3 samples")
     out = Drawing(strokes, page_size=drawing.page_size).sequential()
     return Restyled(out, MotorPlan(tuple(plans)), tuple(results))
-
-
-def plot_restyle(trace: Drawing, restyled: Restyled, path: str | Path) -> None:
-    """Trace (grey), DPPLA targets with 1-sigma ellipses (red) and the LQT result (black)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 7))
-    for s in trace.strokes:
-        ax.plot(
-            s.pos[:, 0],
-            s.pos[:, 1],
-            color="0.7",
-            lw=2.5,
-            label="trace" if s is trace.strokes[0] else None,
-        )
-    angle = np.linspace(0, 2 * np.pi, 40)
-    circle = np.column_stack([np.cos(angle), np.sin(angle)])
-    for n, stroke in enumerate(restyled.plan.strokes):
-        for tg in stroke.targets:
-            vals, vecs = np.linalg.eigh(tg.cov[:2, :2])
-            ellipse = circle @ (vecs * np.sqrt(vals)).T + tg.mean[:2]
-            ax.plot(ellipse[:, 0], ellipse[:, 1], color="C3", lw=0.6, alpha=0.7)
-        ax.plot(
-            stroke.means[:, 0],
-            stroke.means[:, 1],
-            "o",
-            color="C3",
-            ms=3,
-            label="DPPLA targets" if n == 0 else None,
-        )
-    for n, s in enumerate(restyled.drawing.strokes):
-        ax.plot(
-            s.pos[:, 0], s.pos[:, 1], color="k", lw=1.0, label="restyled (LQT)" if n == 0 else None
-        )
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)

@@ -12,29 +12,27 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from matplotlib.patches import Ellipse
 
 from inkarm.io.planfile import PlanResult
+from inkarm.plots.figure import Figure, figure_of, new_figure, save_figure
 
 STROKE_COLOURS = ("#d98c00", "#2a7ab0", "#c0392b", "#3c9d5d", "#8e44ad", "#7f8c8d")
 SAMPLE_GREY = "#9a9a9a"
 
 
 def _ellipse(ax, mean: np.ndarray, cov: np.ndarray, n_sigma: float, colour: str, **style) -> None:
-    from matplotlib.patches import Ellipse
-
     eigval, eigvec = np.linalg.eigh(cov[:2, :2])
     angle = np.degrees(np.arctan2(eigvec[1, 1], eigvec[0, 1]))
     width, height = 2.0 * n_sigma * np.sqrt(np.maximum(eigval[::-1], 0.0))
     ax.add_patch(Ellipse(mean[:2], width, height, angle=angle, edgecolor=colour, **style))
 
 
-def plan_figure(result: PlanResult, title: str | None = None):
-    """A matplotlib Figure of the realised plan (Agg backend; nothing is shown)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plan_figure(
+    result: PlanResult, title: str | None = None, fig: Figure | None = None
+) -> Figure:
+    """The figure of the realised plan, drawn on ``fig`` (a new Figure, 7 in wide and as tall
+    as the page needs, when None); returns it."""
     lo, hi = (b[:2] for b in result.drawing.bounds())
     for s in result.strokes:
         if s.samples.size:
@@ -47,9 +45,9 @@ def plan_figure(result: PlanResult, title: str | None = None):
     span = np.maximum(hi - lo, 1.0)
     width = 7.0
     page_height = float(np.clip(width * span[1] / span[0], 2.5, 8.0))
-    fig, (ax, ax_speed) = plt.subplots(
-        2, 1, figsize=(width, page_height + 2.2), gridspec_kw={"height_ratios": [page_height, 2.0]}
-    )
+    if fig is None:
+        fig = new_figure((width, page_height + 2.2))
+    ax, ax_speed = fig.subplots(2, 1, gridspec_kw={"height_ratios": [page_height, 2.0]})
     times = [s.t for s in result.drawing.strokes]
     for i, (s, t) in enumerate(zip(result.strokes, times)):
         colour = STROKE_COLOURS[i % len(STROKE_COLOURS)]
@@ -85,19 +83,11 @@ def plan_figure(result: PlanResult, title: str | None = None):
             loc="lower right",
             bbox_to_anchor=(1.0, 1.0),
         )
-    fig.tight_layout()
-    return fig
+    return figure_of(ax)
 
 
 def save_plan_figure(result: PlanResult, stem: str | Path) -> list[Path]:
-    """Write ``stem``.png and ``stem``.svg; returns their paths."""
-    import matplotlib.pyplot as plt
-
+    """Write :func:`plan_figure` to ``stem``.png (150 dpi) and ``stem``.svg; returns their
+    paths."""
     fig = plan_figure(result)
-    paths = [Path(f"{stem}.png"), Path(f"{stem}.svg")]
-    try:
-        fig.savefig(paths[0], dpi=150)
-        fig.savefig(paths[1])
-    finally:
-        plt.close(fig)
-    return paths
+    return [save_figure(fig, f"{stem}.png", dpi=150), save_figure(fig, f"{stem}.svg", dpi=150)]

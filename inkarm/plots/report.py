@@ -1,8 +1,8 @@
 """Figures of a drawing run: the ink over the plan, and the tracking error, contact force and
 pen speed against time.
 
-Matplotlib with the Agg backend, imported inside the functions so that importing inkarm stays
-fast. Inputs are plain arrays (time in [s], page positions in [mm], force in [N]) and a canvas
+Figures are plain :class:`matplotlib.figure.Figure` objects (no pyplot, no backend chosen; see
+:mod:`inkarm.plots.figure`). Inputs are plain arrays (time in [s], page positions in [mm], force in [N]) and a canvas
 (anything with ``image``, row 0 at the top of the page, and ``px_per_mm``).
 """
 
@@ -15,18 +15,10 @@ import numpy as np
 
 from inkarm.analysis.metrics import plan_strokes_from_reference
 from inkarm.errors import InputError
+from inkarm.plots.figure import Figure, figure_of, new_axes, new_figure, save_figure
 
 PLAN_COLOUR = "tab:red"
 INK_CMAP = "gray_r"
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _extent_of_interest(
@@ -58,12 +50,11 @@ def plot_canvas(
     plan_strokes: Sequence[np.ndarray] = (),
     zoom: bool = True,
     margin_mm: float = 5.0,
-):
+) -> Figure:
     """Draw the ink of ``canvas`` in page coordinates [mm] on ``ax`` (a new figure's when
     None), the planned strokes ((K, 2) polylines in [mm]) over it as thin coloured lines,
-    zoomed to the ink and plan unless ``zoom`` is False. Returns the axes."""
-    if ax is None:
-        ax = _pyplot().figure(figsize=(5, 6)).add_subplot()
+    zoomed to the ink and plan unless ``zoom`` is False. Returns the figure."""
+    ax = new_axes(ax, (5, 6))
     ppm = canvas.px_per_mm
     n_rows, n_cols = canvas.image.shape
     ax.imshow(
@@ -97,19 +88,17 @@ def plot_canvas(
     ax.set_ylabel("y [mm]")
     if len(plan_strokes):
         ax.legend(loc="upper right", fontsize="small", frameon=False)
-    return ax
+    return figure_of(ax)
 
 
 def canvas_figure(
     canvas,
-    path: str | Path,
     *,
     plan_strokes: Sequence[np.ndarray] = (),
     zoom: bool = True,
-    dpi: int = 150,
-) -> Path:
-    """Save :func:`plot_canvas` of ``canvas`` (and the plan) as an image file; returns the path."""
-    plt = _pyplot()
+) -> Figure:
+    """A new Figure of :func:`plot_canvas` of ``canvas`` (and the plan), 6 in wide and as
+    tall as the zoomed page needs."""
     x0, x1, y0, y1 = (
         _extent_of_interest(canvas, plan_strokes, 5.0)
         if zoom
@@ -121,12 +110,8 @@ def canvas_figure(
         )
     )
     aspect = min(max((y1 - y0) / max(x1 - x0, 1e-9), 0.25), 2.0)
-    fig = plt.figure(figsize=(6.0, 6.0 * aspect + 0.8), layout="constrained")
-    plot_canvas(canvas, fig.add_subplot(), plan_strokes=plan_strokes, zoom=zoom)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
+    fig = new_figure((6.0, 6.0 * aspect + 0.8), layout="constrained")
+    return plot_canvas(canvas, fig.add_subplot(), plan_strokes=plan_strokes, zoom=zoom)
 
 
 def _shade(ax, times: np.ndarray, drawing: np.ndarray) -> None:
@@ -137,7 +122,6 @@ def _shade(ax, times: np.ndarray, drawing: np.ndarray) -> None:
 
 
 def report_figure(
-    path: str | Path,
     *,
     canvas,
     times_s,
@@ -148,13 +132,14 @@ def report_figure(
     plan_strokes: Sequence[np.ndarray] | None = None,
     metrics: Mapping[str, float] | None = None,
     title: str | None = None,
-    dpi: int = 150,
-) -> Path:
-    """Save the report figure of a run (``report.png``): the ink over the plan on the left;
-    on the right, against time, the tracking error ||r - p|| in [mm], the contact force in [N]
-    and the pen-tip and reference speeds in [mm/s], the drawing phases shaded grey. ``metrics``
-    (e.g. :func:`inkarm.analysis.metrics.compute_metrics`) are printed under the title. Returns the
-    path.
+    fig: Figure | None = None,
+) -> Figure:
+    """The report figure of a run: the ink over the plan on the left; on the right, against
+    time, the tracking error ||r - p|| in [mm], the contact force in [N] and the pen-tip and
+    reference speeds in [mm/s], the drawing phases shaded grey. ``metrics`` (e.g.
+    :func:`inkarm.analysis.metrics.compute_metrics`) are printed under the title. Drawn on
+    ``fig`` (a new 11 x 6.5 in Figure when None); returns the figure. :func:`write_report`
+    saves it.
 
     Args:
         times_s: Sample times (N,) in [s].
@@ -163,6 +148,7 @@ def report_figure(
         drawing: Boolean (N,), True while the phase is "draw".
         plan_strokes: Planned strokes ((K, 2) in [mm]); by default the reference over each
             drawing run.
+        fig: An empty Figure (or SubFigure) to draw on.
     """
     times = np.asarray(times_s, float)
     reference = np.asarray(reference_mm, float)
@@ -187,8 +173,8 @@ def report_figure(
     tip_speed = np.linalg.norm(np.gradient(tip[:, :2], times, axis=0), axis=1)
     ref_speed = np.linalg.norm(np.gradient(reference[:, :2], times, axis=0), axis=1)
 
-    plt = _pyplot()
-    fig = plt.figure(figsize=(11, 6.5), layout="constrained")
+    if fig is None:
+        fig = new_figure((11, 6.5), layout="constrained")
     grid = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.25))
     plot_canvas(canvas, fig.add_subplot(grid[:, 0]), plan_strokes=plan_strokes)
     panels = [fig.add_subplot(grid[0, 1])]
@@ -213,7 +199,10 @@ def report_figure(
         items = [f"{key} = {value:.3g}" for key, value in metrics.items()]
         heading += "".join("\n" + "   ".join(items[i : i + 4]) for i in range(0, len(items), 4))
     fig.suptitle(heading, fontsize="medium")
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
+    return figure_of(panels[0])
+
+
+def write_report(path: str | Path, *, dpi: float = 150, **kwargs) -> Path:
+    """Save :func:`report_figure` (``kwargs``: its keyword arguments) to ``path`` (e.g.
+    ``report.png``) at ``dpi``; returns the path."""
+    return save_figure(report_figure(**kwargs), path, dpi=dpi)

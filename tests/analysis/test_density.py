@@ -11,8 +11,6 @@ from inkarm.analysis.density import (
     analyse,
     analyse_drawing,
     fit_power_law,
-    plot_density_curvature,
-    plot_power_law,
     pointwise_curvature,
     segment_curvature,
     target_density,
@@ -88,7 +86,7 @@ def test_density_velocity_and_power_law_from_their_definitions():
 
 def test_ellipse_power_law_is_reported():
     law = analyse(harmonic_ellipse(), 0.75).power_law
-    assert 0.3 < law.gamma < 1.5  # seed 001 reports about 1.2 on a human ellipse
+    assert 0.3 < law.gamma < 1.5  # 0.71 here; seed 001's 1.2 needs v ~ r^0.6 (test_gamma_timing)
     assert law.r2 > 0.8
 
 
@@ -106,14 +104,6 @@ def test_drawing_analysis_pools_strokes_and_skips_short_ones():
     density = np.concatenate([a.density for a in result.strokes])
     curvature = np.concatenate([a.curvature for a in result.strokes])
     assert result.correlation == pytest.approx(np.corrcoef(density, curvature)[0, 1])
-
-
-def test_figures_are_written(tmp_path):
-    analysis = analyse(harmonic_ellipse(), 0.75)
-    plot_density_curvature(analysis, tmp_path / "a.png")
-    plot_power_law(analysis, tmp_path / "b.png")
-    assert (tmp_path / "a.png").stat().st_size > 1000
-    assert (tmp_path / "b.png").stat().st_size > 1000
 
 
 def test_bad_analysis_inputs_are_refused():

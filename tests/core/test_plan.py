@@ -79,3 +79,37 @@ def test_stroke_errors():
                 StrokePlan.from_arrays([[0.0, 0.0, 0.0]], 1.0),
             )
         )
+
+
+def _stroke(**kwargs) -> StrokePlan:
+    plan = StrokePlan.from_arrays([[0.0, 0.0], [3.0, 4.0]], [1.0, [[2.0, 0.5], [0.5, 1.0]]])
+    return StrokePlan(plan.targets, **{"segment_time": 0.4, **kwargs})
+
+
+def test_plans_compare_by_value_and_hash_alike_when_equal():
+    vel = [[1.0, 0.0], [np.nan, np.nan]]
+    a = _stroke(keypoints=True, velocities=vel, meta={"letters": (0, 1)})
+    b = _stroke(keypoints=True, velocities=np.array(vel), meta={"letters": (0, 1)})
+    assert a is not b and a == b  # NaN rows (free velocities) are equal
+    assert hash(a) == hash(b) and len({a, b}) == 1
+    assert MotorPlan((a, _stroke())) == MotorPlan((b, _stroke()))
+    assert hash(MotorPlan((a,))) == hash(MotorPlan((b,)))
+    assert a != _stroke(keypoints=True, velocities=[[1.0, 0.0], [0.0, 0.0]], meta=a.meta)
+    assert a != _stroke(keypoints=True, velocities=vel, meta={"letters": (0, 2)})
+    assert _stroke() != _stroke(segment_time=0.5)
+    assert _stroke() != StrokePlan.from_arrays([[0.0, 0.0], [3.0, 4.5]], 1.0, segment_time=0.4)
+    assert _stroke() != "a stroke"
+    assert GaussianTarget([0.0, -0.0], 1.0) == GaussianTarget([-0.0, 0.0], 1.0)
+    assert hash(GaussianTarget([0.0, -0.0], 1.0)) == hash(GaussianTarget([-0.0, 0.0], 1.0))
+    assert GaussianTarget([0.0, 0.0], 1.0) != GaussianTarget([0.0, 0.0, 0.0], 1.0)
+
+
+def test_target_and_velocity_arrays_are_read_only_copies():
+    mean, vel = np.array([1.0, 2.0]), np.array([[1.0, 0.0], [0.0, 1.0]])
+    target = GaussianTarget(mean, np.eye(2))
+    plan = StrokePlan((target, target), keypoints=True, velocities=vel)
+    mean[0] = vel[0, 0] = 9.0  # the caller's arrays stay theirs
+    assert target.mean[0] == 1.0 and plan.velocities[0, 0] == 1.0
+    for arr in (target.mean, target.cov, plan.velocities):
+        with pytest.raises(ValueError):
+            arr[0] = 0.0

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from inkarm.analysis import kinematics
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
 
@@ -162,3 +163,51 @@ def test_fractional_stroke_index_is_refused(tmp_path):
     path.write_text("t,x,y,stroke\n0,1,2,0\n1,1,2,0.5\n")
     with pytest.raises(InputError, match=r"s.csv:3: stroke must be a whole number"):
         Drawing.from_csv(path)
+
+
+def test_drawing_strokes_are_a_tuple_that_cannot_grow():
+    strokes = [_circle(), _circle()]
+    drawing = Drawing(strokes)
+    assert isinstance(drawing.strokes, tuple) and drawing.strokes[1] is strokes[1]
+    strokes.append(_circle())  # the caller's list is not the drawing's
+    assert len(drawing.strokes) == 2
+    with pytest.raises(AttributeError):
+        drawing.strokes.append(_circle())
+    with pytest.raises(TypeError):
+        drawing.strokes[0] = _circle()
+    assert isinstance(drawing.sequential(0.1).strokes, tuple)
+    assert isinstance(drawing.transformed(2.0).strokes, tuple)
+
+
+@pytest.mark.parametrize(
+    "t",
+    [[0.0, 2.0, 1.0], [0.0, 1.0, 1.0], [0.0, np.nan, 2.0]],
+    ids=["decreasing", "repeated", "NaN"],
+)
+def test_from_checked_refuses_times_that_do_not_increase(t):
+    t = np.array(t)
+    with pytest.raises(InputError, match=r"trajectory t: must be strictly increasing, but t\["):
+        Trajectory.from_checked(t, np.zeros((3, 2)))
+    ok = Trajectory.from_checked(np.array([0.0, 0.5, 1.0]), np.zeros((3, 2)))
+    assert ok.n == 3 and ok.vel is None and ok.pressure is None
+
+
+def _accelerating(n: int = 21) -> Trajectory:
+    """x = t^2 (from rest), y = t^3 on a non-uniform grid: speed (2 t, 3 t^2)."""
+    t = np.linspace(0.0, 1.0, n) ** 1.5
+    return Trajectory(t=t, pos=np.column_stack([t**2, t**3]))
+
+
+def test_speed_has_one_definition_exact_at_the_ends_of_a_quadratic():
+    traj = _accelerating()
+    np.testing.assert_array_equal(traj.speed(), kinematics.speed(traj))
+    # Second-order differences are exact for x = t^2, also at the ends: at the start, from
+    # rest, a first-order difference would give dx/dt = h (the first step) instead of 0.
+    quadratic = Trajectory(t=traj.t, pos=np.column_stack([traj.t**2, 3.0 * traj.t]))
+    expected = np.hypot(2.0 * traj.t, 3.0)
+    np.testing.assert_allclose(quadratic.speed(), expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(kinematics.speed(quadratic), expected, rtol=1e-12, atol=1e-12)
+    two = Trajectory(t=[0.0, 0.5], pos=[[0.0, 0.0], [3.0, 4.0]])
+    np.testing.assert_allclose(two.speed(), [10.0, 10.0])
+    np.testing.assert_array_equal(two.speed(), kinematics.speed(two))
+    assert Trajectory(t=[0.0], pos=[[1.0, 2.0]]).speed().tolist() == [0.0]

@@ -335,3 +335,34 @@ def test_touch_rejects_bad_force_position_and_time_travel():
         InputError, match=r"Canvas.touch: time went backwards, t = 0.5 < previous 1.0"
     ):
         canvas.touch([5.0, 5.0], 1.0, 0.5)
+
+
+def test_png_pixels_are_those_matplotlib_imsave_wrote(tmp_path):
+    """to_png writes with Pillow the very pixels of imsave(cmap="gray_r", vmin=0, vmax=1)."""
+    from matplotlib.image import imread, imsave
+    from PIL import Image
+
+    from inkarm.ink.canvas import png_pixels
+
+    edges = np.arange(257) / 256.0  # every bin edge, and just either side of it
+    values = np.concatenate(
+        [np.linspace(0.0, 1.0, 4097), edges, np.nextafter(edges, 2.0), np.nextafter(edges, -1.0)]
+    )
+    values = np.clip(values, 0.0, 1.0)
+    image = np.concatenate([values, np.zeros(-len(values) % 64)]).reshape(-1, 64)
+    imsave(tmp_path / "mpl.png", image, cmap="gray_r", vmin=0.0, vmax=1.0)
+    expected = np.asarray(Image.open(tmp_path / "mpl.png"))
+    np.testing.assert_array_equal(png_pixels(image), expected)
+    imsave(tmp_path / "mpl32.png", image.astype(np.float32), cmap="gray_r", vmin=0.0, vmax=1.0)
+    expected = np.asarray(Image.open(tmp_path / "mpl32.png"))
+    np.testing.assert_array_equal(png_pixels(image.astype(np.float32)), expected)
+
+    canvas = Canvas(size_mm=(20.0, 10.0), px_per_mm=5.0, ink="brush")
+    _draw(canvas, _line([2.0, 2.0], [18.0, 8.0], 80), force=0.7)
+    imsave(tmp_path / "page_mpl.png", canvas.image, cmap="gray_r", vmin=0.0, vmax=1.0)
+    ours = canvas.to_png(tmp_path / "page.png")
+    written = np.asarray(Image.open(ours))
+    assert written.dtype == np.uint8 and written.shape == (50, 100, 4)
+    np.testing.assert_array_equal(written, np.asarray(Image.open(tmp_path / "page_mpl.png")))
+    np.testing.assert_array_equal(imread(ours), imread(tmp_path / "page_mpl.png"))
+    assert len(np.unique(written[..., 0])) > 10  # grey levels, not just black and white

@@ -7,7 +7,9 @@ import pytest
 
 from inkarm.errors import InputError
 from inkarm.ink.canvas import Canvas
-from inkarm.plots.report import canvas_figure, plot_canvas, report_figure
+from inkarm.plots import save_figure
+from inkarm.plots.figure import Figure
+from inkarm.plots.report import canvas_figure, plot_canvas, report_figure, write_report
 
 
 def _run():
@@ -33,43 +35,59 @@ def _run():
 
 
 def test_plot_canvas_places_the_page_in_millimetres_and_zooms_on_ink_and_plan():
-    import matplotlib
-
-    matplotlib.use("Agg")
     run = _run()
     plan = [run["reference_mm"][run["drawing"]]]
-    ax = plot_canvas(run["canvas"], plan_strokes=plan, margin_mm=5.0)
+    fig = plot_canvas(run["canvas"], plan_strokes=plan, margin_mm=5.0)
+    assert isinstance(fig, Figure) and len(fig.axes) == 1
+    ax = fig.axes[0]
     assert ax.images[0].get_extent() == [0.0, 100.0, 0.0, 120.0]
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     assert x0 == pytest.approx(20.0 - 0.4 - 5.0, abs=0.2) and x1 == pytest.approx(65.4, abs=0.2)
     assert y0 == pytest.approx(45.0 - 0.4, abs=0.2) and y1 == pytest.approx(55.4, abs=0.2)
     assert np.allclose(ax.lines[0].get_xydata(), plan[0])
-    whole = plot_canvas(run["canvas"], zoom=False)
+    whole = plot_canvas(run["canvas"], zoom=False).axes[0]
     assert whole.get_xlim() == (0.0, 100.0) and whole.get_ylim() == (0.0, 120.0)
-    matplotlib.pyplot.close("all")
 
 
 def test_plot_canvas_of_a_blank_page_shows_the_page():
-    ax = plot_canvas(Canvas(size_mm=(30.0, 40.0)))
+    ax = plot_canvas(Canvas(size_mm=(30.0, 40.0))).axes[0]
     assert ax.get_xlim() == (0.0, 30.0) and ax.get_ylim() == (0.0, 40.0)
-    ax.figure.clf()
 
 
-def test_report_png_has_the_four_panels(tmp_path):
+def test_plot_canvas_draws_on_the_given_axes():
+    fig = Figure()
+    left, right = fig.subplots(1, 2)
+    assert plot_canvas(Canvas(size_mm=(30.0, 40.0)), right) is fig
+    assert right.images and not left.images
+
+
+def test_report_figure_has_the_four_panels():
+    fig = report_figure(metrics={"tracking_rms_mm": 0.1}, title="run", **_run())
+    assert isinstance(fig, Figure) and len(fig.axes) == 4
+    assert "tracking_rms_mm = 0.1" in fig.get_suptitle()
+
+
+def test_write_report_saves_the_report_png(tmp_path):
     from matplotlib.image import imread
 
-    path = report_figure(tmp_path / "report.png", metrics={"tracking_rms_mm": 0.1}, **_run())
+    path = write_report(tmp_path / "report.png", metrics={"tracking_rms_mm": 0.1}, **_run())
+    assert path == tmp_path / "report.png"
     pixels = imread(path)
     assert pixels.shape[:2] == (975, 1650)  # 11 x 6.5 in at 150 dpi
     assert pixels[..., :3].std() > 0.05  # not a blank image
 
 
-def test_canvas_figure_writes_an_image(tmp_path):
+def test_report_figure_draws_on_a_given_figure():
+    fig = Figure(figsize=(8, 5))
+    assert report_figure(fig=fig, **_run()) is fig and len(fig.axes) == 4
+
+
+def test_canvas_figure_saves_as_an_image(tmp_path):
     from matplotlib.image import imread
 
     run = _run()
-    path = canvas_figure(run["canvas"], tmp_path / "canvas.png", dpi=50)
+    path = save_figure(canvas_figure(run["canvas"]), tmp_path / "canvas.png", dpi=50)
     assert imread(path).shape[1] == 300  # 6 in at 50 dpi
 
 
@@ -79,9 +97,8 @@ def test_report_figure_names_the_mismatched_input(tmp_path):
     with pytest.raises(
         InputError, match=r"report_figure: force_n has 999 samples, times_s has 1000"
     ):
-        report_figure(tmp_path / "r.png", **run)
+        write_report(tmp_path / "r.png", **run)
+    assert not (tmp_path / "r.png").exists()
     run = _run()
     with pytest.raises(InputError, match=r"report_figure: need at least 2 samples, got 1"):
-        report_figure(
-            tmp_path / "r.png", **{k: (v[:1] if k != "canvas" else v) for k, v in run.items()}
-        )
+        report_figure(**{k: (v[:1] if k != "canvas" else v) for k, v in run.items()})
