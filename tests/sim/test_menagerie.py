@@ -1,4 +1,5 @@
-"""Menagerie arms (CellConfig.arm = "iiwa14" / "panda") loaded from a fake Menagerie tree.
+"""Menagerie arms (the profiles "menagerie-iiwa14" / "menagerie-panda") loaded from a fake
+Menagerie tree.
 
 There is no MuJoCo Menagerie copy in the test environment, so each test writes a small one
 under tmp_path: MJCF files at Menagerie's paths with Menagerie's body, joint, site and actuator
@@ -8,27 +9,35 @@ per joint, a ``home`` keyframe with controls, a light, meshes under ``assets/`` 
 tetrahedron mesh and round masses instead of the real meshes and inertias.
 """
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
-from inkarm.control.ik import ArmKinematics, solve_ik
-from inkarm.core.frames import PagePlacement
+from inkarm.control.ik import solve_ik
+from inkarm.control.kinematics import ArmKinematics
+from inkarm.core.plant import TorqueCommand
 from inkarm.errors import InputError, ScenarioError
-from inkarm.jobs.scenario import parse_scenario, run
-from inkarm.sim.cell import (
-    ACTUATOR_NAMES,
-    HOME_Q,
-    JOINT_NAMES,
-    MENAGERIE_MODELS,
-    PANDA_HOME_Q,
-    CellConfig,
-    build_model,
-    build_spec,
-    default_gains,
-    menagerie_model_path,
-)
+from inkarm.jobs.run import run
+from inkarm.jobs.scenario import parse_scenario
+from inkarm.robots.arms.menagerie import model_path
+from inkarm.robots.registry import load_robot
+from inkarm.sim.cell import CellConfig, build_model, build_spec, make_cell, page_placement
 from inkarm.sim.plant import MujocoPlant
+
+pytestmark = pytest.mark.sim
+
+PROFILES = {"iiwa14": load_robot("menagerie-iiwa14"), "panda": load_robot("menagerie-panda")}
+MENAGERIE_MODELS = {arm: p.model.menagerie for arm, p in PROFILES.items()}
+HOME_Q = load_robot("iiwa14").home_q
+JOINT_NAMES = tuple(f"joint{i}" for i in range(1, 8))
+ACTUATOR_NAMES = tuple(f"motor{i}" for i in range(1, 8))
+
+
+def cell_of(arm: str, config: CellConfig | None = None):
+    """The drawing cell with the Menagerie ``arm`` ("iiwa14" or "panda")."""
+    return make_cell(config, PROFILES[arm])
 
 # (body, pos, quat, joint range) from the base outwards: Menagerie's joint placements in [m].
 IIWA14_CHAIN = [
@@ -124,15 +133,18 @@ def menagerie(tmp_path, monkeypatch):
     return tmp_path
 
 
-def _builtin_home_tip() -> np.ndarray:
-    model = build_model()
+@pytest.fixture(scope="module")
+def builtin_model():
+    return build_model()
+
+
+@pytest.fixture(scope="module")
+def builtin_home_tip(builtin_model) -> np.ndarray:
+    model = builtin_model
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_kinematics(model, data)
     return data.site("pen_tip").xpos.copy()
-
-
-BUILTIN_HOME_TIP = _builtin_home_tip()
 
 
 def dh_flange(q, a, d, alpha):
@@ -153,7 +165,7 @@ def dh_flange(q, a, d, alpha):
 
 @pytest.mark.parametrize("arm, limits", [("iiwa14", IIWA_LIMITS), ("panda", PANDA_LIMITS)])
 def test_menagerie_arm_has_seven_torque_motors_and_the_cell(menagerie, arm, limits):
-    model = build_model(CellConfig(arm=arm))
+    model = build_model(cell_of(arm))
     hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     assert [model.joint(j).name for j in hinges] == list(JOINT_NAMES)
     assert [model.actuator(i).name for i in range(model.nu)] == list(ACTUATOR_NAMES)
@@ -186,7 +198,7 @@ def test_menagerie_arm_has_seven_torque_motors_and_the_cell(menagerie, arm, limi
 
 @pytest.mark.parametrize("arm", ["iiwa14", "panda"])
 def test_only_the_pen_tip_and_the_paper_can_collide(menagerie, arm):
-    model = build_model(CellConfig(arm=arm))
+    model = build_model(cell_of(arm))
 
     def can_collide(a, b):
         return bool(
@@ -203,9 +215,9 @@ def test_only_the_pen_tip_and_the_paper_can_collide(menagerie, arm):
     assert pairs == {("paper", "pen_tip")} and model.npair == 0
 
 
-def test_iiwa14_has_the_builtin_kinematics_so_it_shares_the_home_pose(menagerie):
-    menagerie_model = build_model(CellConfig(arm="iiwa14"))
-    builtin = build_model()
+def test_iiwa14_has_the_builtin_kinematics_so_it_shares_the_home_pose(menagerie, builtin_model):
+    menagerie_model = build_model(cell_of("iiwa14"))
+    builtin = builtin_model
     rng = np.random.default_rng(0)
     for q in [np.array(HOME_Q), *rng.uniform(-1.5, 1.5, (20, 7))]:
         poses = []
@@ -226,7 +238,7 @@ def test_iiwa14_has_the_builtin_kinematics_so_it_shares_the_home_pose(menagerie)
 
 
 def test_panda_flange_follows_the_published_dh_table(menagerie):
-    model = build_model(CellConfig(arm="panda"))
+    model = build_model(cell_of("panda"))
     a = [0.0, 0.0, 0.0, 0.0825, -0.0825, 0.0, 0.088]
     d = [0.333, 0.0, 0.316, 0.0, 0.384, 0.0, 0.0]
     alpha = [0.0, -np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, np.pi / 2]
@@ -243,22 +255,23 @@ def test_panda_flange_follows_the_published_dh_table(menagerie):
 
 
 @pytest.mark.parametrize("arm", ["iiwa14", "panda"])
-def test_home_points_the_pen_down_above_the_paper_and_ik_reaches_the_sheet(menagerie, arm):
-    cell = CellConfig(arm=arm)
-    model = build_model(cell)
+def test_home_points_the_pen_down_above_the_paper_and_ik_reaches_the_sheet(
+    menagerie, arm, builtin_home_tip
+):
+    model = build_model(cell_of(arm))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_kinematics(model, data)
     tip = data.site("pen_tip")
     assert tip.xmat.reshape(3, 3)[:, 2] @ [0, 0, -1] > 0.99
     if arm == "iiwa14":  # the builtin's home
-        np.testing.assert_allclose(tip.xpos, BUILTIN_HOME_TIP, atol=1e-9)
+        np.testing.assert_allclose(tip.xpos, builtin_home_tip, atol=1e-9)
     else:  # 150 mm above the sheet's centre
         np.testing.assert_allclose(tip.xpos, [0.6, 0.0, 0.15], atol=0.002)
 
-    kin = ArmKinematics(model, joint_names=JOINT_NAMES)
-    page = PagePlacement.from_model(model)
-    home = np.array(cell.home)
+    kin = ArmKinematics(model, "pen_tip", JOINT_NAMES)
+    page = page_placement(model)
+    home = PROFILES[arm].home_q
     for corner in [(20.0, 20.0), (190.0, 277.0), (105.0, 148.5)]:
         goal = page.to_robot([*corner, 0.0])
         result = solve_ik(kin, goal, page.pen_axis, home, home)
@@ -269,17 +282,21 @@ def test_home_points_the_pen_down_above_the_paper_and_ik_reaches_the_sheet(menag
         assert R[:, 2] @ page.pen_axis > 1 - 1e-9
 
 
-def test_panda_home_defaults_to_its_own_and_home_q_overrides(menagerie):
-    assert CellConfig(arm="panda").home == PANDA_HOME_Q
-    assert CellConfig().home == HOME_Q
+def test_panda_home_is_its_own_and_a_profile_home_reaches_the_keyframe(menagerie):
+    panda = PROFILES["panda"]
+    assert not np.allclose(panda.home_q, HOME_Q)
+    np.testing.assert_allclose(PROFILES["iiwa14"].home_q, HOME_Q)
     q = (0.1, 0.2, 0.0, -2.0, 0.0, 2.2, 0.7)
-    model = build_model(CellConfig(arm="panda", home_q=q))
+    moved = dataclasses.replace(
+        panda, joints=tuple(dataclasses.replace(j, home=h) for j, h in zip(panda.joints, q))
+    )
+    model = build_model(make_cell(robot=moved))
     np.testing.assert_allclose(model.key("home").qpos, [*q, 0.0])
 
 
 @pytest.mark.parametrize("arm, limits", [("iiwa14", IIWA_LIMITS), ("panda", PANDA_LIMITS)])
 def test_default_gains_saturate_at_the_arm_torque_limits(arm, limits):
-    gains = default_gains(arm)
+    gains = PROFILES[arm].gains
     np.testing.assert_allclose(gains.torque_limit, limits)
     assert np.all(gains.integral_limit < gains.torque_limit)
 
@@ -287,14 +304,14 @@ def test_default_gains_saturate_at_the_arm_torque_limits(arm, limits):
 def test_panda_plant_holds_its_home_pose_under_pid(menagerie):
     from inkarm.control.pid import JointPID
 
-    cell = CellConfig(arm="panda")
-    plant = MujocoPlant(build_model(cell))
-    kin = ArmKinematics(build_model(cell), joint_names=JOINT_NAMES)
-    pid = JointPID(default_gains("panda"), plant.dt)
-    goal = np.array(cell.home) + 0.05
+    cell = cell_of("panda")
+    plant = MujocoPlant(build_model(cell), cell=cell)
+    kin = ArmKinematics(build_model(cell), "pen_tip", JOINT_NAMES)
+    pid = JointPID(cell.robot.gains, plant.dt)
+    goal = cell.robot.home_q + 0.05
     for _ in range(300):
         s = plant.read()
-        plant.command(torque=pid.update(goal, s.q, s.qd, feedforward=kin.bias(s.q, s.qd)))
+        plant.command(TorqueCommand(pid.update(goal, s.q, s.qd, feedforward=kin.bias(s.q, s.qd))))
         plant.step()
     np.testing.assert_allclose(plant.read().q, goal, atol=2e-3)
     plant.close()
@@ -305,10 +322,13 @@ def test_a_panda_scenario_draws_with_the_panda_gains(menagerie, tmp_path):
     rows = "\n".join(f"{ti},{60.0 + 80.0 * ti},{100.0 + 40.0 * ti}" for ti in t)
     (tmp_path / "line.csv").write_text("t,x,y\n" + rows + "\n")
     scenario = parse_scenario(
-        {"source": {"kind": "trajectory", "file": "line.csv"}, "cell": {"arm": "panda"}},
+        {"source": {"kind": "trajectory", "file": "line.csv"},
+         "robot": {"name": "menagerie-panda"}},
         base_dir=tmp_path,
     )
-    metrics = run(scenario, tmp_path / "out", report=False).metrics
+    result = run(scenario)
+    assert result.ok, result.reason
+    metrics = result.metrics
     # With the iiwa's gains this Panda hunts: 1.9 mm RMS and the force swings by 0.3 N (std).
     assert metrics["tracking_rms_mm"] < 1.5
     assert abs(metrics["contact_force_mean_n"] - 1.0) < 0.1
@@ -316,22 +336,23 @@ def test_a_panda_scenario_draws_with_the_panda_gains(menagerie, tmp_path):
 
 
 def test_model_paths_lie_under_menagerie_root(menagerie):
-    for arm, relative in MENAGERIE_MODELS.items():
-        assert menagerie_model_path(arm) == menagerie / relative
-    with pytest.raises(InputError, match=r"'builtin' is not a Menagerie arm"):
-        menagerie_model_path("builtin")
+    for relative in MENAGERIE_MODELS.values():
+        assert model_path(relative) == menagerie / relative
+    with pytest.raises(InputError, match=r"no file .*nope\.xml"):
+        model_path("nope.xml")
 
 
 def test_spec_from_menagerie_is_editable_before_compiling(menagerie):
-    spec = build_spec(CellConfig(arm="iiwa14", timestep=0.001))
+    spec = build_spec(cell_of("iiwa14", CellConfig(timestep=0.001)))
     assert spec.compile().opt.timestep == 0.001
 
 
-def test_scenario_cell_table_selects_the_arm(menagerie):
-    scenario = parse_scenario({"source": {"kind": "tag"}, "cell": {"arm": "panda"}})
-    assert CellConfig(**scenario.cell).arm == "panda"
-    with pytest.raises(ScenarioError, match=r"cell.arm: expected one of 'builtin', 'iiwa14'"):
-        parse_scenario({"source": {"kind": "tag"}, "cell": {"arm": "ur5"}})
+def test_scenario_robot_table_selects_the_arm(menagerie):
+    scenario = parse_scenario({"source": {"kind": "tag"}, "robot": {"name": "menagerie-panda"}})
+    assert scenario.robot.name == "menagerie-panda"
+    assert scenario.robot.model.menagerie == MENAGERIE_MODELS["panda"]
+    with pytest.raises(ScenarioError, match=r"robot.name: unknown value 'ur5'.*'iiwa14'"):
+        parse_scenario({"source": {"kind": "tag"}, "robot": {"name": "ur5"}})
 
 
 # -- errors ---------------------------------------------------------------------------------------
@@ -340,10 +361,10 @@ def test_scenario_cell_table_selects_the_arm(menagerie):
 def test_unknown_arm_is_refused():
     with pytest.raises(
         InputError,
-        match=r"CellConfig.arm: expected one of 'builtin', 'iiwa14', "
-        r"'panda', got 'ur5'",
+        match=r"robot: unknown robot 'ur5'.*expected one of 'iiwa14', 'menagerie-iiwa14', "
+        r"'menagerie-panda'",
     ):
-        CellConfig(arm="ur5")
+        load_robot("ur5")
 
 
 @pytest.mark.parametrize("arm", ["iiwa14", "panda"])
@@ -355,38 +376,38 @@ def test_unset_menagerie_root_names_the_variable_and_the_path(monkeypatch, arm):
         match=rf"set the environment variable MENAGERIE_ROOT.*"
         rf"\$MENAGERIE_ROOT/{expected}",
     ):
-        build_model(CellConfig(arm=arm))
+        build_model(cell_of(arm))
 
 
 def test_missing_model_file_names_the_path(tmp_path, monkeypatch):
     monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))
     path = tmp_path / "franka_emika_panda" / "panda_nohand.xml"
     with pytest.raises(InputError, match=rf"no file {path}.*MENAGERIE_ROOT="):
-        build_spec(CellConfig(arm="panda"))
+        build_spec(cell_of("panda"))
 
 
 def test_missing_mesh_names_the_mesh(menagerie):
     shell = menagerie / "kuka_iiwa_14" / "assets" / "shell.obj"
     shell.unlink()
     with pytest.raises(InputError, match=rf"needs the mesh {shell}, which is missing"):
-        build_model(CellConfig(arm="iiwa14"))
+        build_model(cell_of("iiwa14"))
 
 
 def test_unreadable_model_file_is_an_input_error(menagerie):
     (menagerie / "kuka_iiwa_14" / "iiwa14.xml").write_text("<mujoco><worldbody>")
     with pytest.raises(InputError, match=r"cannot read .*iiwa14\.xml"):
-        build_model(CellConfig(arm="iiwa14"))
+        build_model(cell_of("iiwa14"))
 
 
 def test_a_model_without_the_expected_joints_is_refused(menagerie):
     path = menagerie / "kuka_iiwa_14" / "iiwa14.xml"
     path.write_text(path.read_text().replace('name="joint7"', 'name="a7"'))
     with pytest.raises(InputError, match=r"missing \['joint7'\], unexpected \['a7'\]"):
-        build_model(CellConfig(arm="iiwa14"))
+        build_model(cell_of("iiwa14"))
 
 
 def test_a_model_without_the_flange_site_is_refused(menagerie):
     path = menagerie / "kuka_iiwa_14" / "iiwa14.xml"
     path.write_text(path.read_text().replace("attachment_site", "tool"))
     with pytest.raises(InputError, match=r"no site 'attachment_site' to mount the pen on"):
-        build_model(CellConfig(arm="iiwa14"))
+        build_model(cell_of("iiwa14"))

@@ -5,13 +5,32 @@ import mujoco
 import numpy as np
 import pytest
 
-from inkarm.control.ik import ArmKinematics, solve_ik
+from inkarm.control.ik import solve_ik
+from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.pid import JointPID
-from inkarm.core.frames import PagePlacement
-from inkarm.core.plant import Plant
+from inkarm.core.plant import Plant, PositionCommand, TorqueCommand
 from inkarm.errors import InputError, SimulationError
-from inkarm.sim.cell import HOME_Q, CellConfig, build_model, build_spec, default_gains
+from inkarm.robots.registry import load_robot
+from inkarm.sim.cell import CellConfig, build_model, build_spec, make_cell, page_placement
 from inkarm.sim.plant import MujocoPlant, SimState
+
+pytestmark = pytest.mark.sim
+
+IIWA = load_robot("iiwa14")
+HOME_Q = IIWA.home_q
+JOINT_NAMES = IIWA.joint_names
+
+
+@pytest.fixture(scope="module")
+def model():
+    """The default cell; plants share it (they only switch its auto-reset off)."""
+    return build_model()
+
+
+@pytest.fixture(scope="module")
+def kin():
+    """The controller's own model of the default cell."""
+    return ArmKinematics(build_model(), "pen_tip", JOINT_NAMES)
 
 
 class FakeCanvas:
@@ -30,16 +49,16 @@ class FakeCanvas:
 
 def hold(plant, kin, q_goal, steps):
     """PID with gravity compensation towards q_goal for ``steps`` periods."""
-    pid = JointPID(default_gains(), plant.dt)
+    pid = JointPID(IIWA.gains, plant.dt)
     for _ in range(steps):
         s = plant.read()
-        plant.command(torque=pid.update(q_goal, s.q, s.qd, feedforward=kin.bias(s.q, s.qd)))
+        plant.command(TorqueCommand(pid.update(q_goal, s.q, s.qd, feedforward=kin.bias(s.q, s.qd))))
         plant.step()
     return plant.read()
 
 
-def test_implements_the_plant_protocol_and_keeps_time():
-    plant = MujocoPlant(substeps=3)
+def test_implements_the_plant_protocol_and_keeps_time(model):
+    plant = MujocoPlant(model, substeps=3)
     assert isinstance(plant, Plant)
     assert plant.dt == pytest.approx(3 * 0.002)
     state = plant.read()
@@ -51,44 +70,43 @@ def test_implements_the_plant_protocol_and_keeps_time():
     assert plant.read().time == pytest.approx(5 * plant.dt)
 
 
-def test_without_torque_the_arm_sags_and_with_gravity_compensation_it_stays():
-    kin = ArmKinematics(build_model())
-    plant = MujocoPlant()
+def test_without_torque_the_arm_sags_and_with_gravity_compensation_it_stays(model, kin):
+    plant = MujocoPlant(model)
     for _ in range(50):
         plant.step()
     assert np.max(np.abs(plant.read().q - HOME_Q)) > 0.01
-    plant = MujocoPlant()
+    plant = MujocoPlant(model)
     for _ in range(50):
         s = plant.read()
-        plant.command(torque=kin.bias(s.q, s.qd))
+        plant.command(TorqueCommand(kin.bias(s.q, s.qd)))
         plant.step()
     assert np.max(np.abs(plant.read().q - HOME_Q)) < 1e-4
 
 
-def test_read_returns_copies_and_the_tip_in_page_millimetres():
-    plant = MujocoPlant()
+def test_read_returns_copies_and_the_tip_in_page_millimetres(model):
+    plant = MujocoPlant(model)
     state = plant.read()
     state.q[:] = 0.0
     assert np.allclose(plant.read().q, HOME_Q)
     data = mujoco.MjData(plant.model)
     data.qpos[:7] = HOME_Q
     mujoco.mj_kinematics(plant.model, data)
-    page = PagePlacement.from_model(plant.model)
+    page = page_placement(plant.model)
     np.testing.assert_allclose(
         plant.read().tip_mm, page.to_page(data.site("pen_tip").xpos), atol=1e-9
     )
 
 
-def test_pressed_pen_force_follows_the_spring_and_inks_the_canvas():
+def test_pressed_force_follows_the_spring_and_inks_the_canvas():
     cfg = CellConfig()
-    kin = ArmKinematics(build_model(cfg))
-    page = PagePlacement.from_model(kin.model)
+    kin = ArmKinematics(build_model(make_cell(cfg)), "pen_tip", JOINT_NAMES)
+    page = page_placement(kin.model)
     above = solve_ik(kin, page.to_robot([80.0, 120.0, 2.0]), page.pen_axis, HOME_Q, HOME_Q).q
     pressed = solve_ik(kin, page.to_robot([80.0, 120.0, -2.5]), page.pen_axis, above, above).q
     canvas = FakeCanvas()
-    plant = MujocoPlant(build_model(cfg), canvas=canvas, q0=above)
+    plant = MujocoPlant(build_model(make_cell(cfg)), canvas=canvas, q0=above)
     hold(plant, kin, above, 20)
-    assert canvas.calls == [] and plant.read().pen_force == 0.0
+    assert canvas.calls == [] and plant.read().force == 0.0
     for a in np.linspace(0.0, 1.0, 60):
         hold(plant, kin, above + a * (pressed - above), 1)
     state = hold(plant, kin, pressed, 150)
@@ -97,12 +115,12 @@ def test_pressed_pen_force_follows_the_spring_and_inks_the_canvas():
     expected = cfg.pen_stiffness_n_per_mm * state.pen_compression_mm + pen_mass * 9.81 * (
         page.pen_axis @ [0, 0, -1]
     )
-    assert state.pen_force == pytest.approx(expected, rel=0.02)
-    assert 0.5 < state.pen_force < 1.2
+    assert state.force == pytest.approx(expected, rel=0.02)
+    assert 0.5 < state.force < 1.2
     touches = [c for c in canvas.calls if c[0] == "touch"]
     assert len(touches) > 100
     np.testing.assert_allclose(touches[-1][1], [80.0, 120.0], atol=0.05)
-    assert touches[-1][2] == pytest.approx(state.pen_force, rel=1e-3)
+    assert touches[-1][2] == pytest.approx(state.force, rel=1e-3)
     times = [c[3] for c in touches]
     assert np.all(np.diff(times) > 0) and times[-1] < state.time
     hold(plant, kin, above, 100)
@@ -110,9 +128,9 @@ def test_pressed_pen_force_follows_the_spring_and_inks_the_canvas():
     assert sum(c[0] == "lift" for c in canvas.calls) == 1
 
 
-def test_close_zeroes_torque_and_lifts_an_inking_pen():
-    plant = MujocoPlant(canvas=FakeCanvas())
-    plant.command(torque=np.ones(7))
+def test_close_zeroes_torque_and_lifts_an_inking_pen(model):
+    plant = MujocoPlant(model, canvas=FakeCanvas())
+    plant.command(TorqueCommand(np.ones(7)))
     plant._touching = True  # as if the pen were on the paper
     plant.close()
     plant.close()
@@ -120,21 +138,21 @@ def test_close_zeroes_torque_and_lifts_an_inking_pen():
     assert plant.canvas.calls == [("lift",)]
 
 
-def test_position_commands_are_refused():
-    with pytest.raises(InputError, match="takes joint torques, not q_goal"):
-        MujocoPlant().command(q_goal=np.zeros(7))
+def test_position_commands_are_refused(model):
+    with pytest.raises(InputError, match="does not take position commands; it takes: torque"):
+        MujocoPlant(model).command(PositionCommand(np.zeros(7)))
 
 
-def test_runaway_speed_is_reported_as_divergence():
-    plant = MujocoPlant(max_joint_speed=20.0)
+def test_runaway_speed_is_reported_as_divergence(model):
+    plant = MujocoPlant(model, max_joint_speed=20.0)
     plant.data.qvel[3] = 500.0
     with pytest.raises(SimulationError, match=r"joint4 moves at [0-9.]+ rad/s, above the 20.0"):
         plant.step()
 
 
-def test_non_finite_state_is_reported_as_divergence(tmp_path, monkeypatch):
+def test_non_finite_state_is_reported_as_divergence(model, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # MuJoCo appends its warnings to ./MUJOCO_LOG.TXT
-    plant = MujocoPlant()
+    plant = MujocoPlant(model)
     plant.data.qvel[0] = np.nan
     with pytest.raises(
         SimulationError,
@@ -144,12 +162,12 @@ def test_non_finite_state_is_reported_as_divergence(tmp_path, monkeypatch):
         plant.step()
 
 
-def test_bad_arguments_are_refused():
+def test_bad_arguments_are_refused(model):
     with pytest.raises(InputError, match="substeps must be >= 1, got 0"):
-        MujocoPlant(substeps=0)
+        MujocoPlant(model, substeps=0)
     with pytest.raises(InputError, match=r"q0: expected 7 angles, got shape \(3,\)"):
-        MujocoPlant(q0=[0.0, 0.0, 0.0])
+        MujocoPlant(model, q0=[0.0, 0.0, 0.0])
     spec = build_spec()
     spec.delete(spec.site("paper_origin"))
-    with pytest.raises(InputError, match="the model needs joint pen_slide, site pen_tip"):
+    with pytest.raises(InputError, match="the model needs joint pen_slide, site and geom pen_tip and site paper_origin"):
         MujocoPlant(spec.compile())

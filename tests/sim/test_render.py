@@ -19,11 +19,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from inkarm.control.loop import DrawLog
+from inkarm.core.log import DrawLog
 from inkarm.errors import InputError
 from inkarm.ink.canvas import Canvas, MarkerInk
+from inkarm.robots.registry import load_robot
 from inkarm.sim import render as R
-from inkarm.sim.cell import HOME_Q, CellConfig
+from inkarm.sim.cell import make_cell
+
+pytestmark = pytest.mark.sim
+
+HOME_Q = load_robot("iiwa14").home_q
 
 
 def _gl_skip_reason() -> str | None:
@@ -261,10 +266,11 @@ def _log(rows: int = 300, touch=(50, 250), q=AWAY_Q) -> DrawLog:
 
 
 def _replay(log: DrawLog, **canvas_kw):
-    cell = CellConfig()
+    cell = make_cell()
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=2.0, **canvas_kw)
     model = R.replay_model(cell, canvas, drawing_box_mm=R.ink_box_mm(log, 0.02))
-    replay = R.LogReplay(model, log, canvas, pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm)
+    replay = R.LogReplay(model, log, canvas, pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
+                         joint_names=cell.robot.joint_names)
     return model, replay, canvas
 
 
@@ -414,7 +420,7 @@ def test_render_log_video_errors(tmp_path, monkeypatch):
 
 _NO_GL_RUN = """
 import numpy as np
-from inkarm.control.loop import DrawLog
+from inkarm.core.log import DrawLog
 from inkarm.errors import InkarmError
 from inkarm.sim.render import render_log_video
 z = np.zeros((3, 7))
