@@ -39,6 +39,7 @@ def cell_of(arm: str, config: CellConfig | None = None):
     """The drawing cell with the Menagerie ``arm`` ("iiwa14" or "panda")."""
     return make_cell(config, PROFILES[arm])
 
+
 # (body, pos, quat, joint range) from the base outwards: Menagerie's joint placements in [m].
 IIWA14_CHAIN = [
     ("link1", "0 0 0.1575", "1 0 0 0", "-2.96706 2.96706"),
@@ -322,8 +323,10 @@ def test_a_panda_scenario_draws_with_the_panda_gains(menagerie, tmp_path):
     rows = "\n".join(f"{ti},{60.0 + 80.0 * ti},{100.0 + 40.0 * ti}" for ti in t)
     (tmp_path / "line.csv").write_text("t,x,y\n" + rows + "\n")
     scenario = parse_scenario(
-        {"source": {"kind": "trajectory", "file": "line.csv"},
-         "robot": {"name": "menagerie-panda"}},
+        {
+            "source": {"kind": "trajectory", "file": "line.csv"},
+            "robot": {"name": "menagerie-panda"},
+        },
         base_dir=tmp_path,
     )
     result = run(scenario)

@@ -169,5 +169,8 @@ def test_bad_arguments_are_refused(model):
         MujocoPlant(model, q0=[0.0, 0.0, 0.0])
     spec = build_spec()
     spec.delete(spec.site("paper_origin"))
-    with pytest.raises(InputError, match="the model needs joint pen_slide, site and geom pen_tip and site paper_origin"):
+    with pytest.raises(
+        InputError,
+        match="the model needs joint pen_slide, site and geom pen_tip and site paper_origin",
+    ):
         MujocoPlant(spec.compile())

@@ -269,8 +269,13 @@ def _replay(log: DrawLog, **canvas_kw):
     cell = make_cell()
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=2.0, **canvas_kw)
     model = R.replay_model(cell, canvas, drawing_box_mm=R.ink_box_mm(log, 0.02))
-    replay = R.LogReplay(model, log, canvas, pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
-                         joint_names=cell.robot.joint_names)
+    replay = R.LogReplay(
+        model,
+        log,
+        canvas,
+        pen_stiffness_n_per_mm=cell.pen_stiffness_n_per_mm,
+        joint_names=cell.robot.joint_names,
+    )
     return model, replay, canvas
 
 
