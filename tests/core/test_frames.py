@@ -1,5 +1,6 @@
 """The page-to-robot transform."""
 
+import mujoco
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -7,7 +8,7 @@ from hypothesis import strategies as st
 
 from inkarm.core.frames import PagePlacement
 from inkarm.errors import InputError
-from inkarm.sim.cell import CellConfig, build_model, paper_rotation
+from inkarm.sim.cell import CellConfig, build_model, make_cell, page_placement, paper_rotation
 
 PAGE = PagePlacement(np.array([0.4, 0.1, 0.02]), paper_rotation(25.0), (210.0, 297.0))
 
@@ -37,9 +38,11 @@ def test_arrays_of_points_and_two_column_input():
     np.testing.assert_allclose(out[1], PAGE.to_robot([10.0, 20.0, 0.0]))
 
 
-def test_from_model_reads_the_sheet():
-    model = build_model(CellConfig(paper_size_mm=(148.0, 210.0), paper_centre_mm=(520.0, -30.0)))
-    page = PagePlacement.from_model(model)
+@pytest.mark.sim
+def test_page_placement_reads_the_sheet_from_a_cell_model():
+    config = CellConfig(paper_size_mm=(148.0, 210.0), paper_centre_mm=(520.0, -30.0))
+    model = build_model(make_cell(config))
+    page = page_placement(model)
     assert page.size_mm == pytest.approx((148.0, 210.0))
     centre = page.to_robot([74.0, 105.0])
     np.testing.assert_allclose(centre[:2], [0.52, -0.03], atol=1e-12)
@@ -58,5 +61,17 @@ def test_bad_placements_are_refused():
         PagePlacement(np.array([0.0, np.nan, 0.0]), np.eye(3), (210.0, 297.0))
     with pytest.raises(InputError, match="size_mm: expected positive"):
         PagePlacement(np.zeros(3), np.eye(3), (0.0, 297.0))
-    with pytest.raises(InputError, match="no site 'corner' or geom 'paper'"):
-        PagePlacement.from_model(build_model(), site="corner")
+    with pytest.raises(InputError, match="no site 'paper_origin' or geom 'paper'"):
+        page_placement(mujoco.MjModel.from_xml_string("<mujoco/>"))
+    assert not hasattr(PagePlacement, "from_model")  # the cell reads placements, not frames
+
+
+@pytest.mark.sim
+def test_the_sheet_defaults_to_the_robot_profiles():
+    cell = make_cell(CellConfig())
+    page = page_placement(build_model(cell))
+    assert page.size_mm == pytest.approx(cell.robot.paper_size_mm)
+    w, h = cell.robot.paper_size_mm
+    centre = page.to_robot([w / 2, h / 2])
+    np.testing.assert_allclose(centre[:2], np.array(cell.robot.paper_centre_mm) / 1000.0,
+                               atol=1e-12)
