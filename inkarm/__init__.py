@@ -1,11 +1,80 @@
 """inkarm: a testbed for drawing robots.
 
 Movement models (``inkarm.models``) turn sparse motor plans into human-like pen trajectories;
-controllers (``inkarm.control``) make a plant track them: a MuJoCo arm (``inkarm.sim``) or real
-devices (``inkarm.hardware``). Millimetres and seconds at every public surface.
+a controller (``inkarm.control``) makes a robot (``inkarm.robots``: profiles as data) track
+them on a plant: a MuJoCo cell (``inkarm.sim``) or real devices (``inkarm.hardware``). A
+scenario is data, and ``run(scenario)`` a pure function. Millimetres and seconds at every
+public surface.
+
+    >>> import inkarm
+    >>> result = inkarm.run(inkarm.load_scenario())   # the embedded default: a letter N
+    >>> result.status, round(result.metrics["tracking_rms_mm"], 2)
+    ('ok', 0.05)
 """
 
-from inkarm.errors import InkarmError
+from __future__ import annotations
 
-__all__ = ["InkarmError", "__version__"]
-__version__ = "0.1.0"
+import importlib
+
+from inkarm.errors import (
+    InkarmError,
+    InputError,
+    PlanError,
+    ScenarioError,
+    SimulationError,
+    SolverError,
+    UnreachableError,
+)
+
+__version__ = "0.2.0"
+
+# Public names -> the module that defines them, imported on first use (``import inkarm`` stays
+# light: MuJoCo and SciPy load only when a name that needs them is touched).
+_LAZY = {
+    "Trajectory": "inkarm.core.trajectory",
+    "Drawing": "inkarm.core.trajectory",
+    "GaussianTarget": "inkarm.core.plan",
+    "StrokePlan": "inkarm.core.plan",
+    "MotorPlan": "inkarm.core.plan",
+    "DrawLog": "inkarm.core.log",
+    "Plant": "inkarm.core.plant",
+    "PlantState": "inkarm.core.plant",
+    "TorqueCommand": "inkarm.core.plant",
+    "PositionCommand": "inkarm.core.plant",
+    "PenCommand": "inkarm.core.plant",
+    "PagePlacement": "inkarm.core.frames",
+    "LQT": "inkarm.models.lqt",
+    "LQTConfig": "inkarm.models.lqt",
+    "RobotProfile": "inkarm.robots.profile",
+    "load_robot": "inkarm.robots.registry",
+    "robot_names": "inkarm.robots.registry",
+    "Scenario": "inkarm.jobs.scenario",
+    "load_scenario": "inkarm.jobs.scenario",
+    "Run": "inkarm.jobs.run",
+    "run": "inkarm.jobs.run",
+    "write_run": "inkarm.jobs.outputs",
+}
+
+__all__ = sorted([
+    *_LAZY,
+    "InkarmError",
+    "InputError",
+    "PlanError",
+    "ScenarioError",
+    "SimulationError",
+    "SolverError",
+    "UnreachableError",
+    "__version__",
+])
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'inkarm' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return __all__

@@ -18,7 +18,7 @@ from inkarm.control.config import LoopConfig
 from inkarm.core.log import DESCEND, DRAW, LIFT, TRAVEL
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError
-from inkarm.models.minjerk import PEAK_SPEED_RATIO, quintic_profile
+from inkarm.models.minjerk import PEAK_SPEED_RATIO, minimum_jerk_profile
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,7 +43,7 @@ class PenPath:
 
 def minimum_jerk(n: int) -> np.ndarray:
     """The minimum-jerk profile s(tau) on n samples of tau in [0, 1] (seed 002, eq. 3.1)."""
-    return quintic_profile(np.linspace(0.0, 1.0, max(n, 2)))[0]
+    return minimum_jerk_profile(np.linspace(0.0, 1.0, max(n, 2)))
 
 
 def ticks(duration: float, dt: float) -> int:

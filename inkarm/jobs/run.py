@@ -73,7 +73,7 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         believed = kinematic_model(cell)  # the controller's own model; the plant gets a twin
         canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                         ink=scenario.ink.make())
-        plant = MujocoPlant(build_model(cell), cell=cell,
+        plant = MujocoPlant(build_model(cell), cell=cell, canvas=canvas,
                             substeps=_substeps(scenario.robot.control_period_s,
                                                scenario.cell.timestep))
     except InkarmError as e:
