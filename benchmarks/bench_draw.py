@@ -40,21 +40,15 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from inkarm.analysis.metrics import compute_metrics
-from inkarm.control.ik import ArmKinematics, IKConfig, PathTracker, solve_ik
-from inkarm.control.loop import (
-    APPROACH,
-    HOME,
-    LoopConfig,
-    home_posture,
-    plan_reference,
-    run_drawing,
-)
-from inkarm.core.frames import PagePlacement
+from inkarm.control.config import LoopConfig
+from inkarm.control.ik import IKConfig, PathTracker, solve_ik
+from inkarm.control.kinematics import ArmKinematics
+from inkarm.control.loop import plan_within_speed_limits
+from inkarm.core.log import APPROACH, HOME
 from inkarm.core.trajectory import Drawing
-from inkarm.ink.canvas import Canvas, make_ink
-from inkarm.jobs.scenario import load_scenario, place, source_drawing
-from inkarm.sim.cell import CellConfig, build_model, default_gains, joint_ranges
+from inkarm.jobs.run import run
+from inkarm.jobs.scenario import Scenario, load_scenario, place, source_drawing
+from inkarm.sim.cell import PEN_SLIDE, PEN_TIP, Cell, build_model, kinematic_model
 from inkarm.sim.plant import MujocoPlant
 
 RTF_TARGET = 30.0
@@ -72,10 +66,10 @@ MINK_POSTURE_COST = 1e-4
 class Job:
     """The default scenario, ready to draw."""
 
-    cell: CellConfig
+    scenario: Scenario
+    cell: Cell
     drawing: Drawing
     px_per_mm: float
-    ink: object
 
 
 def pin_one_core(cpu: int | None) -> int | None:
@@ -89,35 +83,18 @@ def pin_one_core(cpu: int | None) -> int | None:
 
 def default_job() -> Job:
     scenario = load_scenario()
-    cell = CellConfig(**scenario.cell)
+    cell = Cell(scenario.cell, scenario.robot)
     drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
-    ink = make_ink(scenario.ink_model, **scenario.ink)
-    return Job(cell, drawing, scenario.px_per_mm, ink)
+    return Job(scenario, cell, drawing, scenario.ink.px_per_mm)
 
 
 def draw_once(job: Job) -> tuple[dict, np.ndarray]:
-    """One run of the scenario: its metrics and the logged torques (periods, 7)."""
-    kin_model = build_model(job.cell)
-    placement = PagePlacement.from_model(kin_model)
-    canvas = Canvas(size_mm=job.cell.paper_size_mm, px_per_mm=job.px_per_mm, ink=job.ink)
-    plant = MujocoPlant(build_model(job.cell), canvas=canvas)
-    gains = default_gains(job.cell.arm)
+    """One run of the scenario (:func:`inkarm.jobs.run.run`, as ``inkarm draw`` runs it): its
+    metrics and the logged torques (periods, n)."""
     cpu0 = time.process_time()
-    log = run_drawing(job.drawing, plant, kin_model, gains, placement, LoopConfig())
+    result = run(job.scenario)
     cpu = time.process_time() - cpu0
-    plant.close()
-    metrics = compute_metrics(
-        times_s=log.time,
-        reference_mm=log.reference,
-        tip_mm=log.tip,
-        force_n=log.force,
-        drawing=log.drawing,
-        q=log.q,
-        joint_range=joint_ranges(kin_model),
-        wall_time_s=log.wall_s,
-        canvas=canvas,
-        plan_strokes=[s.pos[:, :2] for s in job.drawing.strokes],
-    )
+    log, metrics = result.log, dict(result.metrics)
     metrics["wall_s"] = log.wall_s
     metrics["sim_s"] = float(log.time[-1] - log.time[0])
     metrics["cpu_realtime_factor"] = metrics["sim_s"] / cpu
@@ -164,7 +141,7 @@ def drawing_rows(job: Job, repeat: int) -> list[tuple[str, ...]]:
             "",
         ),
         (
-            "real-time factor on CPU time (the core's time taken by others left out)",
+            "real-time factor on CPU time of the whole run() (models, canvas and metrics included)",
             f"{statistics.median(m['cpu_realtime_factor'] for m, _ in runs):.1f}",
             "",
             "",
@@ -193,12 +170,13 @@ def ik_path(
 ) -> tuple[ArmKinematics, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, IKConfig]:
     """The planner's IK problem for the default scenario: kinematics, goals (T, 3) [m] at the
     IK knots, pen axis, start joints, posture, knot spacing [s] and the planner's IK settings."""
-    kin = ArmKinematics(build_model(job.cell))
-    placement = PagePlacement.from_model(kin.model)
+    believed = kinematic_model(job.cell)
+    kin = ArmKinematics.of(believed)
+    placement = believed.placement
     cfg = LoopConfig()
-    dt = MujocoPlant(build_model(job.cell)).dt
-    posture = home_posture(kin)
-    ref = plan_reference(job.drawing, kin, placement, cfg, posture, dt)
+    dt = MujocoPlant(build_model(job.cell), cell=job.cell).dt
+    posture = believed.home_q
+    ref, _ = plan_within_speed_limits(job.drawing, believed, cfg, posture, dt, kin)
     page = ref.page_mm[(ref.phase != APPROACH) & (ref.phase != HOME)]
     stride = max(1, round(cfg.ik_period_s / dt))
     knots = np.unique(np.append(np.arange(0, len(page), stride), len(page) - 1))
@@ -236,17 +214,17 @@ def run_mink(kin, goals, axis, q0, posture, h) -> tuple[list[float], np.ndarray]
     import mink
 
     model = kin.model
-    slide = model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "pen_slide")]
+    slide = model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, PEN_SLIDE)]
     q_full = model.qpos0.copy()
     q_full[kin.qpos_adr] = q0
     configuration = mink.Configuration(model)
     configuration.update(q_full)
-    frame = mink.FrameTask("pen_tip", "site", position_cost=1.0, orientation_cost=[1.0, 1.0, 0.0])
+    frame = mink.FrameTask(PEN_TIP, "site", position_cost=1.0, orientation_cost=[1.0, 1.0, 0.0])
     posture_task = mink.PostureTask(model, cost=MINK_POSTURE_COST)
     target = model.qpos0.copy()
     target[kin.qpos_adr] = posture
     posture_task.set_target(target)
-    site = configuration.data.site("pen_tip")
+    site = configuration.data.site(PEN_TIP)
     rotation = mink.SO3.from_matrix(site.xmat.reshape(3, 3).copy())
     limits = [mink.ConfigurationLimit(model)]
     frozen = [mink.DofFreezingTask(model, dof_indices=[int(slide)])]
