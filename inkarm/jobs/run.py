@@ -6,6 +6,7 @@ regression suites and sweeps can map :func:`run` over processes or machines.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -84,8 +85,9 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     except SimulationError as e:
         partial = getattr(e, "log", None)
         return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e))
-    except InkarmError as e:
-        raise e.within(file=scenario.path) from None
+    except InkarmError as e:  # a LoopConfig field's error names it as the scenario does
+        controller = e.key in {f.name for f in dataclasses.fields(scenario.controller)}
+        raise e.within(file=scenario.path, key="controller" if controller else None) from None
     finally:
         plant.close()
     plan_strokes = [s.pos[:, :2] for s in drawing.strokes]

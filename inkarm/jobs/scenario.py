@@ -234,7 +234,8 @@ def _dataclass_table(rd: TomlReader, table: dict, key: str, cls):
     except InkarmError as e:
         if e.key is None or e.key.split(".")[0] not in fields:
             e.key = None
-        raise e.within(file=rd.source, key=key) from None
+        raise ScenarioError(e.message, key=e.key, value=e.value,
+                            choices=e.choices).within(file=rd.source, key=key) from None
 
 
 def _placement(rd: TomlReader, raw) -> Placement:
