@@ -63,7 +63,8 @@ def plan_within_speed_limits(
     """The joint reference of ``drawing``, and notes on what was changed to plan it.
 
     When a joint would exceed its speed limit [rad/s] and ``config.speed_limits`` is "slow",
-    the drawing's times and the travel speed are stretched by the excess (times 1.05) and the
+    the drawing's times, the descents, lifts and travel are stretched by the excess (times 1.05);
+    the
     plan is made again, up to three times; "refuse" raises :class:`JointSpeedError`."""
     kin = kin or ArmKinematics.of(model)
     depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm)
@@ -81,8 +82,9 @@ def plan_within_speed_limits(
             stretch *= factor
             notes.append(f"slowed {stretch:.2f} x: {e.message}")
             drawing = slowed(drawing, factor)
-            config = dataclasses.replace(config, travel_speed_mm_s=config.travel_speed_mm_s
-                                         / factor)
+            config = dataclasses.replace(
+                config, travel_speed_mm_s=config.travel_speed_mm_s / factor,
+                descend_s=config.descend_s * factor, lift_s=config.lift_s * factor)
     raise AssertionError("unreachable")
 
 

@@ -56,7 +56,8 @@ def pen_depth_mm(config: LoopConfig, stiffness_n_per_mm: float, travel_mm: float
 
     k is ``config.pen_stiffness_n_per_mm``, else ``stiffness_n_per_mm`` (the controller's model);
     the compression must leave 20% of the pen's ``travel_mm``."""
-    stiffness = config.pen_stiffness_n_per_mm or stiffness_n_per_mm
+    stiffness = (stiffness_n_per_mm if config.pen_stiffness_n_per_mm is None
+                 else config.pen_stiffness_n_per_mm)
     if not stiffness > 0:
         raise InputError(f"expected > 0, got {stiffness}", key="pen_stiffness_n_per_mm",
                          value=stiffness)

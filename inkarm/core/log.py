@@ -124,7 +124,7 @@ class DrawLog:
         if not isinstance(other, DrawLog):
             return NotImplemented
         return self.notes == other.notes and all(
-            np.array_equal(getattr(self, f.name), getattr(other, f.name))
+            np.array_equal(getattr(self, f.name), getattr(other, f.name), equal_nan=True)
             for f in fields(self) if f.name != "notes")
 
     __hash__ = None  # type: ignore[assignment]

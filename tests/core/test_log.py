@@ -81,8 +81,6 @@ def test_logs_without_notes_round_trip(tmp_path):
     assert back == log and back.notes == () and back.wall_s == 1.5
 
 
-@pytest.mark.xfail(strict=True, reason="DrawLog.__eq__ compares with np.array_equal without "
-                   "equal_nan: a log with NaN force (plants without a force sensor) != itself")
 def test_logs_with_nan_columns_round_trip(tmp_path):
     log = DrawLog.empty(5, 3)
     log.force[:] = np.nan
