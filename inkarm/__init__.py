@@ -55,17 +55,38 @@ _LAZY = {
     "write_run": "inkarm.jobs.outputs",
 }
 
-__all__ = sorted([
-    *_LAZY,
+__all__ = [
+    "DrawLog",
+    "Drawing",
+    "GaussianTarget",
     "InkarmError",
     "InputError",
+    "LQT",
+    "LQTConfig",
+    "MotorPlan",
+    "PagePlacement",
+    "PenCommand",
     "PlanError",
+    "Plant",
+    "PlantState",
+    "PositionCommand",
+    "RobotProfile",
+    "Run",
+    "Scenario",
     "ScenarioError",
     "SimulationError",
     "SolverError",
+    "StrokePlan",
+    "TorqueCommand",
+    "Trajectory",
     "UnreachableError",
     "__version__",
-])
+    "load_robot",
+    "load_scenario",
+    "robot_names",
+    "run",
+    "write_run",
+]
 
 
 def __getattr__(name: str):
