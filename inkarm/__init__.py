@@ -56,12 +56,12 @@ _LAZY = {
 }
 
 __all__ = [
+    "LQT",
     "DrawLog",
     "Drawing",
     "GaussianTarget",
     "InkarmError",
     "InputError",
-    "LQT",
     "LQTConfig",
     "MotorPlan",
     "PagePlacement",
