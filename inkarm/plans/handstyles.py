@@ -8,7 +8,9 @@ realisation; a handstyle is one choice of the latter. Covariances are semi-tied
     Sigma_i = H D_i H^T,   D_i = h_i I,   h_i ~ N(h, rho)
 
 so every target of a style shares the oblique basis H (a slant, a shear) and differs only in
-magnitude. Larger h or smaller d give smoother, looser strokes; a slanted H leans them.
+magnitude. Larger h or smaller d give smoother, looser strokes; a slanted H leans them. The
+basis vectors are the *columns* of H; a TOML file writes H row by row (``basis = [[H00, H01],
+[H10, H11]]``), the same convention as ``semi_tied.H`` in a plan file.
 
 The LQT optimum is linear in the means (it starts at rest on the first mean), and scaling
 Sigma and R together only scales the whole cost, so the *shape* of a realised stroke depends
@@ -19,12 +21,17 @@ chain's time constant is about T_s / (2 pi) * (sigma / d)^(1/n).
 A :class:`Handstyle` also carries the few planning choices that belong to a hand: time per
 target, how sparsely a font polyline is turned into targets (``thin_angle``,
 ``max_spacing``) and when a ligature drops a sharp junction target (``ligature_angle``).
+
+The presets (:data:`PRESETS`) live in ``inkarm/data/handstyles.toml`` and are read by the
+same checked reader as a user's ``--styles`` file (:func:`load_handstyles`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -38,8 +45,9 @@ from inkarm.models.lqt import LQTConfig, semi_tied_covariances, solve
 def slanted_basis(slant_deg: float, stretch: float = 1.0) -> np.ndarray:
     """Oblique basis H = [e_x, v]: v leans ``slant_deg`` [deg] right of vertical, |v| = stretch.
 
-    With D_i = h I, Sigma = h H H^T is an ellipse elongated along the slant: the shear that
-    seed 000 (Fig. 7) describes as turning a circle into an oriented ellipse.
+    The basis vectors are the *columns* of H. With D_i = h I, Sigma = h H H^T is an ellipse
+    elongated along the slant: the shear that seed 000 (Fig. 7) describes as turning a circle
+    into an oriented ellipse.
     """
     a = np.radians(slant_deg)
     return np.array([[1.0, stretch * np.sin(a)], [0.0, stretch * np.cos(a)]])
@@ -51,7 +59,10 @@ class Handstyle:
 
     Attributes:
         name: Preset or user name.
-        basis: H, (2, 2), columns are the (dimensionless) oblique basis vectors.
+        basis: H, (2, 2), dimensionless; its *columns* are the oblique basis vectors and
+            Sigma_i = h_i H H^T. In a handstyle file ``basis`` is H written row by row,
+            ``[[H00, H01], [H10, H11]]``, exactly like ``semi_tied.H`` in a plan file
+            (:mod:`inkarm.io.planfile`): the same matrix gives the same covariances.
         h: Covariance magnitude in [mm^2] (seed 000 eq. 22).
         rho: Variance of the per-target magnitudes h_i ~ N(h, rho), in [mm^4]; 0 = none.
         d: Maximum displacement in [mm] that sets the control cost (seed 000 eq. 9).
@@ -80,35 +91,40 @@ class Handstyle:
     description: str = ""
 
     def __post_init__(self) -> None:
-        where = f"handstyle {self.name!r}"
         basis = np.asarray(self.basis, dtype=float)
         if basis.shape != (2, 2) or not np.all(np.isfinite(basis)):
-            raise ScenarioError(
-                f"{where}: basis must be two finite 2-D vectors, got {basis.tolist()}"
-            )
+            given = np.asarray(self.basis).tolist()
+            self._fail(f"basis must be H as a finite 2 x 2 matrix, written row by row, got {given}",
+                       given)
         if abs(np.linalg.det(basis)) < 1e-9:
-            raise ScenarioError(
-                f"{where}: basis vectors {basis.T.tolist()} are parallel (singular H)"
-            )
+            self._fail(f"basis H = {basis.tolist()} is singular: its columns (the basis "
+                       "vectors) are parallel", basis.tolist())
         object.__setattr__(self, "basis", basis)
-        _positive(where, "h", self.h)
-        _positive(where, "d", self.d)
-        _positive(where, "segment_time", self.segment_time)
+        for key in ("h", "d", "segment_time"):
+            self._check_positive(key)
         if not (np.isfinite(self.rho) and self.rho >= 0):
-            raise ScenarioError(f"{where}: rho must be >= 0, got {self.rho}")
+            self._fail(f"rho must be >= 0, got {self.rho}", self.rho)
         if (
             isinstance(self.order, bool)
             or int(self.order) != self.order
             or not 1 <= self.order <= 7
         ):
-            raise ScenarioError(f"{where}: order must be an integer in 1..7, got {self.order}")
+            self._fail(f"order must be an integer in 1..7, got {self.order}", self.order)
         object.__setattr__(self, "order", int(self.order))
         if self.max_spacing is not None:
-            _positive(where, "max_spacing", self.max_spacing)
+            self._check_positive("max_spacing")
         for key in ("thin_angle", "ligature_angle"):
             value = getattr(self, key)
             if not (np.isfinite(value) and 0.0 <= value <= 180.0):
-                raise ScenarioError(f"{where}: {key} must be in [0, 180] degrees, got {value}")
+                self._fail(f"{key} must be in [0, 180] degrees, got {value}", value)
+
+    def _fail(self, message: str, value) -> None:
+        raise ScenarioError(message, key=f"handstyle {self.name!r}", value=value)
+
+    def _check_positive(self, key: str) -> None:
+        value = getattr(self, key)
+        if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+            self._fail(f"{key} must be a positive number, got {value!r}", value)
 
     def lqt_config(self, dt: float = 0.01) -> LQTConfig:
         """The LQT settings of this style, time step ``dt`` in [s]."""
@@ -162,157 +178,137 @@ class Handstyle:
         return Drawing(strokes, page_size=page_size, meta=meta).sequential(pause=pen_up_time)
 
 
-def _positive(where: str, key: str, value) -> None:
-    if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-        raise ScenarioError(f"{where}: {key} must be a positive number, got {value!r}")
-
-
-# Only sigma / d = sqrt(h) / d (with the order and H's shape) sets how much a style smooths.
-PRESETS: dict[str, Handstyle] = {
-    s.name: s
-    for s in (
-        Handstyle(
-            "faithful",
-            h=0.01,
-            d=0.01,
-            order=4,
-            segment_time=0.06,
-            max_spacing=0.15,
-            description="every font vertex a tight target: the font, drawn by a smooth hand",
-        ),
-        Handstyle(
-            "cursive",
-            basis=slanted_basis(20.0, stretch=1.5),
-            h=0.2,
-            d=0.01,
-            order=4,
-            segment_time=0.07,
-            thin_angle=15.0,
-            description="slight right slant, moderately smooth: everyday handwriting",
-        ),
-        Handstyle(
-            "loose",
-            h=1.0,
-            d=0.01,
-            order=5,
-            segment_time=0.08,
-            thin_angle=25.0,
-            description="large covariances, 5th order: rounded, co-articulated letters",
-        ),
-        Handstyle(
-            "italic",
-            basis=slanted_basis(35.0, stretch=2.5),
-            h=0.3,
-            d=0.01,
-            order=5,
-            segment_time=0.08,
-            thin_angle=20.0,
-            description="strong oblique basis: covariances stretched along a 35 deg slant",
-        ),
-        Handstyle(
-            "hurried",
-            basis=slanted_basis(-10.0, stretch=1.5),
-            h=0.3,
-            rho=0.05,
-            d=0.02,
-            order=3,
-            segment_time=0.07,
-            thin_angle=15.0,
-            description="3rd order, leaning back, per-target magnitude noise (rho > 0)",
-        ),
-        Handstyle(
-            "graffiti",
-            basis=slanted_basis(25.0, stretch=2.0),
-            h=1.0,
-            rho=0.1,
-            d=0.05,
-            order=5,
-            segment_time=0.1,
-            thin_angle=20.0,
-            description="tag style: sweeping 5th-order strokes on a slanted basis",
-        ),
-    )
-}
+PRESETS_FILE = Path(__file__).parents[1] / "data" / "handstyles.toml"
+"""The preset handstyles, read with :func:`load_handstyles` like a user's file."""
 
 _KEYS = {f.name for f in fields(Handstyle)} - {"name"}
+_NUMBERS = ("h", "rho", "d", "segment_time", "thin_angle", "max_spacing", "ligature_angle")
 
 
 def handstyle_from_mapping(
-    table: dict, name: str = "custom", where: str = "handstyle"
+    table: dict,
+    name: str = "custom",
+    where: str = "handstyle",
+    *,
+    file: str | Path | None = None,
+    bases: Mapping[str, Handstyle] | None = None,
+    default_base: str | None = "faithful",
 ) -> Handstyle:
-    """A user handstyle from a mapping (a TOML table or a dict).
+    """A handstyle from a mapping (a TOML table or a dict).
 
-    Keys are the :class:`Handstyle` fields (``basis`` as a list of two basis vectors) plus
-    ``base``, the preset to start from (default ``"faithful"``). ``slant`` [deg] and
-    ``stretch`` give ``basis = slanted_basis(slant, stretch)`` instead of ``basis``.
-    Unknown keys raise :class:`ScenarioError` naming the key.
+    Keys are the :class:`Handstyle` fields plus ``base``, the style to start from (one of
+    ``bases``, default the presets; without ``base``, ``default_base``, or the Handstyle
+    defaults when that is None). ``basis`` is H written row by row (its columns are the
+    basis vectors, as ``semi_tied.H`` in a plan file); ``slant`` [deg] and ``stretch`` give
+    ``basis = slanted_basis(slant, stretch)`` instead. Errors are :class:`ScenarioError`
+    with ``file``, ``key`` = ``where`` and the offending ``value``.
     """
+
+    def error(message: str, value=ScenarioError.NO_VALUE, choices=()) -> ScenarioError:
+        return ScenarioError(message, file=file, key=where, value=value, choices=choices)
+
     if not isinstance(table, dict):
-        raise ScenarioError(
-            f"{where}: expected a table of handstyle settings, got {type(table).__name__}"
-        )
-    allowed = _KEYS | {"base", "slant", "stretch"}
+        raise error(f"expected a table of handstyle settings, got {type(table).__name__}")
+    allowed = sorted(_KEYS | {"base", "slant", "stretch"})
     for key in table:
         if key not in allowed:
-            raise ScenarioError(
-                f"{where}: unknown key {key!r}; expected one of {', '.join(sorted(allowed))}"
-            )
+            raise error(f"unknown key {key!r}; expected one of {', '.join(allowed)}", key, allowed)
     values = dict(table)
+    base_name = values.pop("base", default_base)
     try:
-        base = get_handstyle(str(values.pop("base", "faithful")))
-    except ScenarioError as e:
-        raise ScenarioError(f"{where}: base: {e}") from None
-    if "basis" in values:
-        if "slant" in values or "stretch" in values:
-            raise ScenarioError(f"{where}: give either basis or slant/stretch, not both")
-        try:
-            values["basis"] = np.array(values["basis"], dtype=float).T
-        except (TypeError, ValueError):
-            raise ScenarioError(
-                f"{where}: basis must be two 2-D vectors, got {values['basis']!r}"
-            ) from None
-    elif "slant" in values or "stretch" in values:
-        values["basis"] = slanted_basis(
-            _number(where, "slant", values.pop("slant", 0.0)),
-            _number(where, "stretch", values.pop("stretch", 1.0)),
+        base = Handstyle(name) if base_name is None else _lookup(
+            str(base_name), PRESETS if bases is None else bases
         )
-    for key in ("h", "rho", "d", "segment_time", "thin_angle", "max_spacing", "ligature_angle"):
+    except ScenarioError as e:
+        raise error(f"base: {e.message}", base_name, e.choices) from None
+    _read_basis(values, error)
+    for key in _NUMBERS:
         if key in values:
-            values[key] = _number(where, key, values[key])
+            values[key] = _number(error, key, values[key])
+    if not isinstance(values.get("description", ""), str):
+        raise error(f"description must be a string, got {values['description']!r}",
+                    values["description"])
     if "order" in values and (
         isinstance(values["order"], bool) or not isinstance(values["order"], int)
     ):
-        raise ScenarioError(f"{where}: order must be an integer in 1..7, got {values['order']!r}")
+        raise error(f"order must be an integer in 1..7, got {values['order']!r}", values["order"])
     try:
         return replace(base, name=name, **values)
     except ScenarioError as e:
-        raise ScenarioError(f"{where}: {str(e).split(': ', 1)[-1]}") from None
+        raise error(e.message, e.value) from None
 
 
-def _number(where: str, key: str, value) -> float:
+def _read_basis(values: dict, error) -> None:
+    """Replace ``basis`` (H row by row) or ``slant``/``stretch`` in ``values`` by the array H."""
+    if "basis" in values:
+        if "slant" in values or "stretch" in values:
+            raise error("give either basis or slant/stretch, not both")
+        try:
+            values["basis"] = np.array(values["basis"], dtype=float)
+        except (TypeError, ValueError):
+            raise error(f"basis must be H as a 2 x 2 matrix, written row by row, got "
+                        f"{values['basis']!r}", values["basis"]) from None
+    elif "slant" in values or "stretch" in values:
+        values["basis"] = slanted_basis(
+            _number(error, "slant", values.pop("slant", 0.0)),
+            _number(error, "stretch", values.pop("stretch", 1.0)),
+        )
+
+
+def _number(error, key: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(f"{where}: {key} must be a number, got {value!r}")
+        raise error(f"{key} must be a number, got {value!r}", value)
     return float(value)
 
 
 def load_handstyles(path: str | Path) -> dict[str, Handstyle]:
-    """Handstyles defined in a TOML file, one table per style: ``[styles.NAME]``."""
+    """Handstyles defined in a TOML file, one table per style: ``[styles.NAME]``.
+
+    A style without ``base`` starts from the ``faithful`` preset; ``base`` names a preset or
+    a style above it in the same file.
+    """
+    return _read_styles(path, PRESETS, default_base="faithful")
+
+
+def _read_styles(
+    path: str | Path, bases: Mapping[str, Handstyle], default_base: str | None
+) -> dict[str, Handstyle]:
+    """The [styles.NAME] tables of a TOML file; ``base`` may name one of ``bases`` or a style
+    above it in the same file."""
     doc = load_toml(path, "handstyle file")
     unknown = set(doc) - {"styles"}
     if unknown:
-        raise ScenarioError(f"{path}: unknown key {min(unknown)!r}; expected [styles.NAME] tables")
+        key = min(unknown)
+        raise ScenarioError(f"unknown key {key!r}; expected [styles.NAME] tables",
+                            file=str(path), value=key, choices=("styles",))
     styles = doc.get("styles", {})
     if not isinstance(styles, dict):
-        raise ScenarioError(f"{path}: styles must be a table of [styles.NAME] tables")
-    return {
-        name: handstyle_from_mapping(table, name=name, where=f"{path}: styles.{name}")
-        for name, table in styles.items()
-    }
+        raise ScenarioError("styles must be a table of [styles.NAME] tables", file=str(path),
+                            key="styles", value=styles)
+    out: dict[str, Handstyle] = {}
+    for name, table in styles.items():
+        out[name] = handstyle_from_mapping(
+            table, name=name, where=f"styles.{name}", file=str(path),
+            bases={**bases, **out}, default_base=default_base,
+        )
+    return out
 
 
-def get_handstyle(name: str, extra: dict[str, Handstyle] | None = None) -> Handstyle:
-    """The style called ``name`` among ``extra`` (user styles, first) and the presets."""
-    styles = {**PRESETS, **(extra or {})}
+def _lookup(name: str, styles: Mapping[str, Handstyle]) -> Handstyle:
     if name not in styles:
-        raise ScenarioError(f"unknown handstyle {name!r}; available: {', '.join(sorted(styles))}")
+        raise ScenarioError(
+            f"unknown handstyle {name!r}; available: {', '.join(sorted(styles))}",
+            value=name, choices=sorted(styles),
+        )
     return styles[name]
+
+
+def get_handstyle(name: str, extra: Mapping[str, Handstyle] | None = None) -> Handstyle:
+    """The style called ``name`` among ``extra`` (user styles, first) and the presets."""
+    return _lookup(name, {**PRESETS, **(extra or {})})
+
+
+PRESETS: Mapping[str, Handstyle] = MappingProxyType(
+    _read_styles(PRESETS_FILE, {}, default_base=None)
+)
+"""The preset handstyles by name (read-only), read from ``inkarm/data/handstyles.toml``."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -91,8 +91,9 @@ def test_user_style_from_mapping_starts_from_a_base_preset():
     assert style.name == "mine" and style.h == 0.5
     assert style.order == PRESETS["loose"].order
     assert np.allclose(style.basis, slanted_basis(20.0))
-    basis = handstyle_from_mapping({"basis": [[1, 0], [0.5, 1]]}).basis
-    assert np.allclose(basis[:, 1], [0.5, 1.0])  # basis vectors are the columns of H
+    basis = handstyle_from_mapping({"basis": [[1, 0.5], [0, 1]]}).basis
+    assert np.allclose(basis, [[1, 0.5], [0, 1]])  # H written row by row, as in a plan file
+    assert np.allclose(basis[:, 1], [0.5, 1.0])  # its columns are the basis vectors
 
 
 @pytest.mark.parametrize(
@@ -106,7 +107,7 @@ def test_user_style_from_mapping_starts_from_a_base_preset():
         ({"rho": -0.1}, "rho must be >= 0"),
         ({"thin_angle": 200.0}, r"thin_angle must be in \[0, 180\]"),
         ({"basis": [[1, 0], [2, 0]]}, "parallel"),
-        ({"basis": [[1, 0]]}, "basis must be two finite 2-D vectors"),
+        ({"basis": [[1, 0]]}, r"basis must be H as a finite 2 x 2 matrix, written row by row"),
         ({"basis": [[1, 0], [0, 1]], "slant": 10.0}, "either basis or slant"),
         ({"base": "nope"}, "unknown handstyle 'nope'"),
         ({"max_spacing": 0.0}, "max_spacing must be a positive number"),
@@ -118,8 +119,46 @@ def test_user_style_errors_name_the_key(table, message):
 
 
 def test_user_style_error_names_where_it_came_from():
-    with pytest.raises(ScenarioError, match=r"^styles\.mine: unknown key 'colour'"):
+    with pytest.raises(ScenarioError, match=r"^styles\.mine: unknown key 'colour'") as info:
         handstyle_from_mapping({"colour": "red"}, where="styles.mine")
+    assert info.value.key == "styles.mine" and info.value.value == "colour"
+    assert "slant" in info.value.choices
+
+
+def test_style_file_errors_carry_the_file_key_and_value(tmp_path):
+    path = tmp_path / "styles.toml"
+    path.write_text('[styles.a]\nh = -2.0\n')
+    message = r"styles\.toml: styles\.a: h must be a positive"
+    with pytest.raises(ScenarioError, match=message) as info:
+        load_handstyles(path)
+    assert (info.value.file, info.value.key, info.value.value) == (str(path), "styles.a", -2.0)
+
+
+def test_presets_are_read_from_the_data_file_like_a_user_file():
+    from inkarm.plans.handstyles import PRESETS_FILE, _read_styles
+
+    assert PRESETS_FILE.name == "handstyles.toml" and PRESETS_FILE.parent.name == "data"
+    again = _read_styles(PRESETS_FILE, {}, default_base=None)
+    assert list(again) == list(PRESETS) == [
+        "faithful", "cursive", "loose", "italic", "hurried", "graffiti"
+    ]
+    for name, style in again.items():
+        assert style.name == name and style.description
+        assert np.array_equal(style.basis, PRESETS[name].basis)
+        for f in fields(style):
+            if f.name != "basis":
+                assert getattr(style, f.name) == getattr(PRESETS[name], f.name), (name, f.name)
+    assert np.allclose(PRESETS["cursive"].basis, slanted_basis(20.0, 1.5))
+    assert PRESETS["cursive"].max_spacing is None  # presets start from the Handstyle defaults
+    with pytest.raises(TypeError):
+        PRESETS["mine"] = PRESETS["faithful"]  # read-only
+
+
+def test_a_style_file_may_base_a_style_on_one_above_it(tmp_path):
+    path = tmp_path / "styles.toml"
+    path.write_text('[styles.a]\nbase = "loose"\nh = 3.0\n[styles.b]\nbase = "a"\nd = 0.2\n')
+    styles = load_handstyles(path)
+    assert styles["b"].h == 3.0 and styles["b"].order == PRESETS["loose"].order
 
 
 def test_load_handstyles_from_toml(tmp_path):
@@ -159,3 +198,25 @@ def test_unknown_style_lists_the_available_ones():
         ScenarioError, match="unknown handstyle 'fancy'; available: .*cursive.*faithful"
     ):
         get_handstyle("fancy")
+
+
+@pytest.mark.parametrize(
+    "H", [[[1.0, 0.6], [0.0, 1.0]], [[1.6, 0.3], [0.0, 0.6]], [[2.0, 0.0], [1.0, 1.0]]]
+)
+def test_the_same_H_in_a_plan_file_and_a_style_file_gives_the_same_covariances(H):
+    import tomllib
+
+    from inkarm.io.planfile import parse_plan
+
+    rows = ", ".join(f"[{a}, {b}]" for a, b in H)
+    plan = parse_plan(tomllib.loads(f"""
+[semi_tied]
+H = [{rows}]
+h = 4.0
+[[strokes]]
+targets = [{{ mean = [0.0, 0.0] }}, {{ mean = [5.0, 5.0] }}, {{ mean = [9.0, 0.0] }}]
+"""))
+    style = handstyle_from_mapping({"basis": H, "h": 4.0, "rho": 0.0})
+    covs = style.covariances(3, np.random.default_rng(0))
+    np.testing.assert_allclose(covs, plan.strokes[0].plan.covs)
+    np.testing.assert_allclose(covs[0], 4.0 * np.array(H) @ np.array(H).T)  # Sigma = h H H^T
