@@ -13,7 +13,9 @@ direction p_i - p_{i-1} and the outgoing one p_{i+1} - p_i, in [0, 180] deg: 0 =
 with the previous target and the next is larger than a user-defined threshold" (100 deg in
 its Fig. 10); read as the interior angle (180 = straight) that rule would delete the harmless
 straight-through targets and keep the hooks, the opposite of a smooth ligature, so we read it
-as the turning angle.
+as the turning angle. It is computed by :func:`inkarm.analysis.density.turning_angles` (in
+radians, converted here), and the rule is applied until no junction exceeds the threshold.
+How far the written text is from the font is measured by :mod:`inkarm.plans.fidelity`.
 
 Coordinates: page frame in [mm], x right, y up, origin at the page's lower-left corner.
 """
@@ -27,9 +29,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from inkarm.core.plan import MotorPlan, StrokePlan
-from inkarm.core.trajectory import A4_MM, Drawing, Trajectory
+from inkarm.analysis.density import turning_angles
+from inkarm.core.plan import MotorPlan
+from inkarm.core.trajectory import A4_MM, Drawing
 from inkarm.errors import InputError
+from inkarm.plans.fidelity import (  # noqa: F401 - the fidelity measures, re-exported
+    TextFidelity,
+    font_deviation,
+    outline_deviation,
+    sample_letters,
+    text_fidelity,
+)
 from inkarm.plans.handstyles import Handstyle, get_handstyle
 
 DEFAULT_FONT = "scripts"
@@ -228,17 +238,6 @@ def _words(line: str) -> list[tuple[str, int]]:
 # -- targets and ligatures ----------------------------------------------------------------
 
 
-def turning_angles(points: np.ndarray) -> np.ndarray:
-    """Turning angle in [deg] at each interior vertex of a polyline (m, D) -> (m - 2,).
-
-    0 = straight on, 180 = reversal (see the module docstring). A zero-length edge gives 0.
-    """
-    a = points[1:-1] - points[:-2]
-    b = points[2:] - points[1:-1]
-    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return np.degrees(np.abs(np.arctan2(cross, np.einsum("ij,ij->i", a, b))))
-
-
 def thin_polyline(points: np.ndarray, min_turn: float) -> np.ndarray:
     """Keep the end points and every vertex where the path has turned by >= ``min_turn`` [deg]
     since the last kept vertex; consecutive duplicates are dropped.
@@ -345,18 +344,43 @@ def join_ligatures(
 
 
 def _drop_sharp(seq: TargetSequence, candidates: list[int], max_turn: float) -> TargetSequence:
+    """Drop junction targets whose turning angle exceeds ``max_turn`` [deg], repeatedly: when
+    a target goes, its kept neighbours form the new junction and are checked in turn, until
+    no junction target of the two joined letters turns by more than ``max_turn``. The ends of
+    the sequence, and the last target a letter has left in it, are never dropped."""
     keep = np.ones(len(seq), bool)
     connectors = seq.connectors.copy()
-    for i in candidates:
-        prev = np.flatnonzero(keep[:i])
-        nxt = np.flatnonzero(keep[i + 1 :])
-        if not (0 <= i < len(seq)) or prev.size == 0 or nxt.size == 0:
-            continue  # an end of the joined path: no angle there
-        a, b = prev[-1], i + 1 + nxt[0]
-        if turning_angles(seq.means[[a, i, b]])[0] > max_turn:
+    todo = [i for i in candidates if 0 <= i < len(seq)]
+    joined = {int(seq.letters[i]) for i in todo}
+    while todo:
+        i = todo.pop(0)
+        same_letter = keep & (seq.letters == seq.letters[i])
+        if not keep[i] or int(seq.letters[i]) not in joined or same_letter.sum() == 1:
+            continue
+        turn = _turn_at(seq.means, keep, i)
+        if turn is not None and turn > max_turn:
             keep[i] = False
+            a = np.flatnonzero(keep[:i])[-1]
+            b = i + 1 + np.flatnonzero(keep[i + 1 :])[0]
             connectors[b] = True
+            todo += [a, b]
     return TargetSequence(seq.means[keep], seq.letters[keep], connectors[keep], seq.joinable)
+
+
+def _turn_at(means: np.ndarray, keep: np.ndarray, i: int) -> float | None:
+    """Turning angle in [deg] at kept target ``i``, between the nearest kept targets before and
+    after it at another point (a target repeated in place turns where the path turns); None at
+    an end of the path."""
+    def distinct(indices) -> int | None:
+        return next(
+            (j for j in indices if np.linalg.norm(means[j] - means[i]) > _SAME_POINT), None
+        )
+
+    a = distinct(np.flatnonzero(keep[:i])[::-1])
+    b = distinct(i + 1 + np.flatnonzero(keep[i + 1 :]))
+    if a is None or b is None:
+        return None
+    return float(np.degrees(turning_angles(means[[a, i, b]])[1]))
 
 
 def _copy(seq: TargetSequence) -> TargetSequence:
@@ -453,6 +477,10 @@ class WrittenText(NamedTuple):
     text_plan: TextPlan
     drawing: Drawing
 
+    def fidelity(self) -> TextFidelity:
+        """How far the drawing is from the font, both ways (:func:`text_fidelity`)."""
+        return text_fidelity(self.text_plan, self.drawing)
+
 
 def write_text(text: str, style: Handstyle | str, dt: float = 0.01, **kwargs) -> WrittenText:
     """Plan and realise ``text`` with ``style`` (a Handstyle or a preset's name): the plan and
@@ -462,56 +490,3 @@ def write_text(text: str, style: Handstyle | str, dt: float = 0.01, **kwargs) ->
     tp = plan_text(text, style, **kwargs)
     layout = kwargs.get("layout", PageLayout())
     return WrittenText(tp, style.realise(tp.plan, dt=dt, page_size=layout.page_size))
-
-
-def _active_targets(plan: StrokePlan, traj: Trajectory) -> np.ndarray:
-    """Index of the target tracked at each sample: targets are held stepwise for
-    ``segment_time`` each (seed 000 sec. 3.3), so at time t from the stroke's start it is
-    floor(t / T_s)."""
-    t = traj.t - traj.t[0]
-    return np.minimum((t / plan.segment_time + 1e-9).astype(int), len(plan.targets) - 1)
-
-
-def sample_letters(plan: StrokePlan, traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
-    """Per sample of ``traj``: the index of the letter being drawn, and whether the pen is on
-    that letter's outline (False while it heads for a target along a connector), both (N,)."""
-    active = _active_targets(plan, traj)
-    return np.asarray(plan.meta["letters"])[active], ~np.asarray(plan.meta["connectors"])[active]
-
-
-def outline_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
-    """Largest distance in [mm] of the written path from the font, per letter (text index).
-
-    A sample belongs to the letter of the target active at its time and is compared with the
-    path the plan prescribes around that target i: the font outlines of the letters of
-    targets i - 1, i and i + 1 (the smooth pen anticipates the next target and lags the
-    last), plus the straight connector chords into targets i and i + 1 (ligatures are not
-    part of any letter's outline).
-    """
-    outlines = {g.index: g.strokes for g in tp.glyphs}
-    worst: dict[int, float] = {}
-    for plan, traj in zip(tp.plan.strokes, drawing.strokes):
-        letters = np.asarray(plan.meta["letters"])
-        connectors = np.asarray(plan.meta["connectors"])
-        means = plan.means
-        m = len(letters)
-        active = _active_targets(plan, traj)
-        for i in np.unique(active):
-            neighbours = {max(i - 1, 0), i, min(i + 1, m - 1)}
-            polylines = [s for j in neighbours for s in outlines[letters[j]]]
-            polylines += [means[[j - 1, j]] for j in (i, i + 1) if 0 < j < m and connectors[j]]
-            d = _distance_to_polylines(traj.pos[active == i, :2], polylines)
-            worst[int(letters[i])] = max(worst.get(int(letters[i]), 0.0), float(d.max()))
-    return worst
-
-
-def _distance_to_polylines(points: np.ndarray, polylines: list[np.ndarray]) -> np.ndarray:
-    """Distance in [mm] of each point (k, 2) to the nearest of the polylines' segments."""
-    a = np.vstack([p[:-1] if len(p) > 1 else p for p in polylines])
-    b = np.vstack([p[1:] if len(p) > 1 else p for p in polylines])
-    ab = b - a
-    length2 = np.einsum("ij,ij->i", ab, ab)
-    ap = points[:, None, :] - a[None]
-    u = np.clip(np.einsum("kij,ij->ki", ap, ab) / np.maximum(length2, 1e-300), 0.0, 1.0)
-    nearest = a[None] + u[..., None] * ab[None]
-    return np.min(np.linalg.norm(points[:, None, :] - nearest, axis=2), axis=1)

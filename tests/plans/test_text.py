@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from inkarm.analysis.density import turning_angles
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError, ScenarioError
 from inkarm.plans.handstyles import PRESETS
@@ -17,6 +18,8 @@ from inkarm.plans.text import (
     HersheyFont,
     PageLayout,
     TargetSequence,
+    TextFidelity,
+    font_deviation,
     glyph_targets,
     join_ligatures,
     layout_text,
@@ -24,8 +27,8 @@ from inkarm.plans.text import (
     plan_text,
     sample_letters,
     subdivide,
+    text_fidelity,
     thin_polyline,
-    turning_angles,
     write_text,
 )
 
@@ -139,27 +142,6 @@ def test_page_layout_errors():
 # -- targets ------------------------------------------------------------------------------
 
 
-def test_turning_angles_convention():
-    pts = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [1, 1], [2, 1]], dtype=float)
-    assert np.allclose(turning_angles(pts), [0.0, 90.0, 90.0, 180.0])
-
-
-@given(
-    angle=st.floats(0.0, 2 * np.pi),
-    scale=st.floats(0.1, 100.0),
-    pts=st.lists(st.tuples(st.floats(-10, 10), st.floats(-10, 10)), min_size=3, max_size=8),
-)
-@settings(max_examples=40, deadline=None)
-def test_turning_angles_are_invariant_to_rotation_and_scale(angle, scale, pts):
-    p = np.array(pts)
-    if np.min(np.linalg.norm(np.diff(p, axis=0), axis=1)) < 1e-3:
-        return
-    c, s = np.cos(angle), np.sin(angle)
-    q = scale * p @ np.array([[c, -s], [s, c]]).T
-    assert np.allclose(turning_angles(p), turning_angles(q), atol=1e-6)
-    assert np.all((turning_angles(p) >= 0) & (turning_angles(p) <= 180))
-
-
 def test_thinning_keeps_ends_and_corners_and_drops_straight_runs():
     pts = np.array([[0, 0], [1, 0], [2, 0], [3, 0], [3, 1], [3, 2], [3, 2]], dtype=float)
     assert np.array_equal(thin_polyline(pts, 10.0), [[0, 0], [3, 0], [3, 2]])
@@ -212,14 +194,70 @@ def test_same_letter_pieces_join_without_dropping_the_cusp():
 def test_neighbouring_letters_drop_sharp_junction_targets():
     # letter 0 ends going right; letter 1 starts by heading back left: a hook at the joint
     a = _seq([[0, 0], [4, 0], [5, 0]], 0)
-    b = _seq([[5.5, 0], [3, 1], [3, 4]], 1)
+    b = _seq([[5.5, 0], [5, 1], [5, 4]], 1)
     (joined,) = join_ligatures([a, b], max_gap=2.0, max_turn=100.0)
-    # turning at (5,0): from +x to (0.5,0) -> 0 deg, kept; at (5.5,0): back to (-2.5,1) -> ~158 deg
-    assert np.allclose(joined.means, [[0, 0], [4, 0], [5, 0], [3, 1], [3, 4]])
+    # turning at (5,0): from +x to (0.5,0) -> 0 deg, kept; at (5.5,0): back to (-0.5,1) -> ~117
+    # deg, dropped; then (5,0) turns 90 deg up to (5,1), under the threshold: done
+    assert np.allclose(joined.means, [[0, 0], [4, 0], [5, 0], [5, 1], [5, 4]])
     assert joined.letters.tolist() == [0, 0, 0, 1, 1]
     assert joined.connectors.tolist() == [False, False, False, True, False]
     (kept,) = join_ligatures([a, b], max_gap=2.0, max_turn=170.0)
     assert len(kept) == 6
+
+
+def test_the_ligature_rule_is_applied_until_no_junction_is_sharp():
+    # dropping the hook (5.5, 0) leaves (5, 0) -> (4.8, 0.3), a 124 deg turn: that goes too
+    a = _seq([[0, 0], [4, 0], [5, 0]], 0)
+    b = _seq([[5.5, 0], [4.8, 0.3], [5, 1], [5, 4]], 1)
+    (joined,) = join_ligatures([a, b], max_gap=2.0, max_turn=100.0)
+    assert np.degrees(turning_angles(joined.means)).max() <= 100.0
+    assert len(joined) == 5 and np.allclose(joined.means[[0, -2, -1]], [[0, 0], [5, 1], [5, 4]])
+    assert joined.letters.tolist() == [0, 0, 1, 1, 1]
+    assert joined.connectors.tolist() == [False, False, True, False, False]
+
+
+def test_the_cascade_never_drops_a_letters_last_target():
+    a = _seq([[0, 0], [4, 0], [5, 0]], 0)
+    b = _seq([[5.5, 0], [3, 1], [3, 4]], 1)  # every target of letter 0 but its start goes
+    (joined,) = join_ligatures([a, b], max_gap=2.0, max_turn=100.0)
+    assert np.allclose(joined.means, [[0, 0], [3, 1], [3, 4]])
+    # a two-target letter between sharp joins keeps its last target
+    pieces = [_seq([[0, 0], [1, 0]], 0), _seq([[1.5, 0], [1.2, 0.5]], 1)]
+    pieces.append(_seq([[1.0, 0.6], [5, 0.6]], 2))
+    (word,) = join_ligatures(pieces, max_gap=1.0, max_turn=100.0)
+    assert word.letters.tolist() == [0, 0, 1, 2]
+    assert np.allclose(word.means[2], [1.2, 0.5])
+
+
+def test_a_target_repeated_in_place_turns_where_the_path_turns():
+    # after the first drop, letter 1's (5, 0) sits on letter 0's end: the turn there counts
+    a = _seq([[0, 0], [4, 0], [5, 0]], 0)
+    b = _seq([[6, 0.5], [5, 0], [4, 0.5], [4, 3]], 1)
+    (joined,) = join_ligatures([a, b], max_gap=2.0, max_turn=100.0)
+    assert np.degrees(turning_angles(joined.means)).max() <= 100.0
+    assert len(joined) < 7
+
+
+def _ligature_turns(tp) -> list[tuple[str, float]]:
+    """(letter, turning angle [deg]) at every target next to a connector between letters."""
+    out = []
+    for stroke in tp.plan.strokes:
+        letters = np.asarray(stroke.meta["letters"])
+        connectors = np.asarray(stroke.meta["connectors"])
+        turns = np.degrees(turning_angles(stroke.means))
+        for j in np.flatnonzero(connectors):
+            if letters[j - 1] != letters[j]:
+                ends = (k for k in (j - 1, j) if 0 < k < len(turns) - 1)
+                out += [(tp.text[letters[k]], turns[k]) for k in ends]
+    return out
+
+
+@pytest.mark.parametrize("style", ["cursive", "faithful", "loose"])
+def test_no_ligature_junction_of_inkarm_exceeds_the_style_threshold(style):
+    tp = plan_text("inkarm", PRESETS[style])
+    turns = _ligature_turns(tp)
+    assert {letter for letter, _ in turns} >= {"k", "a"}  # the k -> a junction is there
+    assert max(t for _, t in turns) <= PRESETS[style].ligature_angle, turns
 
 
 def test_shared_end_point_counts_once():
@@ -286,6 +324,48 @@ def test_outline_deviation_oracle_on_a_drawing_along_the_targets():
     assert max(on.values()) < 1e-9
     off = outline_deviation(tp, Drawing(shifted))
     assert 0.0 < max(off.values()) <= 0.3 + 1e-9
+
+
+def _held_targets(tp, shift=(0.0, 0.0), keep=1.0) -> Drawing:
+    """A drawing that holds each target in turn (straight between them), shifted by ``shift``
+    [mm], each stroke cut after the fraction ``keep`` of its samples."""
+    strokes = []
+    for plan in tp.plan.strokes:
+        pos = np.repeat(plan.means, 4, axis=0) + shift
+        t = np.arange(len(pos)) * plan.segment_time / 4
+        n = max(2, round(keep * len(pos)))
+        strokes.append(Trajectory(t=t[:n], pos=pos[:n]))
+    return Drawing(strokes)
+
+
+def test_fidelity_oracle_on_drawings_along_the_targets():
+    tp = plan_text("nu", PRESETS["faithful"], ligature_gap=0.0)  # two letters, no ligature
+    spacing = 0.01 * tp.font.height  # font and ink sampling: the bound on the error
+    on = text_fidelity(tp, _held_targets(tp))
+    assert on.drawing_to_font < 1e-9 and on.font_to_drawing <= spacing
+    shifted = text_fidelity(tp, _held_targets(tp, shift=(0.0, 0.3)))
+    assert shifted.font_to_drawing == pytest.approx(0.3, abs=spacing)
+    assert 0.0 < shifted.drawing_to_font <= 0.3 + 1e-9
+    cut = text_fidelity(tp, _held_targets(tp, keep=0.5))  # half of each letter left out
+    assert cut.drawing_to_font < 1e-9 and cut.font_to_drawing > 2.0
+    assert cut.symmetric == cut.font_to_drawing
+
+
+def test_font_deviation_names_every_letter():
+    text = "hi you"
+    tp, drawing = write_text(text, PRESETS["cursive"])
+    assert set(font_deviation(tp, drawing)) == {i for i, c in enumerate(text) if c != " "}
+
+
+def test_stylised_presets_miss_more_of_the_font_than_they_add():
+    # the one-sided figure (drawing -> font) hid what expressive styles leave out of a letter
+    for name in ("cursive", "loose", "graffiti"):
+        fidelity = write_text("inkarm", PRESETS[name]).fidelity()
+        assert isinstance(fidelity, TextFidelity)
+        assert fidelity.font_to_drawing > fidelity.drawing_to_font, (name, fidelity)
+        assert fidelity.symmetric == fidelity.font_to_drawing
+    faithful = write_text("inkarm", PRESETS["faithful"]).fidelity()
+    assert faithful.drawing_to_font <= 1.0
 
 
 def test_written_strokes_follow_each_other_in_time_and_start_on_their_targets():
