@@ -61,8 +61,11 @@ def test_gains_of_the_wrong_length_name_the_key_and_the_joint_count(job):
 
 def test_unknown_robot_name_suggests_the_closest():
     base = parse_scenario({"source": {"kind": "tag"}})
-    with pytest.raises(ScenarioError, match=r"robot.name: unknown value 'wx250z' \(did you mean "
-                       r"'wx250s'\?\)"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"robot.name: unknown value 'wx250z' \(did you mean "
+        r"'wx250s'\?\)",
+    ):
         base.with_overrides({"robot.name": "wx250z"})
     assert base.with_overrides({"robot.name": "wx250s"}).robot.name == "wx250s"
 
@@ -71,8 +74,9 @@ def test_overrides_leave_the_original_alone_and_round_trip(job):
     scenario = load_scenario(job)
     changed = scenario.with_overrides({"controller.force_n": 1.5})
     assert scenario.controller.force_n != 1.5
-    assert parse_scenario(changed.to_dict(), "again", changed.base_dir).to_dict() == \
-        changed.to_dict()
+    assert (
+        parse_scenario(changed.to_dict(), "again", changed.base_dir).to_dict() == changed.to_dict()
+    )
 
 
 @pytest.mark.sim

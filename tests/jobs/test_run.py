@@ -18,8 +18,11 @@ pytestmark = pytest.mark.sim
 LINE = {
     "source": {
         "kind": "plan",
-        "plan": {"strokes": [{"targets": [{"mean": [0.0, 0.0], "cov": 1.0},
-                                          {"mean": [20.0, 5.0], "cov": 1.0}]}]},
+        "plan": {
+            "strokes": [
+                {"targets": [{"mean": [0.0, 0.0], "cov": 1.0}, {"mean": [20.0, 5.0], "cov": 1.0}]}
+            ]
+        },
     },
     "ink": {"px_per_mm": 4.0},
 }
