@@ -26,7 +26,8 @@ Schema (every key optional unless marked required)::
     solver = "auto"          # LQT solver: "auto", "cholesky", "augmented" or "batch"
 
     [semi_tied]              # covariances of targets without their own (seed 000 eq. 22)
-    H = [[1.0, 0.5], [0.0, 1.0]]  # D x D oblique basis, columns are basis vectors (default I)
+    H = [[1.0, 0.5], [0.0, 1.0]]  # D x D oblique basis written row by row: its columns are
+                             # the basis vectors (default I); as a handstyle's basis
     h = 16.0                 # required: magnitude [mm^2], Sigma_i = h_i H H^T
     rho = 0.0                # variance of h_i ~ N(h, rho), >= 0 (drawn with the plan seed)
 
@@ -63,6 +64,11 @@ identity (GI eq. 7); otherwise it is an error. All targets of a plan have the sa
 
 Samples: a Gaussian stroke's samples come from the LQT trajectory distribution, a human-line
 stroke's from fresh squiggles; a minimum-jerk stroke is deterministic and repeats its mean.
+
+Randomness: stroke i of a plan with seed s has its own streams, children of
+``numpy.random.SeedSequence([s, i])`` (:func:`stroke_seeds`): one for the semi-tied
+magnitudes h_i, one for the samples (LQT draws, human lines). They are independent of each
+other and of every other stroke's, and the same seed gives the same plan and samples.
 """
 
 from __future__ import annotations
@@ -289,8 +295,18 @@ def _points(rd: TomlReader, value, key: str) -> np.ndarray:
     return pts
 
 
+STREAMS = ("covariances", "samples")
+"""The random streams of a stroke, in the order they are spawned (see the module docstring)."""
+
+
+def stroke_seeds(seed: int, index: int) -> dict[str, np.random.SeedSequence]:
+    """The independent seed sequences of stroke ``index`` of a plan seeded with ``seed``, by
+    purpose (:data:`STREAMS`): children of ``SeedSequence([seed, index])``."""
+    return dict(zip(STREAMS, np.random.SeedSequence([seed, index]).spawn(len(STREAMS))))
+
+
 def _generated_covariances(
-    rd: TomlReader, settings: dict, m: int, dim: int, key: str, seed: int
+    rd: TomlReader, settings: dict, m: int, dim: int, key: str, seed: np.random.SeedSequence
 ) -> np.ndarray:
     from inkarm.models.lqt import semi_tied_covariances
 
@@ -300,7 +316,9 @@ def _generated_covariances(
             f"{key}.H", f"is {basis.shape[0]} x {basis.shape[0]} but the targets are {dim}-D"
         )
     try:
-        covs = semi_tied_covariances(m, basis, settings["h"], rho=settings["rho"], seed=seed)
+        covs = semi_tied_covariances(
+            m, basis, settings["h"], rho=settings["rho"], seed=np.random.default_rng(seed)
+        )
     except InkarmError as e:
         raise rd.error(key, str(e)) from None
     return np.asarray(covs, dtype=float)
@@ -312,7 +330,7 @@ def _targets(
     key: str,
     kind: str,
     cov_source: tuple | None,
-    seed: int,
+    seed: np.random.SeedSequence,
     segment_time: float,
 ) -> StrokePlan:
     """Read ``targets``; cov_source is ("cov", value, key) or ("semi_tied", settings, key) or None."""
@@ -423,8 +441,8 @@ def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStr
         )
     else:
         cov_source = top["cov_source"]
-    stroke_seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-    plan = _targets(rd, stroke, key, kind, cov_source, stroke_seed, model["segment_time"])
+    stream = stroke_seeds(seed, index)["covariances"]
+    plan = _targets(rd, stroke, key, kind, cov_source, stream, model["segment_time"])
     return PlannedStroke(index, name, kind, model, plan=plan)
 
 
@@ -525,13 +543,11 @@ class PlanResult:
         }
 
 
-def _stroke_seeds(seed: int, index: int, count: int) -> list[int]:
-    return [int(x) for x in np.random.SeedSequence([seed, index]).generate_state(count)]
-
-
 def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResult:
-    """Turn one stroke into its mean trajectory and ``samples`` sampled trajectories."""
+    """Turn one stroke into its mean trajectory and ``samples`` sampled trajectories, drawn
+    from the stroke's ``samples`` stream of the plan ``seed`` (:func:`stroke_seeds`)."""
     dt = stroke.model["dt"]
+    stream = stroke_seeds(seed, stroke.index)["samples"]
     if stroke.kind in ("gaussian", "keypoints"):
         from inkarm.models import lqt
 
@@ -543,7 +559,7 @@ def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResu
                     stroke.plan,
                     cfg,
                     k=samples,
-                    seed=_stroke_seeds(seed, stroke.index, 1)[0],
+                    seed=np.random.default_rng(stream),
                     method=stroke.model["sampling"],
                 ),
                 dtype=float,
@@ -552,7 +568,7 @@ def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResu
             pos = np.zeros((0, mean.n, mean.dim))
     elif stroke.kind == "human_line":
         opts = stroke.options
-        seeds = _stroke_seeds(seed, stroke.index, samples + 1)
+        seeds = [int(x) for x in stream.generate_state(samples + 1)]
         lines = [
             human_polyline(stroke.points, s, opts["squiggle"], opts["px_mm"], opts["duration"], dt)
             for s in seeds

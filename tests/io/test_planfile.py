@@ -356,3 +356,53 @@ def test_solver_errors_name_the_stroke():
     )
     with pytest.raises(InkarmError, match=r"plan.toml: strokes\[0\]: .*order 6 needs at least 7"):
         realise_plan(plan)
+
+
+SPREAD = """
+seed = 7
+samples = 2
+[semi_tied]
+h = 4.0
+rho = 1.0
+[[strokes]]
+targets = [{ mean = [0.0, 0.0] }, { mean = [5.0, 5.0] }, { mean = [9.0, 0.0] }]
+"""
+
+
+def test_covariance_draws_and_samples_use_independent_streams(monkeypatch):
+    from inkarm.io.planfile import STREAMS, stroke_seeds
+    from inkarm.models import lqt
+
+    seen = {}
+
+    def spy(name, real):
+        def wrapped(*args, seed=None, **kwargs):
+            seen[name] = np.random.default_rng(seed).bit_generator.state["state"]["state"]
+            return real(*args, seed=seed, **kwargs)
+
+        return wrapped
+
+    monkeypatch.setattr(lqt, "semi_tied_covariances", spy("covariances", lqt.semi_tied_covariances))
+    monkeypatch.setattr(lqt, "sample", spy("samples", lqt.sample))
+    realise_plan(parse(SPREAD))
+    assert set(seen) == set(STREAMS)
+    assert seen["covariances"] != seen["samples"]  # the same seed gave both the same stream
+    streams = stroke_seeds(7, 0)
+    draws = {k: np.random.default_rng(v).standard_normal(16) for k, v in streams.items()}
+    assert not np.allclose(draws["covariances"], draws["samples"])
+    again = stroke_seeds(7, 0)
+    for k in STREAMS:  # deterministic per seed and stroke; other strokes get other streams
+        np.testing.assert_array_equal(
+            np.random.default_rng(again[k]).standard_normal(16), draws[k]
+        )
+        other = np.random.default_rng(stroke_seeds(7, 1)[k]).standard_normal(16)
+        assert not np.allclose(other, draws[k])
+
+
+def test_plans_and_samples_are_reproducible_per_seed():
+    first = realise_plan(parse(SPREAD))
+    again = realise_plan(parse(SPREAD))
+    np.testing.assert_array_equal(first.strokes[0].samples, again.strokes[0].samples)
+    np.testing.assert_array_equal(first.plan.strokes[0].plan.covs, again.plan.strokes[0].plan.covs)
+    other = realise_plan(parse(SPREAD, seed=8))
+    assert not np.allclose(other.strokes[0].samples, first.strokes[0].samples)
