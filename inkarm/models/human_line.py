@@ -33,7 +33,7 @@ import numpy as np
 
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
-from inkarm.models.minjerk import quintic_profile
+from inkarm.models.minjerk import minimum_jerk_profile
 
 THESIS_CLOCK = 2.0  # seed 002 sec. 3.2: t in [0, 2]
 DEFAULT_PX_MM = 25.4 / 300.0  # one pixel of a 300 dpi scan, in [mm]
@@ -49,7 +49,9 @@ def time_step_for_length(length_px: float) -> float:
     for upper, step in TIME_STEP_TABLE:
         if length_px <= upper:
             return step
-    raise InputError(f"line length: expected a finite number of pixels, got {length_px}")
+    raise InputError(
+        f"expected a finite number of pixels, got {length_px}", key="length_px", value=length_px
+    )
 
 
 def _rng(rng) -> np.random.Generator:
@@ -66,7 +68,7 @@ def _check_params(squiggle: float, px_mm: float, duration: float, dt: float) -> 
         v = float(value)
         if not np.isfinite(v) or v < 0 or (v == 0 and not low_ok):
             kind = "non-negative" if low_ok else "positive"
-            raise InputError(f"human line {name}: must be a {kind} number, got {value}")
+            raise InputError(f"must be a {kind} number, got {value}", key=name, value=value)
 
 
 def _normal(direction: np.ndarray) -> np.ndarray:
@@ -94,15 +96,19 @@ def control_points(
     p1 = np.asarray(end, dtype=float)
     if p0.ndim != 1 or p0.shape != p1.shape or p0.shape[0] not in (2, 3):
         raise InputError(
-            f"human line: start and end must be 2-D or 3-D points, got {p0.shape} and {p1.shape}"
+            f"expected 2-D or 3-D points of the same shape as start, got {p0.shape} and "
+            f"{p1.shape}",
+            key="end",
+            value=end,
         )
-    if not (np.all(np.isfinite(p0)) and np.all(np.isfinite(p1))):
-        raise InputError("human line: NaN or inf in the end points")
+    for name, p, value in (("start", p0, start), ("end", p1, end)):
+        if not np.all(np.isfinite(p)):
+            raise InputError(f"NaN or inf in {p.tolist()}", key=name, value=value)
     _check_params(squiggle, px_mm, 1.0, 1.0)
     length_px = float(np.linalg.norm(p1 - p0)) / px_mm
     n = round(THESIS_CLOCK / time_step_for_length(length_px))
     tau = np.linspace(0.0, 1.0, n + 1)
-    s = quintic_profile(tau)[0]
+    s = minimum_jerk_profile(tau)
     points = p0 + np.outer(s, p1 - p0)  # seed 002 eq. 3.1
     offsets = _rng(rng).uniform(-squiggle, squiggle, size=n - 1) * px_mm  # seed 002 sec. 3.2.1
     points[1:-1] += np.outer(offsets, _normal(p1 - p0))
@@ -117,7 +123,9 @@ def catmull_rom(points, u) -> tuple[np.ndarray, np.ndarray]:
     """
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or p.shape[0] < 2:
-        raise InputError(f"catmull_rom: expected points of shape (m >= 2, D), got {p.shape}")
+        raise InputError(
+            f"expected points of shape (m >= 2, D), got {p.shape}", key="points", value=points
+        )
     u = np.clip(np.asarray(u, dtype=float), 0.0, p.shape[0] - 1)
     padded = np.vstack([p[:1], p, p[-1:]])
     k = np.minimum(np.floor(u).astype(int), p.shape[0] - 2)
@@ -156,7 +164,8 @@ def human_line(
     )
     fine, _ = catmull_rom(points, u_fine)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(fine, axis=0), axis=1))])
-    s, ds, _, _ = quintic_profile(t / duration)
+    s = minimum_jerk_profile(t / duration)
+    ds = minimum_jerk_profile(t / duration, 1)
     u = np.interp(s * arc[-1], arc, u_fine)
     pos, tangent = catmull_rom(points, u)
     norm = np.linalg.norm(tangent, axis=1, keepdims=True)
@@ -178,7 +187,9 @@ def human_polyline(
     without lifting the pen; each line lasts ``duration`` [s]."""
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or p.shape[0] < 2:
-        raise InputError(f"human polyline: expected points of shape (m >= 2, D), got {p.shape}")
+        raise InputError(
+            f"expected points of shape (m >= 2, D), got {p.shape}", key="points", value=points
+        )
     gen = _rng(rng)
     ts, poss, vels = [], [], []
     for k in range(p.shape[0] - 1):

@@ -9,7 +9,8 @@ Point to point, the optimum is the quintic of seed 002 eq. 3.1,
 
     x(t) = x0 + (xf - x0) s(tau),  s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5,  tau = t / tf,
 
-whose bell-shaped speed peaks at tf/2 with V_max = 1.875 A / tf (seed 002 eq. 3.2), and whose
+(:func:`minimum_jerk_profile`, the one implementation of s in inkarm), whose bell-shaped speed
+peaks at tf/2 with V_max = 1.875 A / tf (seed 002 eq. 3.2), and whose
 cost is J = 720 A^2 / tf^5. (Seed 002 writes the polynomial as
 (x0 - xf)(15 tau^4 - 6 tau^5 - 10 tau^3): the same thing with both signs flipped.)
 
@@ -38,17 +39,44 @@ from inkarm.errors import InputError
 PEAK_SPEED_RATIO = 1.875  # seed 002 eq. 3.2: V_max = C A / t_f with C = 15/8
 
 
-def quintic_profile(tau) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The normalised minimum-jerk profile s(tau) and its first three derivatives in tau.
+def minimum_jerk_profile(tau, derivative: int = 0) -> np.ndarray:
+    """The normalised minimum-jerk profile s(tau) (seed 002 eq. 3.1, Flash & Hogan 1985):
 
-    s goes from 0 at tau = 0 to 1 at tau = 1 with zero velocity and acceleration at both ends.
+        s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5,   tau = t / t_f in [0, 1],
+
+    the fraction of the movement covered at tau: 0 at tau = 0, 1 at tau = 1, with zero velocity
+    and acceleration at both ends. ``derivative`` k = 1..3 gives d^k s / d tau^k instead
+    (divide by t_f^k [s^k] for a time derivative):
+
+        s'   = 30 tau^2 (1 - tau)^2
+        s''  = 60 tau (1 - tau) (1 - 2 tau)
+        s''' = 60 - 360 tau + 360 tau^2
+
+    tau outside [0, 1] is clamped: at rest before and after (s = 0 or 1, derivatives 0).
+
+    Args:
+        tau: Normalised times, any shape (dimensionless).
+        derivative: k in 0..3.
+    Returns:
+        s^(k)(tau), the shape of ``tau``.
     """
+    if isinstance(derivative, bool) or derivative not in (0, 1, 2, 3):
+        raise InputError(
+            f"expected 0, 1, 2 or 3, got {derivative!r}", key="derivative", value=derivative
+        )
     tau = np.asarray(tau, dtype=float)
-    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
-    ds = 30.0 * tau**2 * (1.0 - tau) ** 2
-    d2s = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
-    d3s = 60.0 - 360.0 * tau + 360.0 * tau**2
-    return s, ds, d2s, d3s
+    if np.isnan(tau).any():
+        raise InputError("contains NaN; expected normalised times in [0, 1]", key="tau", value=tau)
+    x = np.clip(tau, 0.0, 1.0)
+    if derivative == 0:
+        return x**3 * (10.0 - 15.0 * x + 6.0 * x**2)
+    if derivative == 1:
+        out = 30.0 * x**2 * (1.0 - x) ** 2
+    elif derivative == 2:
+        out = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x)
+    else:
+        out = 60.0 - 360.0 * x + 360.0 * x**2
+    return np.where((tau < 0.0) | (tau > 1.0), 0.0, out)
 
 
 def peak_speed(amplitude: float, duration: float) -> float:
@@ -59,18 +87,19 @@ def peak_speed(amplitude: float, duration: float) -> float:
 def _point(name: str, value, dim: int | None = None) -> np.ndarray:
     p = np.asarray(value, dtype=float)
     if p.ndim != 1 or not 1 <= p.shape[0] <= 3:
-        raise InputError(f"{name}: expected 1 to 3 coordinates in mm, got shape {p.shape}")
+        raise InputError(f"expected 1 to 3 coordinates in mm, got shape {p.shape}", key=name,
+                         value=value)
     if dim is not None and p.shape[0] != dim:
-        raise InputError(f"{name}: has {p.shape[0]} coordinates, expected {dim}")
+        raise InputError(f"has {p.shape[0]} coordinates, expected {dim}", key=name, value=value)
     if not np.all(np.isfinite(p)):
-        raise InputError(f"{name}: NaN or inf in {p.tolist()}")
+        raise InputError(f"NaN or inf in {p.tolist()}", key=name, value=value)
     return p
 
 
 def _positive(name: str, value: float) -> float:
     v = float(value)
     if not np.isfinite(v) or v <= 0:
-        raise InputError(f"{name}: must be a positive number, got {value}")
+        raise InputError(f"must be a positive number, got {value}", key=name, value=value)
     return v
 
 
@@ -93,9 +122,9 @@ def point_to_point(start, end, duration: float, dt: float = 0.01) -> Trajectory:
     xf = _point("end", end, x0.shape[0])
     tf = _positive("duration", duration)
     t = _time_grid(tf, dt)
-    s, ds, _, _ = quintic_profile(t / tf)
-    pos = x0 + np.outer(s, xf - x0)
-    vel = np.outer(ds / tf, xf - x0)
+    tau = t / tf
+    pos = x0 + np.outer(minimum_jerk_profile(tau), xf - x0)  # eq. 3.1
+    vel = np.outer(minimum_jerk_profile(tau, 1) / tf, xf - x0)
     return Trajectory(t=t, pos=pos, vel=vel)
 
 
@@ -118,8 +147,9 @@ def via_jerk_cost(start, via, end, duration: float, t_via: float) -> float:
     tf = _positive("duration", duration)
     tau1 = float(t_via) / tf
     if not 0.0 < tau1 < 1.0:
-        raise InputError(f"t_via: must lie strictly inside (0, {tf}) s, got {t_via}")
-    s1 = quintic_profile(tau1)[0]
+        raise InputError(f"must lie strictly inside (0, {tf}) s, got {t_via}", key="t_via",
+                         value=t_via)
+    s1 = minimum_jerk_profile(tau1)
     miss = u - v * s1
     return float(720.0 * v @ v + 20.0 * miss @ miss / (tau1 * (1.0 - tau1)) ** 5) / tf**5
 
@@ -157,13 +187,15 @@ def optimal_via_time(start, via, end, duration: float) -> float:
     v = _point("end", end, x0.shape[0]) - x0
     scale = max(float(np.linalg.norm(u)), float(np.linalg.norm(v)), 1e-300)
     if np.linalg.norm(u) <= 1e-12 * scale or np.linalg.norm(u - v) <= 1e-12 * scale:
-        raise InputError("via: coincides with the start or end point; no interior via time")
+        raise InputError("coincides with the start or end point; no interior via time",
+                         key="via", value=via)
     poly = via_time_polynomial(start, via, end)
     roots = poly.trim(1e-12 * np.max(np.abs(poly.coef))).roots()  # end ~ start: degree drops
     real = roots[np.abs(roots.imag) <= 1e-7 * np.maximum(1.0, np.abs(roots))].real
     inside = real[(real > 0.0) & (real < 1.0)]
     if inside.size == 0:  # cannot happen: J -> inf at both ends (kept as a guard on round-off)
-        raise InputError("via: no stationary via time in (0, 1); check the points")
+        raise InputError("no stationary via time in (0, 1); check the points", key="via",
+                         value=via)
     costs = [via_jerk_cost(start, via, end, 1.0, tau) for tau in inside]
     return float(inside[int(np.argmin(costs))] * tf)
 
@@ -257,9 +289,10 @@ def _spline_through(points: np.ndarray, times: np.ndarray) -> MinJerkSpline:
 def _check_points(points) -> np.ndarray:
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or p.shape[0] < 2 or not 1 <= p.shape[1] <= 3:
-        raise InputError(f"points: expected shape (m >= 2, D in 1..3) in mm, got {p.shape}")
+        raise InputError(f"expected shape (m >= 2, D in 1..3) in mm, got {p.shape}",
+                         key="points", value=points)
     if not np.all(np.isfinite(p)):
-        raise InputError("points: NaN or inf")
+        raise InputError("NaN or inf", key="points", value=points)
     return p
 
 
@@ -286,12 +319,16 @@ def min_jerk_spline(points, duration: float, via_times=None) -> MinJerkSpline:
         inner = np.atleast_1d(np.asarray(via_times, dtype=float))
         if inner.shape != (n_via,):
             raise InputError(
-                f"via_times: expected {n_via} times for {n_via} via-points, got {inner.shape[0]}"
+                f"expected {n_via} times for {n_via} via-points, got {inner.shape[0]}",
+                key="via_times",
+                value=via_times,
             )
         knots = np.concatenate([[0.0], inner, [tf]])
         if not np.all(np.isfinite(inner)) or np.any(np.diff(knots) <= 0):
             raise InputError(
-                f"via_times: must increase strictly inside (0, {tf}) s, got {inner.tolist()}"
+                f"must increase strictly inside (0, {tf}) s, got {inner.tolist()}",
+                key="via_times",
+                value=via_times,
             )
     return _spline_through(p, np.concatenate([[0.0], inner, [tf]]))
 

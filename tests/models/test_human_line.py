@@ -126,16 +126,19 @@ def test_3d_line_keeps_height_profile_and_squiggles_in_the_page_plane():
     assert np.max(np.abs(line.pos[:, 1])) > 0
 
 
-def test_errors():
-    with pytest.raises(InputError, match="human line squiggle: must be a non-negative number"):
+def test_errors_name_the_argument():
+    with pytest.raises(InputError, match="squiggle: must be a non-negative number, got -1") as e:
         hl.human_line([0, 0], [1, 0], squiggle=-1)
-    with pytest.raises(InputError, match="human line duration: must be a positive number"):
+    assert e.value.key == "squiggle" and e.value.value == -1
+    with pytest.raises(InputError, match="duration: must be a positive number, got 0"):
         hl.human_line([0, 0], [1, 0], duration=0)
-    with pytest.raises(InputError, match="start and end must be 2-D or 3-D points"):
+    with pytest.raises(InputError, match=r"end: expected 2-D or 3-D points of the same shape"):
         hl.human_line([0, 0], [1, 0, 0])
-    with pytest.raises(InputError, match="NaN or inf"):
+    with pytest.raises(InputError, match=r"start: NaN or inf in \[0.0, nan\]"):
         hl.human_line([0, np.nan], [1, 0])
-    with pytest.raises(InputError, match=r"human polyline: expected points of shape \(m >= 2"):
+    with pytest.raises(InputError, match=r"points: expected points of shape \(m >= 2"):
         hl.human_polyline([[0, 0]])
-    with pytest.raises(InputError, match=r"catmull_rom: expected points of shape"):
+    with pytest.raises(InputError, match=r"points: expected points of shape"):
         hl.catmull_rom([1.0, 2.0], [0.0])
+    with pytest.raises(InputError, match="length_px: expected a finite number of pixels"):
+        hl.time_step_for_length(np.nan)

@@ -35,15 +35,41 @@ def test_point_to_point_boundary_conditions_and_exact_velocity():
     np.testing.assert_allclose(traj.vel[1:-1], fd[1:-1], atol=2e-2)  # O(dt^2) error
 
 
-def test_quintic_profile_derivatives_vanish_at_both_ends():
-    s, ds, d2s, _ = mj.quintic_profile(np.array([0.0, 1.0]))
-    np.testing.assert_allclose(s, [0.0, 1.0])
-    np.testing.assert_allclose(ds, 0.0)
-    np.testing.assert_allclose(d2s, 0.0)
+def test_minimum_jerk_profile_is_eq_3_1_with_rest_at_both_ends():
+    ends = np.array([0.0, 1.0])
+    np.testing.assert_allclose(mj.minimum_jerk_profile(ends), [0.0, 1.0])
+    np.testing.assert_allclose(mj.minimum_jerk_profile(ends, 1), 0.0)
+    np.testing.assert_allclose(mj.minimum_jerk_profile(ends, 2), 0.0)
     # seed 002 eq. 3.1 as printed: x0 + (x0 - xf)(15 tau^4 - 6 tau^5 - 10 tau^3)
     tau = np.linspace(0, 1, 11)
     printed = 0.0 + (0.0 - 1.0) * (15 * tau**4 - 6 * tau**5 - 10 * tau**3)
-    np.testing.assert_allclose(mj.quintic_profile(tau)[0], printed, atol=1e-15)
+    np.testing.assert_allclose(mj.minimum_jerk_profile(tau), printed, atol=1e-15)
+    # the control loop's profile on n samples, bit for bit
+    loop = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    np.testing.assert_array_equal(mj.minimum_jerk_profile(tau), loop)
+
+
+def test_minimum_jerk_profile_derivatives_are_those_of_the_quintic():
+    tau = np.linspace(0.0, 1.0, 7)
+    s = Polynomial([0, 0, 0, 10, -15, 6])
+    for k in range(4):
+        np.testing.assert_allclose(mj.minimum_jerk_profile(tau, k), s.deriv(k)(tau), atol=1e-12)
+    assert mj.minimum_jerk_profile(np.zeros((2, 3))).shape == (2, 3)
+
+
+def test_minimum_jerk_profile_is_at_rest_outside_the_movement():
+    outside = np.array([-0.5, 1.5])
+    np.testing.assert_array_equal(mj.minimum_jerk_profile(outside), [0.0, 1.0])
+    for k in (1, 2, 3):
+        np.testing.assert_array_equal(mj.minimum_jerk_profile(outside, k), 0.0)
+
+
+def test_minimum_jerk_profile_errors():
+    with pytest.raises(InputError, match="derivative: expected 0, 1, 2 or 3, got 4") as info:
+        mj.minimum_jerk_profile(0.5, 4)
+    assert info.value.key == "derivative"
+    with pytest.raises(InputError, match="tau: contains NaN"):
+        mj.minimum_jerk_profile([0.1, np.nan])
 
 
 def test_point_to_point_spline_jerk_cost_is_720_a2_over_t5():

@@ -1,0 +1,296 @@
+"""Settings and inputs of the LQT (seed 000): :class:`LQTConfig`, extra tracking terms
+(:class:`Reference`) and the checks shared by the banded solver and the dense oracle.
+
+Units: [mm] and [s]; ``d`` in [mm], ``r`` in [(mm/s^n)^-2].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inkarm.core.plan import StrokePlan
+from inkarm.errors import InputError, PlanError
+
+MAX_ORDER = 7
+SOLVERS = ("auto", "cholesky", "augmented", "batch")
+DISCRETISATIONS = ("euler", "zoh")
+
+
+def positive_number(value) -> bool:
+    """True for a finite number > 0 (anything float() accepts)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return False
+    return bool(np.isfinite(v) and v > 0)
+
+
+@dataclass(frozen=True)
+class LQTConfig:
+    """Settings of the LQT.
+
+    Attributes:
+        order: n, order of the integrator chain, 1..7 (eq. 3); 4 is the papers' usual choice.
+        dt: Time step Delta_t in [s].
+        d: Maximum displacement in [mm]: R = I / (omega^n d)^2 with omega = 2 pi / segment_time
+            (seed 000 eq. 9). Exactly one of ``d`` and ``r`` is given.
+        r: Raw control weight in [(mm/s^n)^-2] (GI sec. 3.2, R = r I).
+        discretisation: ``"euler"`` (eq. 4, default) or ``"zoh"`` (zero-order hold). Both sample
+            the continuous optimum at the same instants for stepwise Gaussian targets; Euler
+            lags it by (n - 1) / 2 steps only near the rest ends of key-point plans (measured,
+            see :mod:`inkarm.models.lqt`).
+        end_at_rest: Zero derivatives at the last step (GI sec. 4.1), imposed exactly. A plan
+            that prescribes a non-zero velocity at its last step (the last key-point of a
+            Bezier mimic, GI sec. 4.3) overrides it: the end is then free, as with
+            ``end_at_rest=False``, because a movement cannot both stop there and leave at that
+            velocity (see :func:`rests_at_end`).
+        solver: ``"auto"``, ``"cholesky"``, ``"augmented"`` or ``"batch"`` (see
+            :mod:`inkarm.models.lqt`).
+    """
+
+    order: int = 4
+    dt: float = 0.01
+    d: float | None = 5.0
+    r: float | None = None
+    discretisation: str = "euler"
+    end_at_rest: bool = True
+    solver: str = "auto"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer)):
+            raise InputError(
+                f"expected an integer 1..{MAX_ORDER}, got {self.order!r}",
+                key="order",
+                value=self.order,
+            )
+        if not 1 <= self.order <= MAX_ORDER:
+            raise InputError(
+                f"expected 1..{MAX_ORDER}, got {self.order}", key="order", value=self.order
+            )
+        if not positive_number(self.dt):
+            raise InputError(
+                f"must be a positive number of seconds, got {self.dt}", key="dt", value=self.dt
+            )
+        if (self.d is None) == (self.r is None):
+            raise InputError(
+                f"give exactly one of d (max displacement in mm) and r (raw control weight), "
+                f"got d={self.d}, r={self.r} (d defaults to 5.0: pass d=None with r)",
+                key="d",
+                value=self.d,
+            )
+        if self.d is not None and not positive_number(self.d):
+            raise InputError(f"must be a positive number of mm, got {self.d}", key="d", value=self.d)
+        if self.r is not None and not positive_number(self.r):
+            raise InputError(f"must be a positive number, got {self.r}", key="r", value=self.r)
+        if self.discretisation not in DISCRETISATIONS:
+            raise InputError(
+                f"expected 'euler' or 'zoh', got {self.discretisation!r}",
+                key="discretisation",
+                value=self.discretisation,
+                choices=DISCRETISATIONS,
+            )
+        if self.solver not in SOLVERS:
+            raise InputError(
+                f"expected one of {SOLVERS}, got {self.solver!r}",
+                key="solver",
+                value=self.solver,
+                choices=SOLVERS,
+            )
+        object.__setattr__(self, "order", int(self.order))
+        object.__setattr__(self, "dt", float(self.dt))
+
+    def control_weight(self, segment_time: float) -> float:
+        """r such that R = r I, in [(mm/s^n)^-2] (seed 000 eq. 9).
+
+        r = 1 / (omega^n d)^2 with omega = 2 pi / segment_time [rad/s]. The paper prints
+        omega = 2 pi T_s (MOCO eq. 9) and omega = 2 pi T / (m - 1) (GI eq. 10); both are
+        dimensionally a typo for a frequency with the segment duration as period, which is what
+        the authors' code computes.
+        """
+        if self.r is not None:
+            return float(self.r)
+        omega = 2.0 * np.pi / segment_time
+        return 1.0 / (omega**self.order * self.d) ** 2
+
+
+DEFAULT_CONFIG = LQTConfig()  # order 4, dt 0.01 s, d 5 mm, Euler, end at rest, auto solver
+
+
+@dataclass(frozen=True)
+class Reference:
+    """An extra quadratic tracking term of the LQT cost (seed 000 eq. 18-19), on one derivative
+    of the pen position.
+
+    Not to be confused with the reference trajectory a controller follows (the control loop's
+    set points): this is a term P_i of the *planning* cost,
+
+        sum over ``steps`` t of (x^(k)_t - value_t)^T precision_t (x^(k)_t - value_t),
+
+    added to the Gaussian-target tracking and the control cost. :func:`velocity_direction_reference`
+    builds the velocity term of eq. 20-21.
+
+    Attributes:
+        derivative: k, 0 (position) .. order - 1 (only state entries can be observed).
+        precision: (D, D) or (len(steps), D, D) symmetric positive semi-definite weights in
+            [(mm/s^k)^-2].
+        value: Reference (D,) or (len(steps), D) in [mm/s^k]; zero by default (eq. 20).
+        steps: Time-step indices where the term applies; all steps by default.
+    """
+
+    derivative: int
+    precision: np.ndarray
+    value: np.ndarray | None = None
+    steps: np.ndarray | None = None
+
+
+def velocity_direction_reference(v, weight: float = 1.0) -> Reference:
+    """The velocity reference of seed 000 eq. 20-21: zero velocity with precision weight v v^T.
+
+    As printed, this costs weight (v . dx/dt)^2, i.e. it penalises the velocity component *along*
+    ``v`` and so pushes the motion across it (the paper's Fig. 5b is ambiguous about which was
+    meant); pass the perpendicular vector to favour motion along a direction. ``v`` is
+    dimensionless, ``weight`` in [(mm/s)^-2].
+    """
+    v = np.asarray(v, dtype=float)
+    if v.ndim != 1 or not np.all(np.isfinite(v)) or not np.any(v):
+        raise InputError(
+            f"expected a finite non-zero direction vector, got {v.tolist()}", key="v", value=v
+        )
+    if not positive_number(weight):
+        raise InputError(f"must be a positive number, got {weight}", key="weight", value=weight)
+    return Reference(derivative=1, precision=weight * np.outer(v, v))
+
+
+@dataclass(frozen=True)
+class CheckedReference:
+    """A validated :class:`Reference` expanded to its steps: k, steps (T,), precision
+    (T, D, D) in [(mm/s^k)^-2], value (T, D) in [mm/s^k] (absolute, not shifted)."""
+
+    derivative: int
+    steps: np.ndarray
+    precision: np.ndarray
+    value: np.ndarray
+
+
+def check_reference(i: int, ref, order: int, dim: int, n_steps: int) -> CheckedReference:
+    """Validate the i-th reference of a solve; errors name ``references[i].<field>``."""
+    where = f"references[{i}]"
+    if not isinstance(ref, Reference):
+        raise InputError(
+            f"expected a Reference, got {type(ref).__name__}", key=where, value=ref
+        )
+    k = ref.derivative
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < order:
+        raise InputError(
+            f"expected an integer 0..{order - 1} (order - 1), got {k!r}",
+            key=f"{where}.derivative",
+            value=k,
+        )
+    steps = np.arange(n_steps) if ref.steps is None else np.asarray(ref.steps)
+    if steps.ndim != 1 or steps.size == 0 or steps.dtype.kind not in "iu":
+        raise InputError(
+            "expected a non-empty 1-D array of integers", key=f"{where}.steps", value=ref.steps
+        )
+    if steps.min() < 0 or steps.max() >= n_steps:
+        raise InputError(
+            f"must lie in 0..{n_steps - 1}, got {steps.min()}..{steps.max()}",
+            key=f"{where}.steps",
+            value=ref.steps,
+        )
+    prec = _per_step(f"{where}.precision", ref.precision, (dim, dim), steps.size)
+    scale = max(float(np.max(np.abs(prec))), 1e-300)
+    if np.max(np.abs(prec - np.swapaxes(prec, 1, 2))) > 1e-9 * scale:
+        raise InputError("not symmetric", key=f"{where}.precision", value=ref.precision)
+    if np.min(np.linalg.eigvalsh(prec)) < -1e-9 * scale:
+        raise InputError(
+            "not positive semi-definite", key=f"{where}.precision", value=ref.precision
+        )
+    value = np.zeros(dim) if ref.value is None else ref.value
+    value = _per_step(f"{where}.value", value, (dim,), steps.size)
+    return CheckedReference(int(k), steps, np.array(prec, dtype=float), np.array(value, dtype=float))
+
+
+def _per_step(key: str, value, shape: tuple[int, ...], count: int) -> np.ndarray:
+    """``value`` of ``shape`` broadcast to (count, *shape), or given per step; finite."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape == shape:
+        arr = np.broadcast_to(arr, (count, *shape))
+    if arr.shape != (count, *shape):
+        raise InputError(
+            f"expected shape {shape} or {(count, *shape)}, got {arr.shape}", key=key, value=value
+        )
+    if not np.all(np.isfinite(arr)):
+        raise InputError("contains NaN or inf", key=key, value=value)
+    return arr
+
+
+def time_grid(stroke: StrokePlan, cfg: LQTConfig) -> tuple[int, int]:
+    """(steps per segment, N): each target held segment_time / dt steps, a whole number.
+
+    N = m segment_time / dt for held targets (seed 000 sec. 3.3), (m - 1) segment_time / dt + 1
+    for key-points (one every segment_time, GI eq. 6-7).
+    """
+    ratio = stroke.segment_time / cfg.dt
+    per = round(ratio)
+    if per >= 1 and abs(ratio - per) > 1e-6 * ratio:
+        raise PlanError(
+            f"{stroke.segment_time} s is not a whole number of dt = {cfg.dt} s steps "
+            f"({ratio:.4g}); the targets would be held {per * cfg.dt:g} s instead",
+            key="segment_time",
+            value=stroke.segment_time,
+        )
+    if per < 1:
+        raise PlanError(
+            f"{stroke.segment_time} s is shorter than dt = {cfg.dt} s",
+            key="segment_time",
+            value=stroke.segment_time,
+        )
+    m = len(stroke.targets)
+    if stroke.keypoints:
+        if m < 2:
+            raise PlanError(
+                "key-point interpolation needs at least 2 key-points, got 1",
+                key="targets",
+                value=m,
+            )
+        n_steps = (m - 1) * per + 1
+    else:
+        n_steps = m * per
+    if n_steps < cfg.order + 1:
+        raise PlanError(
+            f"{n_steps} time steps (segment_time {stroke.segment_time} s / dt {cfg.dt} s "
+            f"x {m} targets) but order {cfg.order} needs at least {cfg.order + 1}; "
+            "use a smaller dt or a longer segment_time",
+            key="segment_time",
+            value=stroke.segment_time,
+        )
+    return per, n_steps
+
+
+def velocity_steps(stroke: StrokePlan, per: int) -> tuple[np.ndarray, np.ndarray]:
+    """(indices i of the targets with a prescribed velocity, their steps i * per).
+
+    GI sec. 4.3: a velocity applies at its target's first step (a key-point's own step)."""
+    vel = stroke.velocities
+    if vel is None:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    known = np.flatnonzero(np.all(np.isfinite(vel), axis=1))
+    return known, known * per
+
+
+def rests_at_end(stroke: StrokePlan, cfg: LQTConfig, per: int, n_steps: int) -> bool:
+    """Whether the last state is held at rest: ``cfg.end_at_rest``, unless the plan prescribes
+    a non-zero velocity at the last step (the last key-point of a Bezier mimic).
+
+    A prescribed final velocity is the more specific request and wins. Kept at rest, the
+    velocity term could not act at all (the derivatives of xi_N are pinned to 0) and the
+    movement had to brake onto a key-point it was told to leave at speed: with a 190 mm/s
+    tangent and key-point variance 1 mm^2 the path ended about 16 mm off the key-point.
+    """
+    if not cfg.end_at_rest:
+        return False
+    known, steps = velocity_steps(stroke, per)
+    last = known[steps == n_steps - 1]
+    return not (cfg.order > 1 and last.size and np.any(stroke.velocities[last]))

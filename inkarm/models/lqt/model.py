@@ -1,0 +1,207 @@
+"""The LQT of one stroke as an object (:class:`LQT`), and the functional API over it."""
+
+from __future__ import annotations
+
+from functools import cached_property, lru_cache
+
+import numpy as np
+
+from inkarm.core.plan import StrokePlan
+from inkarm.core.trajectory import Trajectory
+from inkarm.errors import InputError, SolverError
+from inkarm.models.lqt import oracle
+from inkarm.models.lqt.config import DEFAULT_CONFIG, LQTConfig
+from inkarm.models.lqt.problem import Problem, build_problem, extend, positions
+from inkarm.models.lqt.solvers import Factor, eigen_draws
+
+SAMPLING = ("exact", "eigen")
+
+
+class LQT:
+    """The trajectory distribution of one stroke (seed 000 eq. 13-15), solved once.
+
+    The banded problem is built (and every input checked) at construction; it is factorised
+    at most once, on first use, and the mean, every call to :meth:`sample` and
+    :meth:`covariance` reuse that factorisation. With ``config.solver == "batch"`` the mean
+    and covariance come from the dense oracle (:mod:`.oracle`) and draws from the ``"auto"``
+    factorisation.
+
+    Args:
+        stroke: Targets and timing.
+        config: Solver settings.
+        references: Extra :class:`Reference` terms (seed 000 eq. 18-21).
+    """
+
+    def __init__(
+        self, stroke: StrokePlan, config: LQTConfig = DEFAULT_CONFIG, references=()
+    ) -> None:
+        self.stroke = stroke
+        self.config = config
+        self.references = tuple(references)
+        self.problem: Problem = build_problem(stroke, config, self.references)
+
+    @cached_property
+    def factor(self) -> Factor:
+        """The banded factorisation (computed on first use, then kept)."""
+        solver = "auto" if self.config.solver == "batch" else self.config.solver
+        return Factor(self.problem, solver)
+
+    @cached_property
+    def _coefficients(self) -> np.ndarray:
+        """Free coefficients (n_free, D) of the optimum."""
+        return self.factor.mean()
+
+    @cached_property
+    def _batch_states(self) -> np.ndarray:
+        """States (N, nD) of the dense oracle (solver "batch")."""
+        return oracle.batch(self.stroke, self.config, self.references)[0]
+
+    @property
+    def times(self) -> np.ndarray:
+        """t_k = k dt in [s], (N,) (shared, read-only)."""
+        return _times(self.problem.n_steps, self.problem.dt)
+
+    def mean(self) -> Trajectory:
+        """The optimal (mean) trajectory: t from 0 in [s], pos (N, D) in [mm], vel [mm/s].
+
+        Each target is held segment_time / dt steps (a whole number, else PlanError), so
+        N = m segment_time / dt (key-points: (m - 1) segment_time / dt + 1, one key-point every
+        segment_time). The movement starts at rest on the first mean (or moving, when the first
+        key-point prescribes a velocity) and, with ``end_at_rest``, ends at rest (unless the
+        last step prescribes a non-zero velocity, see :func:`.config.rests_at_end`). With wide covariances (e.g. variance 100 mm^2 and
+        d = 5 mm at order 4) the path smooths through the targets with about one speed peak
+        per segment; with tight covariances it stops at every target and rings (the
+        high-order chain overshoots and oscillates around each held mean).
+        """
+        prob = self.problem
+        if self.config.solver == "batch":
+            states = self._batch_states
+            pos = states[:, : prob.dim].copy()
+            vel = states[:, prob.dim : 2 * prob.dim].copy() if prob.n > 1 else _control(prob, pos)
+        else:
+            pos, vel = _outputs(prob, self._coefficients)
+        _check_finite(pos)
+        _check_finite(vel)
+        return Trajectory.from_checked(self.times, pos, vel)
+
+    def sample(
+        self, k: int = 100, seed=None, method: str = "exact", components: int | None = 9
+    ) -> np.ndarray:
+        """K draws (K, N, D) of the position path in [mm] (seed 000 eq. 14-15).
+
+        ``method="exact"``: exact draws in O(N) each, never forming the dense covariance
+        (:meth:`Factor.samples`). (GI eq. 22 scales Sigma_xi by a residual variance sigma; we
+        keep sigma = 1, the MOCO form.) ``method="eigen"``: the paper's eq. 16-17 with the
+        ``components`` largest eigenpairs of the covariance, None = all of them; the paper uses
+        5 to 9, and fewer components under-represent the variance.
+
+        Args:
+            k: Number of draws.
+            seed: None, an int or a numpy Generator.
+        """
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+            raise InputError(
+                f"expected a positive integer number of draws, got {k!r}", key="k", value=k
+            )
+        if method not in SAMPLING:
+            raise InputError(
+                f"expected 'exact' or 'eigen', got {method!r}",
+                key="method",
+                value=method,
+                choices=SAMPLING,
+            )
+        if components is not None and (
+            isinstance(components, bool)
+            or not isinstance(components, (int, np.integer))
+            or components < 1
+        ):
+            raise InputError(
+                f"expected a positive integer or None, got {components!r}",
+                key="components",
+                value=components,
+            )
+        rng = np.random.default_rng(seed)
+        if method == "exact":
+            c = self.factor.samples(int(k), rng, self._coefficients)
+        else:
+            c = eigen_draws(self.factor, self._coefficients, int(k), components, rng)
+        out = positions(self.problem, c)
+        _check_finite(out)
+        return out
+
+    def covariance(self) -> np.ndarray:
+        """Dense position covariance (N, D, N, D) in [mm^2] (seed 000 eq. 15).
+
+        From the factorisation: Sigma_x = M H^-1 M^T, H^-1 the posterior covariance of the
+        free coefficients and M their linear map to positions; O(N^2) memory.
+        """
+        prob = self.problem
+        n, d = prob.n_steps, prob.dim
+        if self.config.solver == "batch":
+            cov = oracle.batch(self.stroke, self.config, self.references, with_cov=True)[1]
+            return cov.reshape(n, d, n, d)
+        inv = self.factor.inverse()  # H^-1, (K, K)
+        size = inv.shape[0]
+        half = positions(prob, inv.reshape(size, prob.n_free, d), affine=False)  # (M H^-1)^T
+        cov = positions(prob, half.reshape(size, n * d).T.reshape(n * d, prob.n_free, d),
+                        affine=False).reshape(n * d, n * d)
+        cov = 0.5 * (cov + cov.T)
+        _check_finite(cov)
+        return cov.reshape(n, d, n, d)
+
+
+def solve(stroke: StrokePlan, cfg: LQTConfig = DEFAULT_CONFIG, references=()) -> Trajectory:
+    """The optimal (mean) trajectory of ``stroke``: ``LQT(stroke, cfg, references).mean()``."""
+    return LQT(stroke, cfg, references).mean()
+
+
+def sample(
+    stroke: StrokePlan,
+    cfg: LQTConfig = DEFAULT_CONFIG,
+    k: int = 100,
+    seed=None,
+    method: str = "exact",
+    references=(),
+    components: int | None = 9,
+) -> np.ndarray:
+    """K draws (K, N, D) in [mm]: ``LQT(stroke, cfg, references).sample(k, seed, method,
+    components)`` (seed 000 eq. 14-17)."""
+    return LQT(stroke, cfg, references).sample(k, seed, method, components)
+
+
+def covariance(stroke: StrokePlan, cfg: LQTConfig = DEFAULT_CONFIG, references=()) -> np.ndarray:
+    """Dense position covariance (N, D, N, D) in [mm^2]: ``LQT(stroke, cfg,
+    references).covariance()`` (eq. 15)."""
+    return LQT(stroke, cfg, references).covariance()
+
+
+@lru_cache(maxsize=32)
+def _times(n_steps: int, dt: float) -> np.ndarray:
+    """The time grid t_k = k dt in [s] (shared, read-only)."""
+    t = np.arange(n_steps) * dt
+    t.flags.writeable = False
+    return t
+
+
+def _outputs(prob: Problem, c_free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions [mm] and velocities [mm/s] (N, D) from the free coefficients."""
+    if prob.discretisation == "zoh":
+        pos = positions(prob, c_free)
+        return pos, (positions(prob, c_free, 1) if prob.n > 1 else _control(prob, pos))
+    ext = extend(prob, c_free, with_start=True)  # Euler: c is the position
+    vel = np.diff(ext[: prob.n_steps + 1] if prob.n > 1 else ext[: prob.n_steps], axis=0) / prob.dt
+    if prob.n == 1:  # first-order chain: the velocity is the control, 0 after the last step
+        vel = np.vstack([vel, np.zeros((1, prob.dim))])
+    return ext[: prob.n_steps] + prob.origin, vel
+
+
+def _control(prob: Problem, pos: np.ndarray) -> np.ndarray:
+    """Velocity of a first-order chain: its control u_t = (x_{t+1} - x_t) / dt, 0 at the end."""
+    vel = np.zeros_like(pos)
+    vel[:-1] = np.diff(pos, axis=0) / prob.dt
+    return vel
+
+
+def _check_finite(arr: np.ndarray) -> None:
+    if not np.isfinite(arr.sum()):  # NaN and inf propagate into the sum
+        raise SolverError("LQT produced non-finite values (ill-posed plan or overflow)")

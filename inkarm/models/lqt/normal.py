@@ -1,0 +1,182 @@
+"""Normal equations of the banded LQT problem, H c = A^T b, in LAPACK lower band storage
+ab[off, col] = H[col + off, col].
+
+H = control^2 (Delta^n)^T Delta^n + sum_blocks A^T P A: the control part (seed 000 eq. 9's
+R = r I on u = Delta^n c / dt^n) plus the tracking part (eq. 6-7, 18-19). The free unknowns
+are interleaved in time: column (i - n) D + d holds c_i,d.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from inkarm.models.lqt.problem import Block, Problem, difference, extend, merged, psd_sqrt
+
+_EPS = np.finfo(float).eps
+
+
+def band_add(ab: np.ndarray, block: Block, n: int, dim: int) -> None:
+    """ab += sum_t A_t^T P_t A_t for one block."""
+    n_free = ab.shape[1] // dim
+    t, coef, prec = block.steps, block.coef, block.precision
+    start, width = block.start, coef.shape[1]
+    for j1 in range(width):
+        for j2 in range(j1, width):
+            w = coef[:, j1] * coef[:, j2] if width > 1 else coef[:, 0] ** 2
+            if start >= 0:  # rows lo..hi-1 have c_{t+j1}, c_{t+j2} both free
+                lo, hi = max(n - start - j1, 0), min(n_free + n - start - j2, t.size)
+                if hi <= lo:
+                    continue
+                rows = slice(lo, hi)
+                c0 = (start + lo + j1 - n) * dim
+            else:
+                rows = np.flatnonzero((t + j1 >= n) & (t + j2 - n < n_free))
+                if rows.size == 0:
+                    continue
+                cols = (t[rows] + j1 - n) * dim
+            w = w[rows]
+            for d1 in range(dim):
+                for d2 in range(d1 if j1 == j2 else 0, dim):
+                    if prec is None and d1 != d2:
+                        continue
+                    val = w if prec is None else w * prec[rows, d2, d1]
+                    off = (j2 - j1) * dim + d2 - d1
+                    if start >= 0:
+                        ab[off, c0 + d1 : c0 + d1 + dim * (hi - lo) : dim] += val
+                    else:
+                        ab[off, cols + d1] += val
+
+
+def _rhs_add(rhs: np.ndarray, block: Block, g: np.ndarray, n: int) -> None:
+    """rhs (..., n_free, D) += A^T g for rows g (..., T, D) already weighted by P_t."""
+    n_free = rhs.shape[-2]
+    t, coef, start = block.steps, block.coef, block.start
+    for j in range(coef.shape[1]):
+        if start >= 0:
+            lo, hi = max(n - start - j, 0), min(n_free + n - start - j, t.size)
+            if hi > lo:
+                c0 = start + lo + j - n
+                rhs[..., c0 : c0 + hi - lo, :] += coef[lo:hi, j, None] * g[..., lo:hi, :]
+        else:
+            cols = t + j - n
+            ok = (cols >= 0) & (cols < n_free)
+            if ok.any():
+                rhs[..., cols[ok], :] += coef[ok, j, None] * g[..., ok, :]
+
+
+@lru_cache(maxsize=32)
+def control_rows(n: int, n_steps: int, n_coef: int) -> np.ndarray:
+    """(N-1, n+1) merged Delta^n stencils of the controls u_0 .. u_{N-2}."""
+    coef = merged(np.arange(n_steps - 1), difference(n), n_coef)
+    coef.flags.writeable = False
+    return coef
+
+
+@lru_cache(maxsize=32)
+def _control_band(n: int, dim: int, n_steps: int, n_coef: int) -> np.ndarray:
+    """Lower band of (Delta^n)^T Delta^n (x) I_D on the free unknowns, unscaled."""
+    ab = np.zeros(((n + 1) * dim, (n_coef - n) * dim))
+    rows = Block(n, np.arange(n_steps - 1), control_rows(n, n_steps, n_coef), None, None)
+    band_add(ab, rows, n, dim)
+    ab.flags.writeable = False
+    return ab
+
+
+def obs_band(prob: Problem) -> np.ndarray:
+    """Lower band of the tracking part sum_blocks A^T P A, bandwidth of the widest stencil."""
+    width = max(b.coef.shape[1] for b in prob.blocks)
+    ab = np.zeros((width * prob.dim, prob.n_free * prob.dim))
+    first = prob.blocks[0]
+    if len(prob.blocks) == 1 and width == 1 and first.start == 0:  # Euler, every step tracked
+        count = prob.n_steps - prob.n
+        rows = ab.reshape(prob.dim, prob.n_free, prob.dim)
+        for off in range(prob.dim):  # ab[off, t D + d] = P_t[d + off, d]
+            diagonal = np.diagonal(first.targets_precision, -off, 1, 2)
+            rows[off, :count, : prob.dim - off] = np.repeat(diagonal, first.repeat, 0)[prob.n :]
+        return ab
+    for block in prob.blocks:
+        band_add(ab, block, prob.n, prob.dim)
+    return ab
+
+
+def normal_band(prob: Problem, obs: np.ndarray) -> np.ndarray:
+    """Lower band of the normal matrix H = control^2 (Delta^n)^T Delta^n + tracking part."""
+    band = prob.control**2 * _control_band(prob.n, prob.dim, prob.n_steps, prob.n_coef)
+    band[: obs.shape[0]] += obs
+    return band
+
+
+def rhs(prob: Problem, noise: tuple | None = None) -> np.ndarray:
+    """A^T b, (n_free, D); with noise (rng, K): (K, n_free, D) for perturbed targets."""
+    shape = (prob.n_free, prob.dim) if noise is None else (noise[1], prob.n_free, prob.dim)
+    out = np.zeros(shape)
+    blocks = prob.blocks
+    first = blocks[0]
+    if noise is None and first.coef.shape[1] == 1 and first.start == 0:  # Euler, every step
+        out[: prob.n_steps - prob.n] = first.weighted[prob.n :]  # c_t = x_t: A^T b = P_t v_t
+        blocks = blocks[1:]
+    for block in blocks:
+        g = block.weighted
+        if noise is not None:
+            rng, k = noise
+            # y_t ~ N(v_t, P_t^-1): P_t y_t = P_t v_t + L_t z with P_t = L_t L_t^T
+            z = rng.standard_normal((block.value.shape[0], block.value.shape[1], k))
+            g = g + np.swapaxes(psd_sqrt(block.precision) @ z, 0, 2).swapaxes(1, 2)
+        _rhs_add(out, block, g, prob.n)
+    return out
+
+
+def control_adjoint(prob: Problem, e: np.ndarray) -> np.ndarray:
+    """control * (Delta^n)^T e for rows e (..., N-1, D) -> (..., n_free, D).
+
+    The adjoint of the forward difference is minus the backward difference with zero padding.
+    """
+    n = prob.n
+    full = np.zeros((*e.shape[:-2], e.shape[-2] + 2 * n, e.shape[-1]))
+    full[..., n:-n, :] = e
+    full = differences(full, n)  # on c_0 .. c_{N+n-2}
+    out = full[..., n : prob.n_coef, :]
+    if prob.n_coef < full.shape[-2]:  # tied tail c_{N-1} = ... = c_{N+n-2}
+        out[..., -1, :] += full[..., prob.n_coef :, :].sum(axis=-2)
+    return out * (prob.control if n % 2 == 0 else -prob.control)
+
+
+def normal_residual(prob: Problem, obs: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """b - H c, with the control part computed as (Delta^n)^T (Delta^n c) from differences.
+
+    The differences of the solution are accurate to their own size, whereas the rounded normal
+    matrix loses the tracking precisions next to its control entries of size ~4^n control^2.
+    """
+    flat = c.reshape(*c.shape[:-2], -1)
+    hc = obs[0] * flat
+    for off in range(1, obs.shape[0]):
+        hc[..., off:] += obs[off, :-off] * flat[..., :-off]
+        hc[..., :-off] += obs[off, :-off] * flat[..., off:]
+    e = differences(extend(prob, c), prob.n)
+    return b - hc.reshape(c.shape) - prob.control * control_adjoint(prob, e)
+
+
+def differences(a: np.ndarray, n: int) -> np.ndarray:
+    """Delta^n along axis -2 by repeated differences (each exact to its own rounding)."""
+    for _ in range(n):
+        a = a[..., 1:, :] - a[..., :-1, :]
+    return a
+
+
+def precision_loss(prob: Problem, obs: np.ndarray) -> float:
+    """eps * (a bound on cond of the normal matrix): about 10x the relative error of Cholesky.
+
+    lambda_max <= 4^n control^2 + max row sum of |tracking part| (Gershgorin); lambda_min >= the
+    smallest tracking precision when every step is tracked in position (Euler), else unknown.
+    """
+    if prob.floor <= 0:
+        return np.inf
+    ceiling = prob.ceiling
+    if not ceiling >= 0:
+        rows = np.abs(obs).sum(axis=0)
+        for off in range(1, obs.shape[0]):
+            rows[off:] += np.abs(obs[off, :-off])
+        ceiling = rows.max()
+    return _EPS * (4.0**prob.n * prob.control**2 + ceiling) / prob.floor
