@@ -101,6 +101,10 @@ class CellConfig:
         for name, value in positive.items():
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"expected a positive number, got {value}", key=name, value=value)
+        for name in ("paper_size_mm", "paper_centre_mm"):
+            value = getattr(self, name)
+            if value is not None and len(value) != 2:
+                raise InputError(f"expected 2 numbers, got {len(value)}", key=name, value=value)
         w, h = self.paper_size_mm or (1.0, 1.0)
         if not (np.isfinite(w) and np.isfinite(h) and w > 0 and h > 0):
             raise InputError(f"expected positive (width, height), got {self.paper_size_mm}",

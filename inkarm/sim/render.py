@@ -570,6 +570,9 @@ class LogReplay:
             raise InputError(
                 f"LogReplay: the model needs the joints {', '.join(joint_names)} and {PEN_SLIDE}"
             )
+        if np.shape(log.q)[1] != len(joint_names):
+            raise InputError(f"LogReplay: the log has {np.shape(log.q)[1]} joints, the robot "
+                             f"{len(joint_names)} ({', '.join(joint_names)})")
         self.model = model
         self.data = mujoco.MjData(model)
         self.log = log
@@ -615,7 +618,7 @@ def _check_log(log: DrawLog) -> None:
     n = len(np.asarray(log.time))
     if n < 1:
         raise InputError("DrawLog: the log has no rows")
-    expected = {"time": (n,), "q": (n, 7), "tip": (n, 3), "force": (n,)}
+    expected = {"time": (n,), "q": (n, np.shape(log.q)[-1]), "tip": (n, 3), "force": (n,)}
     for name, shape in expected.items():
         got = np.shape(getattr(log, name))
         if got != shape:

@@ -140,9 +140,7 @@ def test_diverging_gains_fail_the_run_and_keep_the_partial_trace_and_canvas(tmp_
         ("[source]\nkind = 'tag'\n[placement]\ncentre_mm = [1, 2, 3]\n", r"placement.centre_mm: expected \[x, y\]"),
         ("[source]\nkind = 'tag'\n[cell]\ntimestep = -1.0\n", r"cell.timestep: expected a positive number, got -1.0"),
         ("[source]\nkind = 'tag'\n[cell]\npaper_size = [1, 2]\n", r"cell.paper_size: unknown key \(did you mean 'paper_size_mm'\?\)"),
-        pytest.param("[source]\nkind = 'tag'\n[cell]\npaper_size_mm = [1, 2, 3]\n", r"cell.paper_size_mm: expected 2 numbers, got 3",
-                     marks=pytest.mark.xfail(raises=ValueError, strict=True, reason="bug: CellConfig "
-                                             "fields defaulting to None take any length")),
+        ("[source]\nkind = 'tag'\n[cell]\npaper_size_mm = [1, 2, 3]\n", r"cell.paper_size_mm: expected 2 numbers, got 3"),
         ("[source]\nkind = 'tag'\n[controller]\nforce_n = 'hard'\n", r"controller.force_n: expected a number"),
         ("[source]\nkind = 'tag'\n[robot.gains]\nkpp = 1\n", r"robot.gains.kpp: unknown key \(did you mean 'kp'\?\)"),
         ("[source]\nkind = 'tag'\n[robot]\nname = 'wx250z'\n", r"robot.name: unknown value 'wx250z' \(did you mean 'wx250s'\?\)"),
