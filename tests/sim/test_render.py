@@ -405,7 +405,7 @@ def test_render_log_video_errors(tmp_path, monkeypatch):
         R.render_log_video(log, tmp_path / "run.mp4", fps=0)
     with pytest.raises(InputError, match=r"frame size must be >= 1 x 1, got 0 x 48"):
         R.render_log_video(log, tmp_path / "run.mp4", width=0, height=48)
-    with pytest.raises(InputError, match=r"DrawLog.q: expected shape \(20, 7\), got \(20, 6\)"):
+    with pytest.raises(InputError, match=r"LogReplay: the log has 6 joints, the robot 7"):
         R.render_log_video(DrawLog(**{**log.__dict__, "q": log.q[:, :6]}), tmp_path / "run.mp4")
     with pytest.raises(
         R.RenderError,
