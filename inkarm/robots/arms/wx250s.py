@@ -276,6 +276,9 @@ HOME_Q: tuple[float, ...] = (0.0, -0.054, 0.598, 0.0, 1.027, 0.0)
 # check over HOME_Q and 18 poses on and 40 mm above the sheet: T max eig(M^-1 Kd) <= 0.68 < 1
 # at T = 6 ms; the linearised loop (zero-order hold, PID every 6 ms) has every pole inside
 # the unit circle, largest |z| 0.964, also with one period of delay (0.962).
+# These are a first, soft tuning: they leave about 1 mm of tracking error, the gear trains' dry
+# friction over kp. The profile (inkarm/robots/data/wx250s.toml) draws with stiffer gains, up to
+# the XM430's own position loop at Position P Gain 2000, derived there.
 SUGGESTED_GAINS = {
     "kp": (31.0, 57.0, 44.0, 8.2, 9.0, 4.2),  # [N m/rad]
     "ki": (160.0, 280.0, 220.0, 41.0, 45.0, 21.0),  # [N m/(rad s)]
