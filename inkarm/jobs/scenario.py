@@ -267,7 +267,7 @@ def _robot(rd: TomlReader, raw, base_dir: Path):
         file = base_dir / rd.text(table["file"], "robot.file")
         if not file.is_file():
             raise rd.error("robot.file", f"no such file: {file}", value=table["file"])
-        ref = str(file)
+        ref = str(file.resolve())
     else:
         ref = rd.choice(table.get("name", DEFAULT_ROBOT), "robot.name", robot_names())
     profile = load_robot(ref)

@@ -24,7 +24,7 @@ def _file(rd: TomlReader, table: dict, base_dir: Path) -> Path:
     file = base_dir / rd.text(table["file"], "source.file")
     if not file.is_file():
         raise rd.error("source.file", f"no such file: {file}", value=table["file"])
-    return file
+    return file.resolve()  # absolute: a scenario's overrides re-parse it from another base
 
 
 @dataclass(frozen=True)

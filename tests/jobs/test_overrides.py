@@ -88,3 +88,16 @@ def test_an_override_changes_the_run(job):
     light = run(scenario.with_overrides({"controller.force_n": 0.5})).metrics
     assert light["contact_force_mean_n"] == pytest.approx(0.5, abs=0.1)
     assert light["contact_force_mean_n"] < firm - 0.3
+
+
+def test_overrides_of_a_scenario_loaded_by_a_relative_path(monkeypatch):
+    from pathlib import Path
+
+    from inkarm.jobs.scenario import load_scenario
+
+    root = Path(__file__).resolve().parents[2]
+    monkeypatch.chdir(root)
+    scenario = load_scenario("scenarios/letter_N.toml")
+    changed = scenario.with_overrides({"controller.force_n": 1.5})
+    assert changed.controller.force_n == 1.5
+    assert changed.source == scenario.source
