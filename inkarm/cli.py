@@ -11,6 +11,7 @@ import argparse
 import importlib
 import pkgutil
 import sys
+import warnings
 
 import inkarm
 from inkarm.errors import InkarmError
@@ -44,10 +45,24 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        status = _run(args)
+    if status in (0, 1):  # after an error the message stands alone; otherwise say what warned
+        shown = (w for w in caught if issubclass(w.category, RuntimeWarning | UserWarning))
+        for text in dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in shown):
+            print(f"inkarm {args.command}: warning: {text}", file=sys.stderr)
+    return status
+
+
+def _run(args) -> int:
     try:
         return int(args._run(args) or 0)
     except InkarmError as e:
         print(f"inkarm {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except RecursionError:
+        print(f"inkarm {args.command}: error: the input is nested too deeply", file=sys.stderr)
         return 2
     except BrokenPipeError:
         # The reader of our output went away (``inkarm ... | head``): not an error of ours.

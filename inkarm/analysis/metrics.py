@@ -138,11 +138,15 @@ def chamfer_mm(points_a, points_b) -> float:
     return float(0.5 * (a_to_b.mean() + b_to_a.mean()))
 
 
-def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes, threshold: float = 0.5) -> float:
+def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes,
+                   threshold: float | None = None) -> float:
     """Ink-versus-plan distance in [mm]: the symmetric chamfer distance (:func:`chamfer_mm`)
     between the ink's centreline (:func:`ink_centreline_mm` of the raster ``darkness`` at
     ``px_per_mm``, ink = darkness >= ``threshold``) and the plan, each stroke of
     ``plan_strokes`` (a list of (K, 2) polylines in page [mm]) resampled at half a pixel.
+
+    ``threshold`` defaults to half the darkest pixel's darkness: the core of a line, whatever
+    the ink's own darkness (a pencil at 30% is measured like a marker at 100%).
 
     The centreline, not every inked pixel, is compared so that the line width does not count
     as error: with all pixels of a line of width w on its plan, the ink-to-plan term would be
@@ -152,6 +156,11 @@ def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes, threshold: float = 
     if not strokes or sum(len(s) for s in strokes) == 0:
         raise InputError("ink_chamfer_mm: the plan has no stroke")
     plan = np.concatenate([s[:, :2] for s in strokes])
+    if threshold is None:
+        darkest = float(np.max(darkness)) if np.size(darkness) else 0.0
+        if not darkest > 0.0:
+            return float("inf")
+        threshold = 0.5 * darkest
     return chamfer_mm(ink_centreline_mm(darkness, px_per_mm, threshold), plan)
 
 
@@ -245,7 +254,7 @@ def compute_metrics(
     canvas,
     plan_strokes=None,
     contact_threshold_n: float = 0.05,
-    ink_threshold: float = 0.5,
+    ink_threshold: float | None = None,
 ) -> dict[str, float]:
     """All metrics of a drawing run, keyed by :data:`METRIC_KEYS`: tracking RMS and max
     (:func:`tracking_error`), ink-versus-plan chamfer (:func:`ink_chamfer_mm`), the total
@@ -266,7 +275,8 @@ def compute_metrics(
         plan_strokes: Planned strokes, (K, 2) polylines in page [mm]; by default the reference
             over each run of drawing samples.
         contact_threshold_n: Force in [N] at or below which the pen counts as off the paper.
-        ink_threshold: Darkness at or above which a pixel counts as ink.
+        ink_threshold: Darkness at or above which a pixel counts as ink; None: half the
+            darkest pixel (:func:`ink_chamfer_mm`).
     """
     times = _array("times_s", times_s, 1)
     n = times.size

@@ -112,7 +112,7 @@ def run_drawing(
     and the inertia come from it. Raises UnreachableError before moving when a point is out of
     reach (or a joint would exceed ``speed_limits`` [rad/s] with ``config.speed_limits =
     "refuse"``), and SimulationError (with the log so far in its ``log`` attribute) when the
-    plant diverges. ``progress(fraction, phase)`` is called about ten times per simulated
+    plant diverges; a KeyboardInterrupt carries the log so far the same way. ``progress(fraction, phase)`` is called about ten times per simulated
     second. The plant is left as it is at the end (the caller closes it).
     """
     wall0 = _time.perf_counter()
@@ -198,9 +198,10 @@ def run_drawing(
                     continue
             waited, settled_for = 0, 0
             i += 1
-    except SimulationError as err:
+    except (SimulationError, KeyboardInterrupt) as err:  # keep what happened for the caller
         partial = _with_plan_columns(log, ref, ref_row, row)
         partial.wall_s = _time.perf_counter() - wall0
+        partial.notes = notes
         err.log = partial
         raise
     result = _with_plan_columns(log, ref, ref_row, row)

@@ -15,14 +15,23 @@ import numpy as np
 
 from inkarm.errors import ScenarioError
 
+MAX_TOML_BYTES = 16 * 1024 * 1024  # far above any plan, scenario or profile a person writes
+
 
 def load_toml(path: str | Path, what: str = "file") -> dict:
     """Parse a TOML file, naming the file in every error."""
     path = Path(path)
     if not path.is_file():
         raise ScenarioError(f"no such {what}", file=str(path))
+    if path.stat().st_size > MAX_TOML_BYTES:
+        raise ScenarioError(f"{path.stat().st_size} bytes, more than the {MAX_TOML_BYTES} a "
+                            f"{what} may have", file=str(path))
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        # utf-8-sig: a byte-order mark (as some editors write) is accepted, as in CSV files.
+        return tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except RecursionError:
+        raise ScenarioError("nested too deeply (arrays or tables inside each other)",
+                            file=str(path)) from None
     except tomllib.TOMLDecodeError as e:
         raise ScenarioError(f"not valid TOML: {e}", file=str(path)) from None
     except UnicodeDecodeError as e:

@@ -1,47 +1,61 @@
-"""Writing a :class:`inkarm.jobs.run.Run` to a folder."""
+"""Writing a :class:`inkarm.jobs.run.Run` to a folder, atomically (:mod:`inkarm.io.outputs`)."""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
+from inkarm.io.outputs import staged
 from inkarm.jobs.run import Run
 
 STATUS_FILE = "status.json"
+RUN_FILES = ("reference.csv", "trace.npz", "canvas.png", "metrics.json", "report.png",
+             STATUS_FILE)
+
+
+def strict_json(value) -> str:
+    """``value`` as JSON that strict parsers accept: NaN and infinities become null (an
+    undefined metric), never the bare ``NaN`` / ``Infinity`` Python would write."""
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [clean(x) for x in v]
+        return v
+
+    return json.dumps(clean(value), indent=2, sort_keys=True, allow_nan=False) + "\n"
 
 
 def write_run(run: Run, out_dir: str | Path, report: bool = True) -> dict[str, Path]:
     """Write ``run`` into ``out_dir``: ``reference.csv`` (the placed drawing), ``trace.npz``
-    (the log), ``canvas.png`` (the ink), ``status.json`` (status, reason, notes, robot),
-    ``metrics.json`` and ``report.png`` (ink over plan, tracking error, force, speed) when the
-    run finished. Returns the files written, by name."""
+    (the log, also of a failed or interrupted run), ``canvas.png`` (the ink), ``status.json``
+    (status, reason, notes, robot), and ``metrics.json`` and ``report.png`` (ink over plan,
+    tracking error, force, speed) when the run finished. The files are staged and moved in
+    together, ``status.json`` last; files of an earlier run that this one did not produce are
+    removed. Returns the files written, by name."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    files = {name: out / name for name in ("reference.csv", "trace.npz", "canvas.png",
-                                           STATUS_FILE)}
-    run.drawing.to_csv(files["reference.csv"])
-    if run.log is not None:
-        run.log.to_npz(files["trace.npz"])
-    else:
-        del files["trace.npz"]
-    run.canvas.to_png(files["canvas.png"])
-    status = {"status": run.status, "reason": run.reason, "notes": list(run.notes),
-              "scenario": run.scenario.path, "title": run.scenario.title,
-              "robot": run.scenario.robot.name}
-    files[STATUS_FILE].write_text(json.dumps(status, indent=2) + "\n")
-    if not run.ok:  # a failed run must not keep a good run's figures beside it
-        for stale in ("metrics.json", "report.png"):
-            (out / stale).unlink(missing_ok=True)
-        return files
-    files["metrics.json"] = out / "metrics.json"
-    files["metrics.json"].write_text(json.dumps(run.metrics, indent=2, sort_keys=True) + "\n")
-    if report:
-        from inkarm.plots.report import write_report
+    with staged(out, marker=STATUS_FILE, owned=RUN_FILES) as stage:
+        run.drawing.to_csv(stage / "reference.csv")
+        if run.log is not None:
+            run.log.to_npz(stage / "trace.npz")
+        run.canvas.to_png(stage / "canvas.png")
+        if run.ok:
+            (stage / "metrics.json").write_text(strict_json(run.metrics))
+            if report:
+                from inkarm.plots.report import write_report
 
-        log = run.log
-        files["report.png"] = write_report(
-            out / "report.png", canvas=run.canvas, times_s=log.time, reference_mm=log.reference,
-            tip_mm=log.tip, force_n=log.force, drawing=log.drawing,
-            plan_strokes=[s.pos[:, :2] for s in run.drawing.strokes], metrics=run.metrics,
-            title=run.scenario.title)
-    return files
+                log = run.log
+                write_report(
+                    stage / "report.png", canvas=run.canvas, times_s=log.time,
+                    reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+                    drawing=log.drawing, plan_strokes=[s.pos[:, :2] for s in run.drawing.strokes],
+                    metrics=run.metrics, title=run.scenario.title)
+        status = {"status": run.status, "reason": run.reason, "notes": list(run.notes),
+                  "scenario": run.scenario.path, "title": run.scenario.title,
+                  "robot": run.scenario.robot.name}
+        (stage / STATUS_FILE).write_text(strict_json(status))
+        names = sorted(p.name for p in stage.iterdir())
+    return {name: out / name for name in names}

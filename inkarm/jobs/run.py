@@ -22,7 +22,16 @@ from inkarm.jobs.scenario import Scenario, place, source_drawing
 from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
 from inkarm.sim.plant import MujocoPlant
 
-OK, FAILED = "ok", "failed"
+OK, FAILED, INTERRUPTED = "ok", "failed", "interrupted"
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a run; ``run`` is the partial :class:`Run` (status "interrupted", its log
+    so far), for the caller to keep."""
+
+    def __init__(self, run: Run):
+        super().__init__("interrupted")
+        self.run = run
 
 
 @dataclass(eq=False)
@@ -31,8 +40,8 @@ class Run:
 
     Attributes:
         scenario: The scenario that was run.
-        status: "ok", or "failed" when the run started but did not finish (``reason`` says why;
-            the log and canvas hold what happened until then).
+        status: "ok"; "failed" when the run started but did not finish (``reason`` says why;
+            the log and canvas hold what happened until then); "interrupted" (Ctrl-C).
         reason: Why it failed; empty when ok.
         drawing: The placed drawing, page [mm] and [s].
         log: One row per control period (:class:`inkarm.core.log.DrawLog`).
@@ -65,8 +74,8 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
 
     Bad settings and unreachable drawings raise before anything moves (their errors name the
     scenario file and key); a simulation that diverges returns a Run with status "failed", its
-    reason, and the partial log and canvas. ``progress(fraction, phase)`` is called during the
-    simulation.
+    reason, and the partial log and canvas; Ctrl-C raises :class:`RunInterrupted` carrying the
+    partial run. ``progress(fraction, phase)`` is called during the simulation.
     """
     cell = Cell(scenario.cell, scenario.robot)
     try:
@@ -84,7 +93,12 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
                           progress=progress, speed_limits=scenario.robot.speed_limits)
     except SimulationError as e:
         partial = getattr(e, "log", None)
-        return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e))
+        return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e),
+                   notes=partial.notes if partial is not None else ())
+    except KeyboardInterrupt as e:
+        partial = getattr(e, "log", None)
+        raise RunInterrupted(Run(scenario, INTERRUPTED, drawing, partial, canvas,
+                                 reason="interrupted by the user (Ctrl-C)")) from None
     except InkarmError as e:  # a LoopConfig field's error names it as the scenario does
         controller = e.key in {f.name for f in dataclasses.fields(scenario.controller)}
         raise e.within(file=scenario.path, key="controller" if controller else None) from None

@@ -17,6 +17,7 @@ reset is disabled so that a diverging run cannot silently restart from the initi
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import mujoco
@@ -35,6 +36,16 @@ _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQVEL,
     mujoco.mjtWarning.mjWARN_BADQACC,
 )
+
+
+_MUJOCO_LOG = logging.getLogger("inkarm.mujoco")
+
+
+def route_mujoco_warnings() -> None:
+    """Send MuJoCo's warnings to the ``inkarm.mujoco`` logger instead of stdout and a
+    ``MUJOCO_LOG.TXT`` in the working folder (a run's divergence is reported by
+    :class:`MujocoPlant` itself, as a SimulationError)."""
+    mujoco.set_mju_user_warning(_MUJOCO_LOG.warning)
 
 
 def _index(addresses: list[int]) -> slice | np.ndarray:
@@ -84,6 +95,7 @@ class MujocoPlant:
         cell = cell or make_cell()
         joint_names = tuple(joint_names or cell.robot.joint_names)
         self.joint_names = joint_names
+        route_mujoco_warnings()
         self.model = build_model(cell) if model is None else model
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
         self.data = mujoco.MjData(self.model)

@@ -1,0 +1,68 @@
+"""Output folders that always describe one run: staged, then moved into place.
+
+A command writes its files into a fresh hidden folder beside ``--out``; only when every file is
+complete are they moved into ``--out``, each with an atomic rename (which replaces a planted
+symlink itself, never the file it points to). The folder's marker file (``status.json`` for a
+drawing run) is removed first and moved in last, so a folder without it is incomplete. Files the
+command owns but did not produce this time (a failed run has no ``metrics.json``) are removed, so
+no file of an earlier run is left beside a new one. If anything fails before the move (a full
+disk, an error, Ctrl-C), ``--out`` is left exactly as it was.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from inkarm.errors import InputError
+
+
+def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
+                  names: Iterable[str] = ()) -> Path:
+    """The ``--out`` folder, checked before any work (nothing is created): not empty, not a
+    file, its nearest existing ancestor a writable folder, and none of the ``inputs`` at one of
+    the file ``names`` the command will write there."""
+    text = str(path)
+    if not text.strip():
+        raise InputError("expected a folder name, got an empty string", key="--out", value=text)
+    out = Path(text)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out} exists and is not a folder", key="--out", value=text)
+    existing = next((p for p in (out, *out.parents) if p.exists()), Path("."))
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"cannot create or write {out}: {existing} is not a writable folder",
+                         key="--out", value=text)
+    targets = {(out / name).resolve() for name in names}
+    for source in inputs:
+        if Path(source).resolve() in targets:
+            raise InputError(f"{out} holds the input {source}, which this command would "
+                             "overwrite; choose another folder", key="--out", value=text)
+    return out
+
+
+@contextmanager
+def staged(out_dir: str | Path, marker: str | None = None,
+           owned: Iterable[str] = ()) -> Iterator[Path]:
+    """Yield a fresh staging folder; on a normal exit move its files into ``out_dir`` (created
+    if missing), ``marker`` last, and remove the ``owned`` names that were not produced. On an
+    exception the staging folder is deleted and ``out_dir`` is untouched."""
+    out = Path(out_dir)
+    parent = out.absolute().parent
+    parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=parent))
+    try:
+        yield stage
+        out.mkdir(exist_ok=True)
+        produced = sorted(p.name for p in stage.iterdir())
+        if marker is not None:
+            (out / marker).unlink(missing_ok=True)
+        for name in set(owned) - set(produced):
+            (out / name).unlink(missing_ok=True)
+        for name in sorted(produced, key=lambda n: n == marker):
+            os.replace(stage / name, out / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
