@@ -53,7 +53,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from inkarm.io.planfile import load_plan, realise_plan
+    from inkarm.io.planfile import load_plan
+    from inkarm.plans.realise import realise_plan
 
     if args.samples is not None and args.samples < 0:
         raise InputError(f"--samples: expected an integer >= 0, got {args.samples}")

@@ -62,8 +62,10 @@ A target without ``cov``/``std`` takes, in this order: the stroke's ``cov`` or `
 (not both), the top-level ``cov`` or ``[semi_tied]`` (not both), and for key-points the
 identity (GI eq. 7); otherwise it is an error. All targets of a plan have the same D (2 or 3).
 
-Samples: a Gaussian stroke's samples come from the LQT trajectory distribution, a human-line
-stroke's from fresh squiggles; a minimum-jerk stroke is deterministic and repeats its mean.
+Realising: :func:`load_plan` and :func:`parse_plan` give a checked :class:`PlanFile` (targets,
+covariances, settings); :func:`inkarm.plans.realise.realise_plan` turns it into trajectories.
+A Gaussian stroke's samples come from the LQT trajectory distribution, a human-line stroke's
+from fresh squiggles; a minimum-jerk stroke is deterministic and repeats its mean.
 
 Randomness: stroke i of a plan with seed s has its own streams, children of
 ``numpy.random.SeedSequence([s, i])`` (:func:`stroke_seeds`): one for the semi-tied
@@ -73,18 +75,23 @@ other and of every other stroke's, and the same seed gives the same plan and sam
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from inkarm.core.plan import GaussianTarget, StrokePlan, check_covariance
-from inkarm.core.trajectory import Drawing, Trajectory
-from inkarm.errors import InkarmError, PlanError, ScenarioError
-from inkarm.io.toml import TomlReader, describe, load_toml
-from inkarm.models.human_line import human_polyline
-from inkarm.models.minjerk import via_points
+from inkarm.core.plan import StrokePlan
+from inkarm.io.plansections import (
+    HUMAN_LINE_DEFAULTS,
+    MINJERK_DEFAULTS,
+    MODEL_DEFAULTS,
+    read_model,
+    read_options,
+    read_points,
+    read_semi_tied,
+    read_targets,
+)
+from inkarm.io.toml import TomlReader, load_toml
 
 KINDS = ("gaussian", "keypoints", "human_line", "minjerk")
 TOP_KEYS = (
@@ -110,21 +117,6 @@ STROKE_KEYS = (
     "human_line",
     "minjerk",
 )
-TARGET_KEYS = ("mean", "cov", "std", "angle")
-MODEL_DEFAULTS = {
-    "order": 4,
-    "dt": 0.01,
-    "d": 5.0,
-    "r": None,
-    "discretisation": "euler",
-    "end_at_rest": True,
-    "segment_time": 0.5,
-    "sampling": "exact",
-    "solver": "auto",
-}
-SEMI_TIED_DEFAULTS = {"H": None, "h": None, "rho": 0.0}
-HUMAN_LINE_DEFAULTS = {"squiggle": 5.0, "px_mm": 25.4 / 300.0, "duration": 2.0}
-MINJERK_DEFAULTS = {"duration": 1.0, "via_times": None}
 
 
 @dataclass(frozen=True)
@@ -177,124 +169,6 @@ class PlanFile:
         return self.strokes[0].dim
 
 
-# -- the sections ------------------------------------------------------------------------------
-
-
-def _model(rd: TomlReader, table: dict, key: str, inherited: dict) -> dict:
-    rd.keys(table, tuple(MODEL_DEFAULTS), key)
-    out = dict(inherited)
-    if "d" in table and "r" in table:
-        raise rd.error(key, "give one of d (maximum displacement) and r (control weight), not both")
-    if "d" in table:
-        out["d"], out["r"] = rd.number(table["d"], f"{key}.d", 0.0, strict=True), None
-    if "r" in table:
-        out["r"], out["d"] = rd.number(table["r"], f"{key}.r", 0.0, strict=True), None
-    if "order" in table:
-        out["order"] = rd.integer(table["order"], f"{key}.order", 1, 7)
-    for name in ("dt", "segment_time"):
-        if name in table:
-            out[name] = rd.number(table[name], f"{key}.{name}", 0.0, strict=True)
-    if "discretisation" in table:
-        out["discretisation"] = rd.choice(
-            table["discretisation"], f"{key}.discretisation", ("euler", "zoh")
-        )
-    if "end_at_rest" in table:
-        out["end_at_rest"] = rd.boolean(table["end_at_rest"], f"{key}.end_at_rest")
-    if "sampling" in table:
-        out["sampling"] = rd.choice(table["sampling"], f"{key}.sampling", ("exact", "eigen"))
-    if "solver" in table:
-        out["solver"] = rd.choice(
-            table["solver"], f"{key}.solver", ("auto", "cholesky", "augmented", "batch")
-        )
-    if out["segment_time"] < out["dt"]:
-        raise rd.error(
-            f"{key}.segment_time" if "segment_time" in table else f"{key}.dt",
-            f"segment_time ({out['segment_time']:g} s) must be at least dt ({out['dt']:g} s)",
-        )
-    return out
-
-
-def _semi_tied(rd: TomlReader, table: dict, key: str, inherited: dict | None) -> dict:
-    rd.keys(table, tuple(SEMI_TIED_DEFAULTS), key)
-    out = dict(inherited or SEMI_TIED_DEFAULTS)
-    if "H" in table:
-        out["H"] = rd.array(table["H"], f"{key}.H", 2)
-        h = out["H"]
-        if h.ndim != 2 or h.shape[0] != h.shape[1] or h.shape[0] not in (2, 3):
-            raise rd.error(f"{key}.H", f"expected a 2 x 2 or 3 x 3 matrix, got shape {h.shape}")
-        if abs(np.linalg.det(h)) <= 1e-12 * max(np.max(np.abs(h)), 1e-300) ** h.shape[0]:
-            raise rd.error(f"{key}.H", "the basis is singular (its columns are not independent)")
-    if "h" in table:
-        out["h"] = rd.number(table["h"], f"{key}.h", 0.0, strict=True)
-    if "rho" in table:
-        out["rho"] = rd.number(table["rho"], f"{key}.rho", 0.0)
-    if out["h"] is None:
-        raise rd.error(f"{key}.h", "required: the covariance magnitude in mm^2")
-    return out
-
-
-def _options(rd: TomlReader, kind: str, table: dict, key: str, inherited: dict) -> dict:
-    defaults = HUMAN_LINE_DEFAULTS if kind == "human_line" else MINJERK_DEFAULTS
-    rd.keys(table, tuple(defaults), key)
-    out = dict(inherited)
-    if kind == "human_line":
-        if "squiggle" in table:
-            out["squiggle"] = rd.number(table["squiggle"], f"{key}.squiggle", 0.0)
-        for name in ("px_mm", "duration"):
-            if name in table:
-                out[name] = rd.number(table[name], f"{key}.{name}", 0.0, strict=True)
-    else:
-        if "duration" in table:
-            out["duration"] = rd.number(table["duration"], f"{key}.duration", 0.0, strict=True)
-        if "via_times" in table:
-            out["via_times"] = rd.array(table["via_times"], f"{key}.via_times", 1)
-    return out
-
-
-def _covariance(rd: TomlReader, value, dim: int, key: str) -> np.ndarray:
-    if isinstance(value, list) and value and isinstance(value[0], list):
-        arr = rd.array(value, key, 2)
-    elif isinstance(value, list):
-        arr = rd.array(value, key, 1)
-    else:
-        arr = np.asarray(rd.number(value, key))
-    try:
-        return check_covariance(arr, dim, f"{rd.source}: {key}")
-    except PlanError as e:
-        raise ScenarioError(str(e)) from None
-
-
-def _std_covariance(rd: TomlReader, target: dict, dim: int, key: str) -> np.ndarray:
-    std_value = target["std"]
-    if isinstance(std_value, list):
-        std = rd.array(std_value, f"{key}.std", 1)
-        if std.shape[0] != dim:
-            raise rd.error(f"{key}.std", f"has {std.shape[0]} entries, expected {dim}")
-    else:
-        std = np.full(dim, rd.number(std_value, f"{key}.std"))
-    if np.any(std <= 0):
-        raise rd.error(f"{key}.std", f"standard deviations must be positive, got {std.tolist()}")
-    cov = np.diag(std**2)
-    if "angle" in target:
-        if dim != 2:
-            raise rd.error(f"{key}.angle", "an angle only orients 2-D targets; give cov for 3-D")
-        a = math.radians(rd.number(target["angle"], f"{key}.angle"))
-        rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-        cov = rot @ cov @ rot.T  # seed 000 eq. 8
-    return cov
-
-
-def _points(rd: TomlReader, value, key: str) -> np.ndarray:
-    if not isinstance(value, list):
-        raise rd.error(key, f"expected an array of points, got {describe(value)}")
-    pts = rd.array(value, key, 2)
-    if pts.shape[0] < 2:
-        raise rd.error(key, f"expected at least 2 points, got {pts.shape[0]}")
-    if pts.shape[1] not in (2, 3):
-        raise rd.error(key, f"points must have 2 or 3 coordinates, got {pts.shape[1]}")
-    return pts
-
-
 STREAMS = ("covariances", "samples")
 """The random streams of a stroke, in the order they are spawned (see the module docstring)."""
 
@@ -305,93 +179,7 @@ def stroke_seeds(seed: int, index: int) -> dict[str, np.random.SeedSequence]:
     return dict(zip(STREAMS, np.random.SeedSequence([seed, index]).spawn(len(STREAMS))))
 
 
-def _generated_covariances(
-    rd: TomlReader, settings: dict, m: int, dim: int, key: str, seed: np.random.SeedSequence
-) -> np.ndarray:
-    from inkarm.models.lqt import semi_tied_covariances
-
-    basis = np.eye(dim) if settings["H"] is None else settings["H"]
-    if basis.shape[0] != dim:
-        raise rd.error(
-            f"{key}.H", f"is {basis.shape[0]} x {basis.shape[0]} but the targets are {dim}-D"
-        )
-    try:
-        covs = semi_tied_covariances(
-            m, basis, settings["h"], rho=settings["rho"], seed=np.random.default_rng(seed)
-        )
-    except InkarmError as e:
-        raise rd.error(key, str(e)) from None
-    return np.asarray(covs, dtype=float)
-
-
-def _targets(
-    rd: TomlReader,
-    stroke: dict,
-    key: str,
-    kind: str,
-    cov_source: tuple | None,
-    seed: np.random.SeedSequence,
-    segment_time: float,
-) -> StrokePlan:
-    """Read ``targets``; cov_source is ("cov", value, key) or ("semi_tied", settings, key) or None."""
-    raw = stroke.get("targets")
-    if raw is None:
-        raise rd.error(f"{key}.targets", f"required for a {kind} stroke")
-    if not isinstance(raw, list) or not raw:
-        raise rd.error(
-            f"{key}.targets", "expected a non-empty array of tables { mean = [...], ... }"
-        )
-    means, explicit = [], []
-    for i, target in enumerate(raw):
-        tkey = f"{key}.targets[{i}]"
-        target = rd.table(target, tkey)
-        rd.keys(target, TARGET_KEYS, tkey)
-        if "mean" not in target:
-            raise rd.error(f"{tkey}.mean", "required: the target centre in mm")
-        mean = rd.array(target["mean"], f"{tkey}.mean", 1)
-        if mean.shape[0] not in (2, 3):
-            raise rd.error(f"{tkey}.mean", f"expected 2 or 3 coordinates, got {mean.shape[0]}")
-        if means and mean.shape[0] != means[0].shape[0]:
-            raise rd.error(
-                f"{tkey}.mean",
-                f"has {mean.shape[0]} coordinates but {key}.targets[0] has {means[0].shape[0]}",
-            )
-        means.append(mean)
-        if "cov" in target and "std" in target:
-            raise rd.error(tkey, "give one of cov and std, not both")
-        if "angle" in target and "std" not in target:
-            raise rd.error(f"{tkey}.angle", "only allowed together with std")
-        dim = mean.shape[0]
-        if "cov" in target:
-            explicit.append(_covariance(rd, target["cov"], dim, f"{tkey}.cov"))
-        elif "std" in target:
-            explicit.append(_std_covariance(rd, target, dim, tkey))
-        else:
-            explicit.append(None)
-    dim = means[0].shape[0]
-    covs = list(explicit)
-    missing = [i for i, c in enumerate(covs) if c is None]
-    if missing:
-        if cov_source is None:
-            if kind != "keypoints":
-                raise rd.error(
-                    f"{key}.targets[{missing[0]}]",
-                    "no covariance: give cov or std, or a cov or [semi_tied] for the stroke or the plan",
-                )
-            fill = [np.eye(dim)] * len(covs)  # GI eq. 7: identity weight at each key-point
-        elif cov_source[0] == "cov":
-            fill = [_covariance(rd, cov_source[1], dim, cov_source[2])] * len(covs)
-        else:
-            fill = _generated_covariances(rd, cov_source[1], len(covs), dim, cov_source[2], seed)
-        for i in missing:
-            covs[i] = fill[i]
-    targets = []
-    for i, (mean, cov) in enumerate(zip(means, covs)):
-        try:
-            targets.append(GaussianTarget(mean, cov))
-        except PlanError as e:
-            raise rd.error(f"{key}.targets[{i}]", str(e)) from None
-    return StrokePlan(tuple(targets), segment_time=segment_time, keypoints=kind == "keypoints")
+# -- reading a plan ----------------------------------------------------------------------------
 
 
 def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStroke:
@@ -400,7 +188,7 @@ def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStr
     rd.keys(stroke, STROKE_KEYS, key)
     kind = rd.choice(stroke.get("kind", "gaussian"), f"{key}.kind", KINDS)
     name = rd.text(stroke.get("name", ""), f"{key}.name")
-    model = _model(
+    model = read_model(
         rd, rd.table(stroke.get("model", {}), f"{key}.model"), f"{key}.model", top["model"]
     )
     for section in ("human_line", "minjerk"):
@@ -414,8 +202,8 @@ def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStr
                 raise rd.error(f"{key}.{name_}", f"not used by a {kind} stroke (it takes points)")
         if "points" not in stroke:
             raise rd.error(f"{key}.points", f"required for a {kind} stroke")
-        points = _points(rd, stroke["points"], f"{key}.points")
-        options = _options(
+        points = read_points(rd, stroke["points"], f"{key}.points")
+        options = read_options(
             rd, kind, rd.table(stroke.get(kind, {}), f"{key}.{kind}"), f"{key}.{kind}", top[kind]
         )
         if kind == "minjerk" and options["via_times"] is not None:
@@ -436,13 +224,13 @@ def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStr
         table = rd.table(stroke["semi_tied"], f"{key}.semi_tied")
         cov_source = (
             "semi_tied",
-            _semi_tied(rd, table, f"{key}.semi_tied", top["semi_tied"]),
+            read_semi_tied(rd, table, f"{key}.semi_tied", top["semi_tied"]),
             f"{key}.semi_tied",
         )
     else:
         cov_source = top["cov_source"]
     stream = stroke_seeds(seed, index)["covariances"]
-    plan = _targets(rd, stroke, key, kind, cov_source, stream, model["segment_time"])
+    plan = read_targets(rd, stroke, key, kind, cov_source, stream, model["segment_time"])
     return PlannedStroke(index, name, kind, model, plan=plan)
 
 
@@ -459,10 +247,10 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
     seed = file_seed if seed is None else int(seed)
     samples = rd.integer(data.get("samples", 0), "samples", 0)
     pause = rd.number(data.get("pause", 0.5), "pause", 0.0)
-    model = _model(rd, rd.table(data.get("model", {}), "model"), "model", MODEL_DEFAULTS)
+    model = read_model(rd, rd.table(data.get("model", {}), "model"), "model", MODEL_DEFAULTS)
     semi_tied = None
     if "semi_tied" in data:
-        semi_tied = _semi_tied(rd, rd.table(data["semi_tied"], "semi_tied"), "semi_tied", None)
+        semi_tied = read_semi_tied(rd, rd.table(data["semi_tied"], "semi_tied"), "semi_tied", None)
     if "cov" in data and semi_tied is not None:
         raise rd.error("", "give one of the top-level cov and [semi_tied], not both")
     cov_source = None
@@ -474,14 +262,14 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
         "model": model,
         "semi_tied": semi_tied,
         "cov_source": cov_source,
-        "human_line": _options(
+        "human_line": read_options(
             rd,
             "human_line",
             rd.table(data.get("human_line", {}), "human_line"),
             "human_line",
             HUMAN_LINE_DEFAULTS,
         ),
-        "minjerk": _options(
+        "minjerk": read_options(
             rd, "minjerk", rd.table(data.get("minjerk", {}), "minjerk"), "minjerk", MINJERK_DEFAULTS
         ),
     }
@@ -504,94 +292,3 @@ def load_plan(path: str | Path, seed: int | None = None) -> PlanFile:
     """Read and check the plan file at ``path`` (see the module docstring for the schema)."""
     data = load_toml(path, "plan file")
     return parse_plan(data, source=str(path), seed=seed)
-
-
-# -- realising a plan --------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class StrokeResult:
-    """A realised stroke: its mean trajectory (t from 0) and samples (K, N, D) in [mm] on the
-    same time grid."""
-
-    stroke: PlannedStroke
-    mean: Trajectory
-    samples: np.ndarray
-
-
-@dataclass(frozen=True)
-class PlanResult:
-    """A realised plan: per-stroke results and the drawing of the means, re-timed to follow
-    each other with the plan's pen-up ``pause`` between strokes."""
-
-    plan: PlanFile
-    strokes: tuple[StrokeResult, ...]
-    drawing: Drawing
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.strokes[0].samples.shape[0])
-
-    def stacked_samples(self) -> dict[str, np.ndarray]:
-        """Samples of all strokes concatenated along time, in stroke order: ``pos`` (K, N, D)
-        with N the total number of samples of the drawing, plus ``t`` (N,) in [s] (the times
-        of the drawing, as in mean.csv) and ``stroke`` (N,), the stroke index of each column."""
-        return {
-            "pos": np.concatenate([s.samples for s in self.strokes], axis=1),
-            "t": np.concatenate([s.t for s in self.drawing.strokes]),
-            "stroke": np.concatenate([np.full(s.mean.n, i) for i, s in enumerate(self.strokes)]),
-        }
-
-
-def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResult:
-    """Turn one stroke into its mean trajectory and ``samples`` sampled trajectories, drawn
-    from the stroke's ``samples`` stream of the plan ``seed`` (:func:`stroke_seeds`)."""
-    dt = stroke.model["dt"]
-    stream = stroke_seeds(seed, stroke.index)["samples"]
-    if stroke.kind in ("gaussian", "keypoints"):
-        from inkarm.models import lqt
-
-        cfg = stroke.lqt_config()
-        mean = lqt.solve(stroke.plan, cfg)
-        if samples > 0:
-            pos = np.asarray(
-                lqt.sample(
-                    stroke.plan,
-                    cfg,
-                    k=samples,
-                    seed=np.random.default_rng(stream),
-                    method=stroke.model["sampling"],
-                ),
-                dtype=float,
-            )
-        else:
-            pos = np.zeros((0, mean.n, mean.dim))
-    elif stroke.kind == "human_line":
-        opts = stroke.options
-        seeds = [int(x) for x in stream.generate_state(samples + 1)]
-        lines = [
-            human_polyline(stroke.points, s, opts["squiggle"], opts["px_mm"], opts["duration"], dt)
-            for s in seeds
-        ]
-        mean = lines[0]
-        pos = np.array([line.pos for line in lines[1:]]).reshape(samples, mean.n, mean.dim)
-    else:
-        opts = stroke.options
-        mean = via_points(stroke.points, opts["duration"], opts["via_times"], dt)
-        pos = np.repeat(mean.pos[None], samples, axis=0)
-    return StrokeResult(stroke=stroke, mean=mean, samples=pos)
-
-
-def realise_plan(plan: PlanFile, samples: int | None = None) -> PlanResult:
-    """Realise every stroke of ``plan`` with ``samples`` samples each (default: the file's)."""
-    k = plan.samples if samples is None else int(samples)
-    if k < 0:
-        raise ScenarioError(f"{plan.source}: samples must be >= 0, got {k}")
-    results = []
-    for stroke in plan.strokes:
-        try:
-            results.append(realise_stroke(stroke, k, plan.seed))
-        except InkarmError as e:
-            raise type(e)(f"{plan.source}: strokes[{stroke.index}]: {e}") from None
-    drawing = Drawing([r.mean for r in results]).sequential(pause=plan.pause)
-    return PlanResult(plan=plan, strokes=tuple(results), drawing=drawing)

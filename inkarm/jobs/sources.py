@@ -62,7 +62,8 @@ class PlanSource:
         return cls(**kw)
 
     def drawing(self, seed: int, where: str) -> Drawing:
-        from inkarm.io.planfile import load_plan, parse_plan, realise_plan
+        from inkarm.io.planfile import load_plan, parse_plan
+        from inkarm.plans.realise import realise_plan
 
         if self.file is not None:
             plan = load_plan(self.file, seed=seed)
