@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.patches import Ellipse
 
-from inkarm.io.planfile import PlanResult
+from inkarm.plans.realise import PlanResult
 from inkarm.plots.figure import Figure, figure_of, new_figure, save_figure
 
 STROKE_COLOURS = ("#d98c00", "#2a7ab0", "#c0392b", "#3c9d5d", "#8e44ad", "#7f8c8d")

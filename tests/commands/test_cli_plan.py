@@ -12,7 +12,8 @@ import pytest
 
 from inkarm.cli import main
 from inkarm.core.trajectory import Drawing
-from inkarm.io.planfile import load_plan, realise_plan
+from inkarm.io.planfile import load_plan
+from inkarm.plans.realise import realise_plan
 
 PLANS = sorted((Path(__file__).resolve().parents[2] / "scenarios" / "plans").glob("*.toml"))
 

@@ -65,8 +65,9 @@ def _run():
 def inputs() -> dict:
     from inkarm.analysis.density import analyse
     from inkarm.core.trajectory import Drawing
-    from inkarm.io.planfile import parse_plan, realise_plan
+    from inkarm.io.planfile import parse_plan
     from inkarm.plans.glyphs import make_tag
+    from inkarm.plans.realise import realise_plan
     from inkarm.plans.restyle import RestyleConfig, restyle
     from inkarm.plans.text import write_text
 
