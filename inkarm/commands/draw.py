@@ -63,12 +63,14 @@ class ProgressBar:
 
 def run(args: argparse.Namespace) -> int:
     if args.video:  # fail before a long simulation, and pick offscreen GL before mujoco loads
-        from inkarm.sim.render import configure_gl, require_ffmpeg
+        from inkarm.sim.gl import configure_gl
 
         configure_gl()
+        from inkarm.sim.render import require_ffmpeg
+
         require_ffmpeg("inkarm draw --video")
     if args.viewer:
-        from inkarm.sim.render import require_display
+        from inkarm.sim.viewer import require_display
 
         require_display()
     from inkarm.jobs.outputs import write_run
@@ -109,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"data: {out / 'metrics.json'}, {out / 'trace.npz'}, {out / 'reference.csv'}")
     threshold = scenario.controller.contact_threshold_n
     if args.video:
-        from inkarm.sim.render import render_log_video
+        from inkarm.sim.replay import render_log_video
 
         bar = None if args.quiet else ProgressBar("video")
         try:
@@ -122,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
                 bar.close()
         print(f"video: {video}")
     if args.viewer:
-        from inkarm.sim.render import open_viewer
+        from inkarm.sim.viewer import open_viewer
 
         open_viewer(result.log, result.cell, ink=scenario.ink.make(),
                     contact_threshold_n=threshold)
