@@ -4,12 +4,17 @@ simulated robot."""
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 import time
 from pathlib import Path
 
-from inkarm.commands import output_folder
+from inkarm.errors import InputError, unknown_name
+from inkarm.io.outputs import check_out_dir
 from inkarm.robots.registry import robot_names
+
+MAX_FPS = 240.0
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -61,36 +66,78 @@ class ProgressBar:
         self.stream.flush()
 
 
+def check_video_options(args: argparse.Namespace) -> None:
+    """``--video``, ``--fps`` and ``--camera``, checked before anything is simulated."""
+    from inkarm.sim.cell import CAMERAS
+    from inkarm.sim.replay import DRAWING_CAMERA
+
+    cameras = (DRAWING_CAMERA, *CAMERAS)
+    if args.camera not in cameras:
+        raise unknown_name("camera", args.camera, cameras, key="--camera")
+    if not (math.isfinite(args.fps) and 0 < args.fps <= MAX_FPS):
+        raise InputError(f"expected frames per second in (0, {MAX_FPS:g}], got {args.fps:g}",
+                         key="--fps", value=args.fps)
+    if args.video is None:
+        return
+    video = Path(args.video)
+    if video.suffix.lower() != ".mp4":
+        raise InputError(f"{video}: expected a .mp4 file name", key="--video", value=args.video)
+    folder = video.parent
+    if video.is_dir() or not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{video}: cannot write there ({folder} is not a writable folder)",
+                         key="--video", value=args.video)
+
+
+def scenario_inputs(scenario) -> list[Path]:
+    """The files a scenario reads (which its outputs must never overwrite)."""
+    files = [Path(scenario.path)]
+    source_file = getattr(scenario.source, "file", None)
+    if source_file is not None:
+        files.append(Path(source_file))
+    if scenario.robot_ref.endswith(".toml"):
+        files.append(Path(scenario.robot_ref))
+    return [f for f in files if f.is_file()]
+
+
 def run(args: argparse.Namespace) -> int:
-    if args.video:  # fail before a long simulation, and pick offscreen GL before mujoco loads
+    check_out_dir(args.out)
+    if args.video:  # offscreen GL must be chosen before anything imports mujoco
         from inkarm.sim.gl import configure_gl
 
         configure_gl()
+    check_video_options(args)  # fail before a long simulation
+    if args.video:
         from inkarm.sim.render import require_ffmpeg
 
         require_ffmpeg("inkarm draw --video")
+    from inkarm.jobs.outputs import RUN_FILES, write_run
+    from inkarm.jobs.run import RunInterrupted
+    from inkarm.jobs.run import run as run_scenario
+    from inkarm.jobs.scenario import load_scenario
+
     if args.viewer:
         from inkarm.sim.viewer import require_display
 
         require_display()
-    from inkarm.jobs.outputs import write_run
-    from inkarm.jobs.run import run as run_scenario
-    from inkarm.jobs.scenario import load_scenario
-
-    output_folder(args.out)
     scenario = load_scenario(args.scenario)
     if args.robot is not None:
         key = "robot.file" if args.robot.endswith(".toml") else "robot.name"
         robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
         scenario = scenario.with_overrides({"robot": {}, key: robot})
+    out = check_out_dir(args.out, inputs=scenario_inputs(scenario), names=RUN_FILES)
     bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r} ({scenario.robot.name})")
     try:
         result = run_scenario(scenario, progress=bar)
-    finally:
+    except RunInterrupted as interrupted:
         if bar is not None:
             bar.close()
-    files = write_run(result, args.out)
-    out = Path(args.out)
+        write_run(interrupted.run, out)
+        print(f"inkarm draw: interrupted; partial trace and canvas kept in {out}, status "
+              f"'interrupted' in {out / 'status.json'}", file=sys.stderr)
+        return 130
+    if bar is not None:
+        bar.close()
+    files = write_run(result, out)
     for note in result.notes:
         print(f"note: {note}")
     if not result.ok:
@@ -114,12 +161,16 @@ def run(args: argparse.Namespace) -> int:
         from inkarm.sim.replay import render_log_video
 
         bar = None if args.quiet else ProgressBar("video")
+        final = Path(args.video)
+        partial = final.with_name(f".{final.stem}.partial.mp4")
         try:
-            video = render_log_video(result.log, args.video, result.cell,
+            video = render_log_video(result.log, partial, result.cell,
                                      px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make(),
                                      fps=args.fps, camera=args.camera,
                                      contact_threshold_n=threshold, progress=bar)
+            video = Path(os.replace(video, final) or final)
         finally:
+            partial.unlink(missing_ok=True)
             if bar is not None:
                 bar.close()
         print(f"video: {video}")

@@ -6,7 +6,29 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from inkarm.core.ranges import Range as _R
+from inkarm.core.ranges import check_ranges
 from inkarm.errors import InputError
+
+# Plausible ranges (generous for any drawing robot; finite so nothing downstream overflows).
+RANGES = {
+    "force_n": _R(0.0, 50.0, "N", open_low=True),
+    "pen_stiffness_n_per_mm": _R(1e-3, 1e3, "N/mm"),
+    "hover_mm": _R(0.0, 200.0, "mm", open_low=True),
+    "descend_s": _R(0.0, 60.0, "s", open_low=True),
+    "lift_s": _R(0.0, 60.0, "s", open_low=True),
+    "travel_speed_mm_s": _R(0.0, 5000.0, "mm/s", open_low=True),
+    "joint_speed_rad_s": _R(0.0, 20.0, "rad/s", open_low=True),
+    "nib_friction": _R(0.0, 5.0),
+    "force_gain_mm_per_ns": _R(0.0, 1e4, "mm/(N s)"),
+    "correction_limit_mm": _R(0.0, 100.0, "mm"),
+    "settle_tol_n": _R(0.0, 50.0, "N"),
+    "settle_s": _R(0.0, 60.0, "s"),
+    "settle_timeout_s": _R(0.0, 60.0, "s"),
+    "contact_threshold_n": _R(0.0, 50.0, "N"),
+    "posture_rate": _R(0.0, 1e3, "1/s"),
+    "ik_period_s": _R(0.0, 1.0, "s", open_low=True),
+}
 
 
 @dataclass(frozen=True)
@@ -65,33 +87,7 @@ class LoopConfig:
             if isinstance(value, float) and not np.isfinite(value):
                 raise InputError(f"expected a finite number, got {value}", key=f.name,
                                  value=value)
-        for name in (
-            "force_n",
-            "hover_mm",
-            "descend_s",
-            "lift_s",
-            "travel_speed_mm_s",
-            "joint_speed_rad_s",
-            "ik_period_s",
-        ):
-            if getattr(self, name) <= 0:
-                raise InputError(f"expected > 0, got {getattr(self, name)}", key=name,
-                                 value=getattr(self, name))
-        for name in (
-            "force_gain_mm_per_ns",
-            "correction_limit_mm",
-            "settle_tol_n",
-            "settle_s",
-            "settle_timeout_s",
-            "contact_threshold_n",
-            "posture_rate",
-        ):
-            if getattr(self, name) < 0:
-                raise InputError(f"expected >= 0, got {getattr(self, name)}", key=name,
-                                 value=getattr(self, name))
-        if self.nib_friction is not None and not self.nib_friction >= 0:
-            raise InputError(f"expected >= 0, got {self.nib_friction}", key="nib_friction",
-                             value=self.nib_friction)
+        check_ranges(self, RANGES)
         if self.command not in ("torque", "position"):
             raise InputError(f"expected 'torque' or 'position', got {self.command!r}",
                              key="command", value=self.command, choices=("torque", "position"))

@@ -35,6 +35,7 @@ import mujoco
 import numpy as np
 
 from inkarm.core.frames import PagePlacement
+from inkarm.core.ranges import Range, check_ranges
 from inkarm.errors import InputError
 from inkarm.robots.builders import arm_spec
 from inkarm.robots.kinematic import KinematicModel
@@ -46,6 +47,22 @@ PEN_SLIDE = "pen_slide"
 PAPER = "paper"
 PAPER_ORIGIN = "paper_origin"
 HOME_KEY = "home"
+CAMERAS = ("paper_top", "overview", "pen_cam")
+# Plausible ranges: generous for a drawing cell, finite so that MuJoCo never sees absurd numbers.
+CELL_RANGES = {
+    "timestep": Range(1e-5, 0.01, "s"),
+    "paper_size_mm": Range(1.0, 2000.0, "mm"),  # A0 is 841 x 1189 mm
+    "paper_centre_mm": Range(-5000.0, 5000.0, "mm"),
+    "paper_yaw_deg": Range(-360.0, 360.0, "deg"),
+    "paper_thickness_mm": Range(0.0, 10.0, "mm", open_low=True),
+    "pen_stiffness_n_per_mm": Range(1e-3, 1e3, "N/mm"),
+    "pen_damping_ns_per_mm": Range(0.0, 10.0, "N s/mm"),
+    "pen_travel_mm": Range(0.1, 100.0, "mm"),
+    "pen_tip_radius_mm": Range(0.01, 10.0, "mm"),
+    "pen_mass_kg": Range(1e-4, 1.0, "kg"),
+    "friction": Range(0.0, 5.0),
+    "contact_timeconst": Range(0.0, 1.0, "s", open_low=True),
+}
 PEN_COLLISION_BIT = 2
 _PAPER_DEPTH_M = 0.005
 
@@ -89,30 +106,11 @@ class CellConfig:
     contact_solimp: tuple[float, float, float] = (0.1, 0.5, 0.001)
 
     def __post_init__(self) -> None:
-        positive = {
-            "timestep": self.timestep,
-            "paper_thickness_mm": self.paper_thickness_mm,
-            "pen_stiffness_n_per_mm": self.pen_stiffness_n_per_mm,
-            "pen_travel_mm": self.pen_travel_mm,
-            "pen_tip_radius_mm": self.pen_tip_radius_mm,
-            "pen_mass_kg": self.pen_mass_kg,
-            "contact_timeconst": self.contact_timeconst,
-        }
-        for name, value in positive.items():
-            if not (np.isfinite(value) and value > 0):
-                raise InputError(f"expected a positive number, got {value}", key=name, value=value)
         for name in ("paper_size_mm", "paper_centre_mm"):
             value = getattr(self, name)
             if value is not None and len(value) != 2:
                 raise InputError(f"expected 2 numbers, got {len(value)}", key=name, value=value)
-        w, h = self.paper_size_mm or (1.0, 1.0)
-        if not (np.isfinite(w) and np.isfinite(h) and w > 0 and h > 0):
-            raise InputError(f"expected positive (width, height), got {self.paper_size_mm}",
-                             key="paper_size_mm", value=self.paper_size_mm)
-        for name in ("pen_damping_ns_per_mm", "friction"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise InputError(f"expected a number >= 0, got {value}", key=name, value=value)
+        check_ranges(self, CELL_RANGES)
         d0, d_width, width = self.contact_solimp
         if not (0 < d0 <= d_width < 1 and width > 0):
             raise InputError(
@@ -222,14 +220,14 @@ def build_spec(cell: Cell | None = None) -> mujoco.MjSpec:
     height = 0.6
     half = 0.55 * max(cell.paper_size_mm) / 1000.0
     world.add_camera(
-        name="paper_top",
+        name=CAMERAS[0],
         pos=centre + [0.0, 0.0, height],
         quat=_quat(rot),
         fovy=float(np.rad2deg(2.0 * np.arctan(half / height))),
     )
     reach = max(far, 0.3)
     eye = np.array([1.7, -1.3, 1.2]) * reach / 0.9
-    world.add_camera(name="overview", pos=eye, quat=_look_at(eye, [0.5 * reach, 0.0, 0.5 * reach]),
+    world.add_camera(name=CAMERAS[1], pos=eye, quat=_look_at(eye, [0.5 * reach, 0.0, 0.5 * reach]),
                      fovy=45.0)
     spec.add_key(name=HOME_KEY, qpos=[*robot.home_q.tolist(), 0.0])
     return spec
@@ -290,7 +288,7 @@ def _add_pen(flange: mujoco.MjsFrame, cfg: CellConfig, robot: RobotProfile) -> N
     )
     cam_pos = [0.12, 0.0, 0.015]
     flange.add_camera(
-        name="pen_cam",
+        name=CAMERAS[2],
         pos=cam_pos,
         quat=_look_at(cam_pos, [0.0, 0.0, holder_m + shaft_m], up=(0.0, 0.0, -1.0)),
         fovy=50.0,

@@ -319,11 +319,12 @@ def test_minimum_jerk_profile():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"force_n": 0.0}, r"^force_n: expected > 0, got 0.0"),
+        ({"force_n": 0.0}, r"^force_n: expected a number in \(0, 50\] N, got 0.0"),
+        ({"descend_s": 1e9}, r"^descend_s: expected a number in \(0, 60\] s, got 1000000000.0"),
         ({"command": "velocity"}, r"^command: expected 'torque' or 'position'"),
         ({"hover_mm": float("inf")}, r"^hover_mm: expected a finite number"),
-        ({"settle_s": -0.1}, r"^settle_s: expected >= 0, got -0.1"),
-        ({"nib_friction": -0.2}, r"^nib_friction: expected >= 0, got -0.2"),
+        ({"settle_s": -0.1}, r"^settle_s: expected a number in \[0, 60\] s, got -0.1"),
+        ({"nib_friction": -0.2}, r"^nib_friction: expected a number in \[0, 5\], got -0.2"),
         ({"speed_limits": "ignore"}, r"^speed_limits: expected 'slow' or 'refuse'"),
     ],
 )

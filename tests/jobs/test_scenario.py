@@ -138,7 +138,7 @@ def test_diverging_gains_fail_the_run_and_keep_the_partial_trace_and_canvas(tmp_
         ("[source]\nkind = 'tag'\n[placement]\nscale = 'big'\n", r"placement.scale: expected a number, got 'big' \(str\)"),
         ("[source]\nkind = 'tag'\n[placement]\nscale = 2\nheight_mm = 3\n", r"placement: give one of height_mm and scale"),
         ("[source]\nkind = 'tag'\n[placement]\ncentre_mm = [1, 2, 3]\n", r"placement.centre_mm: expected \[x, y\]"),
-        ("[source]\nkind = 'tag'\n[cell]\ntimestep = -1.0\n", r"cell.timestep: expected a positive number, got -1.0"),
+        ("[source]\nkind = 'tag'\n[cell]\ntimestep = -1.0\n", r"cell.timestep: expected a number in \[1e-05, 0.01\] s, got -1.0"),
         ("[source]\nkind = 'tag'\n[cell]\npaper_size = [1, 2]\n", r"cell.paper_size: unknown key \(did you mean 'paper_size_mm'\?\)"),
         ("[source]\nkind = 'tag'\n[cell]\npaper_size_mm = [1, 2, 3]\n", r"cell.paper_size_mm: expected 2 numbers, got 3"),
         ("[source]\nkind = 'tag'\n[controller]\nforce_n = 'hard'\n", r"controller.force_n: expected a number"),
@@ -242,7 +242,7 @@ def test_cli_draw_bad_scenario_exits_2_with_one_line(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("extra", "match"),
     [
-        ("[controller]\nforce_n = 100.0\n", r"job.toml: controller.force_n: 100.0 N compresses the pen"),
+        ("[controller]\nforce_n = 5.0\n", r"job.toml: controller.force_n: 5.0 N compresses the pen"),
         ("[robot.gains]\nkp = [1.0, 2.0]\n", r"job.toml: robot.gains.kp: expected one number or a list of 7"),
         ("[robot.gains]\nkd = -3.0\n", r"job.toml: robot.gains.kd: expected a number >= 0, got -3.0"),
         ("[ink]\npx_per_mm = 1000\n", r"job.toml: ink.px_per_mm: expected at most 40"),

@@ -167,10 +167,11 @@ def test_spec_is_editable_before_compiling():
 @pytest.mark.parametrize(
     "field, value, message",
     [
-        ("timestep", 0.0, r"^timestep: expected a positive number, got 0.0"),
+        ("timestep", 0.0, r"^timestep: expected a number in \[1e-05, 0.01\] s, got 0.0"),
         ("pen_stiffness_n_per_mm", -1.0, r"^pen_stiffness_n_per_mm"),
-        ("paper_size_mm", (210.0, -1.0), r"^paper_size_mm: expected positive"),
-        ("friction", float("nan"), r"^friction: expected a number >= 0"),
+        ("paper_size_mm", (210.0, -1.0), r"^paper_size_mm: expected numbers in \[1, 2000\] mm"),
+        ("paper_size_mm", (1e5, 1e5), r"^paper_size_mm: expected numbers in \[1, 2000\] mm"),
+        ("friction", float("nan"), r"^friction: expected a number in \[0, 5\], got nan"),
         ("contact_solimp", (0.9, 0.5, 0.001), r"^contact_solimp: expected \(d0"),
     ],
 )
