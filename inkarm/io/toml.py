@@ -68,7 +68,8 @@ class TomlReader:
                     value=name, choices=allowed,
                 )
 
-    def number(self, value, key: str, minimum: float | None = None, strict: bool = False) -> float:
+    def number(self, value, key: str, minimum: float | None = None, strict: bool = False,
+               maximum: float | None = None) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(key, f"expected a number, got {describe(value)}")
         v = float(value)
@@ -76,7 +77,10 @@ class TomlReader:
             raise self.error(key, f"expected a finite number, got {value}")
         if minimum is not None and (v < minimum or (strict and v == minimum)):
             relation = ">" if strict else ">="
-            raise self.error(key, f"expected a number {relation} {minimum:g}, got {value}")
+            raise self.error(key, f"expected a number {relation} {minimum:g}, got {value}",
+                             value=value)
+        if maximum is not None and v > maximum:
+            raise self.error(key, f"expected a number <= {maximum:g}, got {value}", value=value)
         return v
 
     def integer(self, value, key: str, low: int, high: int | None = None) -> int:

@@ -14,6 +14,7 @@ import numpy as np
 
 from inkarm.analysis.metrics import compute_metrics
 from inkarm.control.loop import run_drawing
+from inkarm.core.budget import SIM_S, require, require_memory
 from inkarm.core.log import DrawLog
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, SimulationError
@@ -80,6 +81,7 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     cell = Cell(scenario.cell, scenario.robot)
     try:
         drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
+        check_budget(drawing, scenario, cell)
         believed = kinematic_model(cell)  # the controller's own model; the plant gets a twin
         canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                         ink=scenario.ink.make())
@@ -112,6 +114,30 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         canvas=canvas, plan_strokes=plan_strokes,
     )
     return Run(scenario, OK, drawing, log, canvas, metrics, notes=log.notes)
+
+
+def simulated_seconds(drawing: Drawing, scenario: Scenario, cell: Cell) -> float:
+    """An upper estimate of the simulated time [s] of drawing ``drawing``: its strokes, and per
+    stroke a descent, the longest settling wait, a lift and a travel across the page, plus the
+    joint-space approach and return of up to half a turn at the configured joint speed."""
+    c = scenario.controller
+    strokes = sum(float(s.t[-1] - s.t[0]) for s in drawing.strokes)
+    diagonal = float(np.hypot(*cell.paper_size_mm))
+    per_stroke = c.descend_s + c.settle_timeout_s + c.lift_s + 1.875 * diagonal / c.travel_speed_mm_s
+    joint_moves = 2 * 1.875 * np.pi / c.joint_speed_rad_s
+    return strokes + len(drawing.strokes) * per_stroke + joint_moves
+
+
+def check_budget(drawing: Drawing, scenario: Scenario, cell: Cell) -> None:
+    """Refuse, before building anything, a run longer than the simulated-time budget or whose
+    per-period arrays (plan and log: about (12 n + n^2 + 20) doubles per period for n joints)
+    exceed the memory budget."""
+    seconds = simulated_seconds(drawing, scenario, cell)
+    require(seconds, SIM_S, f"simulating {len(drawing.strokes)} strokes", key="source")
+    periods = seconds / scenario.robot.control_period_s
+    n = scenario.robot.n
+    require_memory(periods * (12 * n + n * n + 20) * 8.0,
+                   f"the plan and log of {periods:.3g} control periods", key="source")
 
 
 def _substeps(period_s: float, timestep_s: float) -> int:

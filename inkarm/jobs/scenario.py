@@ -73,6 +73,9 @@ from inkarm.sim.cell import CellConfig
 TOP_KEYS = ("title", "seed", "source", "placement", "robot", "cell", "controller", "ink")
 PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale")
 ROBOT_KEYS = ("name", "file", "gains")
+# Upper bounds of the placement's scalings: a sheet is at most 2 m, a drawing at most 1000x its
+# source, at most 100x slower.
+PLACEMENT_MAXIMA = {"height_mm": 2000.0, "scale": 1000.0, "time_scale": 100.0}
 MAX_PX_PER_MM = 40.0  # an A4 raster of 8400 x 11880 float32 pixels, 400 MB
 DEFAULT_SCENARIO = Path(__file__).parents[1] / "data" / "default.toml"
 
@@ -243,18 +246,23 @@ def _placement(rd: TomlReader, raw) -> Placement:
     rd.keys(table, PLACEMENT_KEYS, "placement")
     if "height_mm" in table and "scale" in table:
         raise rd.error("placement", "give one of height_mm and scale, not both")
-    kw = {}
+    kw: dict[str, Any] = {}
     if "centre_mm" in table:
         c = rd.array(table["centre_mm"], "placement.centre_mm", 1)
+        if np.any(np.abs(c) > 1e4):
+            raise rd.error("placement.centre_mm", f"expected numbers in [-1e4, 1e4] mm, got "
+                           f"{c.tolist()}", value=table["centre_mm"])
         if c.shape != (2,):
             raise rd.error("placement.centre_mm", f"expected [x, y], got {len(c)} numbers",
                            value=table["centre_mm"])
         kw["centre_mm"] = (float(c[0]), float(c[1]))
-    for name in ("height_mm", "scale", "time_scale"):
+    for name, maximum in PLACEMENT_MAXIMA.items():
         if name in table:
-            kw[name] = rd.number(table[name], f"placement.{name}", 0.0, strict=True)
+            kw[name] = rd.number(table[name], f"placement.{name}", 0.0, strict=True,
+                                 maximum=maximum)
     if "rotation_deg" in table:
-        kw["rotation_deg"] = rd.number(table["rotation_deg"], "placement.rotation_deg")
+        kw["rotation_deg"] = rd.number(table["rotation_deg"], "placement.rotation_deg", -3600.0,
+                                       maximum=3600.0)
     return Placement(**kw)
 
 
@@ -301,7 +309,7 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
         path=source,
         base_dir=base_dir,
         title=rd.text(data.get("title", Path(source).stem), "title"),
-        seed=rd.integer(data.get("seed", 0), "seed", 0),
+        seed=rd.integer(data.get("seed", 0), "seed", 0, 2**63 - 1),
         source=parse_source(rd, data["source"], base_dir),
         placement=_placement(rd, data.get("placement", {})),
         robot=robot,

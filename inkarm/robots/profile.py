@@ -154,16 +154,20 @@ def load_profile(path: str | Path) -> RobotProfile:
     return parse_profile(load_toml(path, "robot profile"), source=str(path))
 
 
+MAX_GAIN = 1e7  # far above any joint gain in [N m/rad], [N m/(rad s)], [N m s/rad] or [N m]
+
+
 def gain_vector(rd: TomlReader, value, key: str, n: int) -> np.ndarray:
-    """A PID gain: one number >= 0 for every joint, or a list of ``n``."""
+    """A PID gain: one number in [0, MAX_GAIN] for every joint, or a list of ``n``."""
     if not isinstance(value, list):
-        return np.full(n, rd.number(value, key, 0.0))
+        return np.full(n, rd.number(value, key, 0.0, maximum=MAX_GAIN))
     arr = rd.array(value, key, 1)
     if arr.shape != (n,):
         raise rd.error(key, f"expected one number or a list of {n} (one per joint), got "
                        f"{len(arr)}", value=value)
-    if np.any(arr < 0):
-        raise rd.error(key, f"expected numbers >= 0, got {arr.tolist()}", value=value)
+    if np.any(arr < 0) or np.any(arr > MAX_GAIN):
+        raise rd.error(key, f"expected numbers in [0, {MAX_GAIN:g}], got {arr.tolist()}",
+                       value=value)
     return arr
 
 
@@ -179,19 +183,20 @@ def _joint(rd: TomlReader, raw, i: int, menagerie: bool) -> Joint:
     joint_range = None
     if "range_deg" in table:
         lo, hi = _pair(rd, table["range_deg"], f"{key}.range_deg")
-        if not lo < hi:
-            raise rd.error(f"{key}.range_deg", f"expected [lower, upper] with lower < upper, got "
+        if not (-3600.0 <= lo < hi <= 3600.0):
+            raise rd.error(f"{key}.range_deg", f"expected [lower, upper] with -3600 <= lower < upper <= 3600, got "
                            f"{[lo, hi]}", value=table["range_deg"])
         joint_range = (float(np.deg2rad(lo)), float(np.deg2rad(hi)))
-    home = rd.number(table["home_rad"], f"{key}.home_rad")
+    home = rd.number(table["home_rad"], f"{key}.home_rad", -100.0, maximum=100.0)
     if joint_range is not None and not joint_range[0] <= home <= joint_range[1]:
         raise rd.error(f"{key}.home_rad", f"{home} rad is outside range_deg "
                        f"{np.rad2deg(joint_range).round(3).tolist()}", value=home)
     return Joint(
         name=rd.text(table["name"], f"{key}.name"),
         speed_limit=float(np.deg2rad(rd.number(table["speed_deg_s"], f"{key}.speed_deg_s", 0.0,
-                                               strict=True))),
-        torque_limit=rd.number(table["torque_nm"], f"{key}.torque_nm", 0.0, strict=True),
+                                               strict=True, maximum=36000.0))),
+        torque_limit=rd.number(table["torque_nm"], f"{key}.torque_nm", 0.0, strict=True,
+                               maximum=1e5),
         home=home,
         range=joint_range,
     )
@@ -264,8 +269,9 @@ def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
         kw["paper_centre_mm"] = _pair(rd, paper["centre_mm"], "paper.centre_mm")
     if "size_mm" in paper:
         w, h = _pair(rd, paper["size_mm"], "paper.size_mm")
-        if not (w > 0 and h > 0):
-            raise rd.error("paper.size_mm", f"expected positive [width, height], got {[w, h]}")
+        if not (1.0 <= w <= 2000.0 and 1.0 <= h <= 2000.0):
+            raise rd.error("paper.size_mm", f"expected [width, height] in [1, 2000] mm, got "
+                           f"{[w, h]}")
         kw["paper_size_mm"] = (w, h)
     backends = rd.table(data.get("backends", {}), "backends")
     return RobotProfile(
@@ -274,9 +280,10 @@ def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
         joints=joints,
         gains=pid,
         model=_model(rd, model_table, n),
-        control_period_s=rd.number(data.get("control_period_s", 0.006), "control_period_s", 0.0,
-                                   strict=True),
-        pen=PenMount(**{k: rd.number(v, f"pen.{k}", 0.0, strict=True) for k, v in pen.items()}),
+        control_period_s=rd.number(data.get("control_period_s", 0.006), "control_period_s", 1e-4,
+                                   maximum=0.1),
+        pen=PenMount(**{k: rd.number(v, f"pen.{k}", 0.0, strict=True, maximum=1000.0)
+                        for k, v in pen.items()}),
         source=source,
         backends={k: dict(rd.table(v, f"backends.{k}")) for k, v in backends.items()},
         **kw,

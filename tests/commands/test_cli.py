@@ -73,7 +73,7 @@ def test_a_failed_run_exits_1_and_keeps_the_trace_but_no_metrics(tmp_path, capsy
     out = tmp_path / "o"
     out.mkdir()
     (out / "metrics.json").write_text("{}")  # left by an earlier, good run
-    job = _job(tmp_path, "[robot.gains]\nkp = 1e9\nkd = 0.0\n")
+    job = _job(tmp_path, "[robot.gains]\nkp = 1e7\nkd = 0.0\n")
     assert main(["draw", str(job), "--out", str(out), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "the run failed" in err and "diverged" in err

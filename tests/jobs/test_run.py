@@ -62,7 +62,7 @@ def test_same_scenario_and_seed_give_identical_canvas_and_metrics(default_run):
 
 def test_a_diverging_run_fails_with_a_reason_and_keeps_its_partial_log(tmp_path):
     scenario = parse_scenario(LINE, "job.toml", tmp_path).with_overrides(
-        {"robot.gains.kp": 1e9, "robot.gains.kd": 0.0}
+        {"robot.gains.kp": 1e7, "robot.gains.kd": 0.0}
     )
     result = run(scenario)
     assert result.status == "failed" and not result.ok
@@ -76,3 +76,21 @@ def test_a_diverging_run_fails_with_a_reason_and_keeps_its_partial_log(tmp_path)
     assert (out / "trace.npz").is_file() and "trace.npz" in files
     assert (out / "canvas.png").is_file()
     assert not (out / "metrics.json").exists() and not (out / "report.png").exists()
+
+
+def test_a_run_longer_than_the_simulated_time_budget_is_refused_before_building(monkeypatch):
+    from inkarm.core.budget import BudgetError
+    from inkarm.jobs.run import check_budget, run
+    from inkarm.jobs.scenario import load_scenario, place, source_drawing
+    from inkarm.sim.cell import Cell
+
+    slow = load_scenario().with_overrides({"placement.time_scale": 100.0})
+    monkeypatch.setenv("INKARM_MAX_SIM_S", "100")
+    with pytest.raises(BudgetError, match=r"source: simulating 1 strokes: about 199.4 s, more "
+                       r"than the limit of 100 s \(raise it with the environment variable "
+                       r"INKARM_MAX_SIM_S\)") as info:
+        run(slow)
+    assert info.value.variable == "INKARM_MAX_SIM_S" and info.value.file == slow.path
+    monkeypatch.setenv("INKARM_MAX_SIM_S", "5000")
+    cell = Cell(slow.cell, slow.robot)
+    check_budget(place(source_drawing(slow), slow.placement, cell.paper_size_mm), slow, cell)

@@ -154,7 +154,7 @@ BAD_PROFILES = [
         "negative gain",
         lambda t: t.replace("kd = [120.0,", "kd = [-120.0,"),
         "gains.kd",
-        r"expected numbers >= 0",
+        r"expected numbers in \[0, 1e\+07\]",
     ),
     (
         "unknown key",
