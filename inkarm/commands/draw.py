@@ -45,8 +45,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 class ProgressBar:
     """A one-line progress bar on stderr, redrawn at most 10 times a second."""
 
-    def __init__(self, label: str, stream=sys.stderr, width: int = 30):
-        self.label, self.stream, self.width = label, stream, width
+    def __init__(self, label: str, stream=None, width: int = 30):
+        self.label, self.stream, self.width = label, stream or sys.stderr, width
         self._last = 0.0
         self._t0 = time.perf_counter()
 

@@ -1,0 +1,70 @@
+"""Output folders: checked before work, staged, moved in whole, never writing through links."""
+
+import os
+
+import pytest
+
+from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_dir, staged
+
+
+def test_an_empty_out_is_refused():
+    with pytest.raises(InputError, match=r"^--out: expected a folder name") as info:
+        check_out_dir("")
+    assert info.value.key == "--out"
+
+
+def test_a_file_as_out_is_refused(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(InputError, match=r"exists and is not a folder"):
+        check_out_dir(tmp_path / "f")
+
+
+def test_checking_creates_nothing(tmp_path):
+    check_out_dir(tmp_path / "a" / "b")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_input_inside_out_that_would_be_overwritten_is_refused(tmp_path):
+    (tmp_path / "reference.csv").write_text("t,x,y\n")
+    with pytest.raises(InputError, match=r"holds the input .*reference.csv"):
+        check_out_dir(tmp_path, inputs=[tmp_path / "reference.csv"], names=["reference.csv"])
+    check_out_dir(tmp_path, inputs=[tmp_path / "mine.csv"], names=["reference.csv"])
+
+
+def test_files_arrive_together_and_stale_owned_ones_go(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.json").write_text("old")
+    (out / "notes.txt").write_text("the user's")
+    with staged(out, marker="status.json", owned=("metrics.json", "status.json")) as stage:
+        (stage / "status.json").write_text("new")
+        (stage / "canvas.png").write_bytes(b"png")
+        assert not (out / "canvas.png").exists()  # nothing visible before the end
+    assert sorted(p.name for p in out.iterdir()) == ["canvas.png", "notes.txt", "status.json"]
+    assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
+
+
+def test_a_failure_leaves_out_untouched(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "status.json").write_text("good run")
+    with pytest.raises(OSError), staged(out, marker="status.json", owned=("status.json",)) as st:
+        (st / "canvas.png").write_bytes(b"half")
+        raise OSError("No space left on device")
+    assert (out / "status.json").read_text() == "good run"
+    assert [p.name for p in out.iterdir()] == ["status.json"]
+    assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
+
+
+def test_a_planted_symlink_is_replaced_not_followed(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    out = tmp_path / "out"
+    out.mkdir()
+    os.symlink(victim, out / "canvas.png")
+    with staged(out) as stage:
+        (stage / "canvas.png").write_bytes(b"png")
+    assert victim.read_text() == "precious"
+    assert not (out / "canvas.png").is_symlink()
+    assert (out / "canvas.png").read_bytes() == b"png"
