@@ -39,6 +39,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--viewer", action="store_true",
                    help="open MuJoCo's viewer on the finished run (needs a display)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--check", action="store_true",
+                   help="check the scenario (source, budgets, placement, reach) and stop before "
+                   "simulating; writes nothing")
     return p
 
 
@@ -125,6 +128,14 @@ def run(args: argparse.Namespace) -> int:
         robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
         scenario = scenario.with_overrides({"robot": {}, key: robot})
     out = check_out_dir(args.out, inputs=scenario_inputs(scenario), names=RUN_FILES)
+    if args.check:
+        from inkarm.jobs.run import check
+
+        drawing = check(scenario)
+        print(f"ok: {scenario.title!r}, {len(drawing.strokes)} strokes, "
+              f"{sum(s.duration for s in drawing.strokes):.2f} s of drawing, within reach of "
+              f"{scenario.robot.name}")
+        return 0
     bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r} ({scenario.robot.name})")
     try:
         result = run_scenario(scenario, progress=bar)

@@ -116,6 +116,22 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     return Run(scenario, OK, drawing, log, canvas, metrics, notes=log.notes)
 
 
+def check(scenario: Scenario) -> Drawing:
+    """Everything :func:`run` checks before it simulates, without simulating: the source builds,
+    the placed drawing fits the budgets and lies on the sheet within the robot's reach. Returns
+    the placed drawing; raises as :func:`run` would."""
+    from inkarm.control.reference import check_reachable
+
+    cell = Cell(scenario.cell, scenario.robot)
+    try:
+        drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
+        check_budget(drawing, scenario, cell)
+        check_reachable(drawing, kinematic_model(cell), scenario.controller)
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    return drawing
+
+
 def simulated_seconds(drawing: Drawing, scenario: Scenario, cell: Cell) -> float:
     """An upper estimate of the simulated time [s] of drawing ``drawing``: its strokes, and per
     stroke a descent, the longest settling wait, a lift and a travel across the page, plus the
