@@ -101,23 +101,69 @@ def resample_polyline(points_mm, spacing_mm: float) -> np.ndarray:
     return np.concatenate(pieces)
 
 
+# Rows of a raster scanned at a time by ink_box (a few MB of boolean temporaries).
+_SCAN_ROWS = 512
+# Blank pixels kept around the ink's box by ink_centreline_mm: one is enough for the distance
+# transform and the 3 x 3 ridge test to see what they see on the whole page (see there).
+_CROP_MARGIN_PX = 2
+
+
+def ink_box(darkness, threshold: float, *, strict: bool = False,
+            margin: int = 0) -> tuple[int, int, int, int] | None:
+    """The pixel box (r0, r1, c0, c1), half-open, of the pixels of the 2-D raster ``darkness``
+    that are >= ``threshold`` (> it when ``strict``), grown by ``margin`` pixels on every side
+    and clipped to the raster; None when there is no such pixel.
+
+    Scans :data:`_SCAN_ROWS` rows at a time: no page-sized temporary."""
+    image = np.asarray(darkness)
+    if image.ndim != 2:
+        raise InputError(f"ink_box: darkness must be 2-D, got shape {image.shape}")
+    n_rows, n_cols = image.shape
+    row_any = np.zeros(n_rows, bool)
+    col_any = np.zeros(n_cols, bool)
+    for r0 in range(0, n_rows, _SCAN_ROWS):
+        block = image[r0 : r0 + _SCAN_ROWS]
+        ink = block > threshold if strict else block >= threshold
+        row_any[r0 : r0 + len(block)] = ink.any(axis=1)
+        col_any |= ink.any(axis=0)
+    rows, cols = np.flatnonzero(row_any), np.flatnonzero(col_any)
+    if rows.size == 0:
+        return None
+    return (max(0, int(rows[0]) - margin), min(n_rows, int(rows[-1]) + 1 + margin),
+            max(0, int(cols[0]) - margin), min(n_cols, int(cols[-1]) + 1 + margin))
+
+
 def ink_centreline_mm(darkness, px_per_mm: float, threshold: float = 0.5) -> np.ndarray:
     """Centres in [mm], shape (M, 2), of the pixels on the discrete medial axis of the ink.
 
     The ink is the set of pixels of ``darkness`` (rows, cols; row 0 at the top of the page, the
     :class:`inkarm.ink.canvas.Canvas` convention) that are >= ``threshold``; its medial axis is
-    taken as the ink pixels whose Euclidean distance to the nearest blank pixel is a maximum
-    of their 3 x 3 neighbourhood (a ridge of the distance transform). For a line of any width
-    this lies within half a pixel of the line's centre.
+    taken as the ink pixels whose Euclidean distance to the nearest blank pixel (the page's
+    border counting as blank) is a maximum of their 3 x 3 neighbourhood (a ridge of the
+    distance transform). For a line of any width this lies within half a pixel of the line's
+    centre.
+
+    Work and memory follow the ink, not the page: both transforms run on the ink's bounding
+    box (:func:`ink_box`) grown by :data:`_CROP_MARGIN_PX` blank pixels, with the same result
+    as on the whole page. An ink pixel's nearest blank pixel q, if outside the crop, can be
+    replaced by q clamped onto the box grown by one pixel, which is blank, inside the crop and
+    no farther (clamping to a box containing the ink pixel shortens every coordinate's
+    difference); and the 3 x 3 windows of ink pixels lie inside the crop, reaching its edge
+    only where it is the page's edge, as on the whole page.
     """
     image = np.asarray(darkness)
     if image.ndim != 2:
         raise InputError(f"ink_centreline_mm: darkness must be 2-D, got shape {image.shape}")
-    ink = image >= threshold
+    n_rows = image.shape[0]
+    box = ink_box(image, threshold, margin=_CROP_MARGIN_PX)
+    if box is None:
+        return np.empty((0, 2))
+    r0, r1, c0, c1 = box
+    ink = image[r0:r1, c0:c1] >= threshold
     depth = ndimage.distance_transform_edt(np.pad(ink, 1))[1:-1, 1:-1]
     ridge = ink & (depth >= ndimage.maximum_filter(depth, size=3) - 1e-9)
     rows, cols = np.nonzero(ridge)
-    n_rows = image.shape[0]
+    rows, cols = rows + r0, cols + c0
     return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
 
 

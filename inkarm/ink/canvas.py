@@ -25,7 +25,14 @@ laid at successive steps do not darken their own anti-aliased edges.
 Ink models turn the contact force [N] and the pen speed [mm/s] into a line width [mm] and an
 opacity: :class:`MarkerInk` (force-saturating width), :class:`BrushInk` (width an inverse power
 of speed, seed 000 sec. 4 and GI sec. 5) and :class:`PencilInk` (thin, force-dependent
-darkness).
+darkness). Their parameters are refused outside generous physical ranges (widths 0.01 to
+25 mm, force scales 0.001 to 1000 N, ...; see each class), naming the field.
+
+Memory: a canvas holds three float32 rasters of the page (12 bytes per pixel), and a whole run
+(drawing, metrics, canvas.png, report) peaks at about :data:`RASTER_BYTES_PER_PX` per page pixel
+above the interpreter's baseline; the constructor refuses a page whose estimate
+(:func:`raster_bytes`) exceeds the memory budget (``INKARM_MAX_MEMORY_MB``, see
+:mod:`inkarm.core.budget`) before it allocates anything.
 """
 
 from __future__ import annotations
@@ -37,12 +44,30 @@ from typing import Protocol
 
 import numpy as np
 
+from inkarm.core.budget import require_memory
 from inkarm.errors import InputError
 
 A4_MM = (210.0, 297.0)
 # Capsules rasterised together (Canvas._rasterise_queue): enough to spread numpy's per-call
 # cost, few enough that the padded (K, H, W) arrays stay small.
 _QUEUE_LENGTH = 64
+# ... and at most this many padded pixels K * H * W (about 24 bytes each in the temporaries), so
+# that a batch of wide capsules at a fine resolution does not allocate hundreds of MB.
+_QUEUE_PIXELS = 1 << 21
+# Rows of the page converted at a time by png_pixels (a few MB of temporaries).
+_PNG_ROWS = 256
+
+# Peak memory of a whole drawing run per page pixel, in bytes: the canvas's three float32
+# rasters (12 bytes, written in full at construction) and the 8-bit grey image of canvas.png
+# (1 byte), rounded up. benchmarks/bench_memory.py measures the default scenario (run and
+# written, report included) at 10, 20 and 40 px/mm: peak RSS = about 210 MB + 12.7 to 13.1
+# bytes x page pixels (the constant: 133 MB of imports, MuJoCo's model, the log, the figure).
+# Metrics and report work on the ink's bounding box, so they add memory in proportion to the
+# ink.
+RASTER_BYTES_PER_PX = 14.0
+# Ink model parameter ranges, generous for any pen a user could model.
+WIDTH_RANGE_MM = (0.01, 25.0)
+FORCE_SCALE_RANGE_N = (1e-3, 1e3)
 
 
 class InkModel(Protocol):
@@ -60,9 +85,20 @@ def _require_positive(owner: str, **values: float) -> None:
             raise InputError(f"{owner}.{name}: expected a positive finite number, got {value!r}")
 
 
+def _require_range(owner: str, name: str, value: float, bounds: tuple[float, float],
+                   what: str) -> None:
+    """Refuse ``value`` outside the closed interval ``bounds`` (NaN included), naming the
+    field ``name`` as the error's key."""
+    lo, hi = bounds
+    if not lo <= value <= hi:
+        raise InputError(f"{owner} expects {what} in [{lo:g}, {hi:g}], got {value!r}",
+                         key=name, value=value)
+
+
 def _require_opacity(owner: str, name: str, value: float) -> None:
     if not 0 < value <= 1:
-        raise InputError(f"{owner}.{name}: expected an opacity in (0, 1], got {value!r}")
+        raise InputError(f"{owner} expects an opacity in (0, 1], got {value!r}", key=name,
+                         value=value)
 
 
 @dataclass(frozen=True)
@@ -74,10 +110,10 @@ class MarkerInk:
 
     at constant opacity.
 
-    Attributes:
-        w0_mm: Width at a feather-light touch in [mm].
-        k_mm: Extra width at full load in [mm].
-        f0_n: Force scale of the saturation in [N].
+    Attributes (each refused outside its range with an InputError keyed by the field):
+        w0_mm: Width at a feather-light touch in [mm], in [0.01, 25].
+        k_mm: Extra width at full load in [mm], in [0, 25].
+        f0_n: Force scale of the saturation in [N], in [0.001, 1000].
         opacity: Darkness of the ink in (0, 1].
     """
 
@@ -87,9 +123,11 @@ class MarkerInk:
     opacity: float = 1.0
 
     def __post_init__(self) -> None:
-        _require_positive("MarkerInk", w0_mm=self.w0_mm, f0_n=self.f0_n)
-        if not (self.k_mm >= 0 and math.isfinite(self.k_mm)):
-            raise InputError(f"MarkerInk.k_mm: expected a finite number >= 0, got {self.k_mm!r}")
+        _require_range("MarkerInk", "w0_mm", self.w0_mm, WIDTH_RANGE_MM, "a width [mm]")
+        _require_range("MarkerInk", "k_mm", self.k_mm, (0.0, WIDTH_RANGE_MM[1]),
+                       "an extra width [mm]")
+        _require_range("MarkerInk", "f0_n", self.f0_n, FORCE_SCALE_RANGE_N,
+                       "a force scale [N]")
         _require_opacity("MarkerInk", "opacity", self.opacity)
 
     def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
@@ -107,11 +145,11 @@ class BrushInk:
     "an inverse power function" without giving the exponent; neither gives constants, and both
     diverge as v -> 0, hence the clip (a resting brush leaves a blob of width w_max).
 
-    Attributes:
-        w_ref_mm: Width at the reference speed in [mm].
-        v_ref_mm_s: Reference speed in [mm/s].
-        gamma: Exponent of the inverse power law.
-        w_min_mm, w_max_mm: Width bounds in [mm].
+    Attributes (each refused outside its range with an InputError keyed by the field):
+        w_ref_mm: Width at the reference speed in [mm], in [0.01, 25].
+        v_ref_mm_s: Reference speed in [mm/s], in [0.01, 10000].
+        gamma: Exponent of the inverse power law, in [0.01, 10].
+        w_min_mm, w_max_mm: Width bounds in [mm], each in [0.01, 25], w_min_mm <= w_max_mm.
         opacity: Darkness of the ink in (0, 1].
     """
 
@@ -123,24 +161,27 @@ class BrushInk:
     opacity: float = 0.9
 
     def __post_init__(self) -> None:
-        _require_positive(
-            "BrushInk",
-            w_ref_mm=self.w_ref_mm,
-            v_ref_mm_s=self.v_ref_mm_s,
-            gamma=self.gamma,
-            w_min_mm=self.w_min_mm,
-            w_max_mm=self.w_max_mm,
-        )
+        for name in ("w_ref_mm", "w_min_mm", "w_max_mm"):
+            _require_range("BrushInk", name, getattr(self, name), WIDTH_RANGE_MM,
+                           "a width [mm]")
+        _require_range("BrushInk", "v_ref_mm_s", self.v_ref_mm_s, (0.01, 1e4),
+                       "a reference speed [mm/s]")
+        _require_range("BrushInk", "gamma", self.gamma, (0.01, 10.0),
+                       "an exponent of the speed")
         if self.w_min_mm > self.w_max_mm:
             raise InputError(
-                f"BrushInk: w_min_mm = {self.w_min_mm} exceeds w_max_mm = {self.w_max_mm}"
+                f"BrushInk expects w_min_mm <= w_max_mm = {self.w_max_mm}, got {self.w_min_mm}",
+                key="w_min_mm", value=self.w_min_mm,
             )
         _require_opacity("BrushInk", "opacity", self.opacity)
 
     def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
         if speed_mm_s <= 0.0:
             return self.w_max_mm, self.opacity
-        width = self.w_ref_mm * (self.v_ref_mm_s / speed_mm_s) ** self.gamma
+        try:
+            width = self.w_ref_mm * (self.v_ref_mm_s / speed_mm_s) ** self.gamma
+        except OverflowError:  # a brush all but at rest (its low-passed speed ~1e-200 mm/s)
+            width = math.inf
         return min(max(width, self.w_min_mm), self.w_max_mm), self.opacity
 
 
@@ -153,10 +194,10 @@ class PencilInk:
 
     (Seed 002's grade-dependent grain texture is not modelled: only the mean darkness.)
 
-    Attributes:
-        width_mm: Line width in [mm].
+    Attributes (each refused outside its range with an InputError keyed by the field):
+        width_mm: Line width in [mm], in [0.01, 25].
         max_opacity: Darkness at full load in (0, 1].
-        f0_n: Force scale of the saturation in [N].
+        f0_n: Force scale of the saturation in [N], in [0.001, 1000].
     """
 
     width_mm: float = 0.4
@@ -164,7 +205,9 @@ class PencilInk:
     f0_n: float = 0.7
 
     def __post_init__(self) -> None:
-        _require_positive("PencilInk", width_mm=self.width_mm, f0_n=self.f0_n)
+        _require_range("PencilInk", "width_mm", self.width_mm, WIDTH_RANGE_MM, "a width [mm]")
+        _require_range("PencilInk", "f0_n", self.f0_n, FORCE_SCALE_RANGE_N,
+                       "a force scale [N]")
         _require_opacity("PencilInk", "max_opacity", self.max_opacity)
 
     def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
@@ -184,6 +227,42 @@ def make_ink(name: str, **params: float) -> InkModel:
         raise InputError(f"ink model {name!r}: {err}") from None
 
 
+def raster_shape(size_mm: tuple[float, float], px_per_mm: float) -> tuple[int, int]:
+    """(rows, cols) of the raster of a page of ``size_mm`` = (width, height) in [mm] at
+    ``px_per_mm``: ``round(height * px_per_mm)``, ``round(width * px_per_mm)``. Refuses
+    non-positive or non-finite sizes and resolutions, and a raster whose pixel count is not a
+    finite number, with an InputError naming the field."""
+    width_mm, height_mm = (float(v) for v in size_mm)
+    _require_positive("Canvas", width_mm=width_mm, height_mm=height_mm, px_per_mm=px_per_mm)
+    rows, cols = height_mm * px_per_mm, width_mm * px_per_mm
+    if not math.isfinite(rows * cols):
+        raise InputError(
+            f"Canvas: a raster of {width_mm:g} x {height_mm:g} mm at {px_per_mm:g} px/mm has "
+            f"{cols:.3g} x {rows:.3g} pixels, beyond any memory", key="px_per_mm",
+            value=px_per_mm)
+    return round(rows), round(cols)
+
+
+def raster_bytes(size_mm: tuple[float, float], px_per_mm: float) -> float:
+    """Estimated peak memory in [bytes] that a drawing run spends on the raster of a page of
+    ``size_mm`` (width, height) in [mm] at ``px_per_mm``: :data:`RASTER_BYTES_PER_PX` per
+    pixel (the canvas, canvas.png; not the interpreter's own baseline)."""
+    rows, cols = raster_shape(size_mm, px_per_mm)
+    return RASTER_BYTES_PER_PX * float(rows) * float(cols)
+
+
+def require_raster_memory(size_mm: tuple[float, float], px_per_mm: float) -> None:
+    """Refuse (:class:`inkarm.core.budget.BudgetError`, key ``ink.px_per_mm``) a page whose
+    :func:`raster_bytes` exceed the memory budget ``INKARM_MAX_MEMORY_MB``."""
+    rows, cols = raster_shape(size_mm, px_per_mm)
+    width_mm, height_mm = (float(v) for v in size_mm)
+    require_memory(
+        raster_bytes(size_mm, px_per_mm),
+        f"the ink raster of a {width_mm:g} x {height_mm:g} mm page at {px_per_mm:g} px/mm "
+        f"({cols:,} x {rows:,} pixels, {RASTER_BYTES_PER_PX:g} bytes each for a run)",
+        key="ink.px_per_mm", value=px_per_mm)
+
+
 class Canvas:
     """An ink raster in page coordinates (see the module docstring for the pixel convention).
 
@@ -194,6 +273,11 @@ class Canvas:
         max_segment_mm: Longest pen travel in [mm] left un-rasterised between physics steps.
         speed_tau_s: Time constant in [s] of the first-order low-pass filter on the pen speed
             given to the ink model (a physics step's finite difference is noisy).
+
+    Raises:
+        InputError: a size, resolution or parameter out of range (naming it).
+        BudgetError: a page whose estimated raster memory (:func:`raster_bytes`) exceeds the
+            budget ``INKARM_MAX_MEMORY_MB``; checked before anything is allocated.
     """
 
     def __init__(
@@ -218,18 +302,21 @@ class Canvas:
         self.ink: InkModel = make_ink(ink) if isinstance(ink, str) else ink
         self.max_segment_mm = float(max_segment_mm)
         self.speed_tau_s = float(speed_tau_s)
-        self.shape = (round(height_mm * px_per_mm), round(width_mm * px_per_mm))
+        self.shape = raster_shape((width_mm, height_mm), self.px_per_mm)
         if min(self.shape) < 1:
             raise InputError(f"Canvas: size_mm {size_mm} at {px_per_mm} px/mm has no pixels")
+        require_raster_memory((width_mm, height_mm), self.px_per_mm)
         # np.full writes every page now, not at the first touches of a run (page faults)
         self._base = np.full(self.shape, 0.0, np.float32)  # strokes already lifted
         self._stroke = np.full(self.shape, 0.0, np.float32)  # the stroke in progress
         self._image = np.full(self.shape, 0.0, np.float32)  # 1 - (1 - base)(1 - stroke)
         # capsules (u0, v0, u1, v1, rad0, rad1, opacity, r0, r1, c0, c1) not yet in _stroke
         self._queue: list[tuple[float, ...]] = []
+        self._queue_hw = (0, 0)  # largest box (rows, cols) in the queue
         self._stroke_box: list[int] | None = None  # [r0, r1, c0, c1) touched by the stroke
         self._stale_box: list[int] | None = None  # where _image lags behind _stroke
         self._dirty_box: list[int] | None = None  # touched since take_dirty_box()
+        self._inked_box: list[int] | None = None  # every capsule since the page was blank
         self._revision = 0
         self.n_strokes = 0
         self._reset_pen()
@@ -308,10 +395,12 @@ class Canvas:
     def clear(self) -> None:
         """Blank the page (and forget any stroke in progress)."""
         self._queue.clear()
+        self._queue_hw = (0, 0)
         for buf in (self._base, self._stroke, self._image):
             buf.fill(0.0)
         self._stroke_box = self._stale_box = None
         self._dirty_box = [0, self.shape[0], 0, self.shape[1]]
+        self._inked_box = None
         self._revision += 1
         self.n_strokes = 0
         self._reset_pen()
@@ -345,14 +434,21 @@ class Canvas:
     def to_png(self, path: str | Path) -> Path:
         """Write the page as a PNG, black ink on white, and return its path.
 
-        8-bit RGBA, grey (R = G = B) and opaque, row 0 at the top: the pixels that
-        ``matplotlib.image.imsave(path, image, cmap="gray_r", vmin=0, vmax=1)`` wrote (see
-        :func:`png_pixels`), written with Pillow.
+        8-bit greyscale (PNG colour type 0, Pillow mode "L"), row 0 at the top: the grey levels
+        that ``matplotlib.image.imsave(path, image, cmap="gray_r", vmin=0, vmax=1)`` wrote as
+        R = G = B of an opaque RGBA image (see :func:`png_pixels`), written with Pillow. One
+        byte per page pixel besides the canvas: white, and the box that every capsule since the
+        page was blank lies in converted by :func:`png_pixels` (outside it the page is 0).
         """
         from PIL import Image
 
         path = Path(path)
-        Image.fromarray(png_pixels(self.image)).save(path, format="PNG")
+        image = self.image
+        grey = np.full(self.shape, _GREY_LEVELS[0], np.uint8)
+        if self._inked_box is not None:
+            r0, r1, c0, c1 = self._inked_box
+            grey[r0:r1, c0:c1] = png_pixels(image[r0:r1, c0:c1])
+        Image.fromarray(grey).save(path, format="PNG")  # 2-D uint8: mode "L"
         return path
 
     def take_dirty_box(self) -> tuple[int, int, int, int] | None:
@@ -404,7 +500,12 @@ class Canvas:
         r1 = min(n_rows, math.ceil(max(v0, v1) + reach) + 1)
         if c0 >= c1 or r0 >= r1 or opacity <= 0.0:
             return
+        height, width = max(self._queue_hw[0], r1 - r0), max(self._queue_hw[1], c1 - c0)
+        if self._queue and (len(self._queue) + 1) * height * width > _QUEUE_PIXELS:
+            self._rasterise_queue()  # wide capsules: a smaller batch (the same pixels)
+            height, width = r1 - r0, c1 - c0
         self._queue.append((u0, v0, u1, v1, rad0, rad1, opacity, r0, r1, c0, c1))
+        self._queue_hw = (height, width)
         if len(self._queue) >= _QUEUE_LENGTH:
             self._rasterise_queue()
 
@@ -421,12 +522,14 @@ class Canvas:
             return
         caps = np.array(self._queue)
         self._queue.clear()
+        self._queue_hw = (0, 0)
         u0, v0, u1, v1, rad0, rad1, opacity = caps[:, :7].T
         r0, r1, c0, c1 = caps[:, 7:].astype(np.intp).T
         box = [int(r0.min()), int(r1.max()), int(c0.min()), int(c1.max())]
         self._stroke_box = _union(self._stroke_box, box)
         self._stale_box = _union(self._stale_box, box)
         self._dirty_box = _union(self._dirty_box, box)
+        self._inked_box = _union(self._inked_box, box)
         self._revision += len(caps)
         du, dv = u1 - u0, v1 - v0
         length2 = du * du + dv * dv
@@ -471,15 +574,27 @@ _GREY_LEVELS = np.trunc((1.0 - np.linspace(0.0, 1.0, 256)) * 255.0).astype(np.ui
 
 
 def png_pixels(image) -> np.ndarray:
-    """8-bit RGBA pixels (rows, cols, 4) of a darkness image in [0, 1]: grey, white where
-    blank and black where fully inked, opaque. Darkness d falls in bin floor(256 d) (d = 1 in
-    the last), whose grey level is ``_GREY_LEVELS``; values outside [0, 1] are clipped."""
-    darkness = np.clip(np.asarray(image, dtype=float), 0.0, 1.0)
-    grey = _GREY_LEVELS[np.minimum((darkness * 256.0).astype(np.intp), 255)]
-    return np.concatenate(
-        [np.repeat(grey[..., None], 3, axis=-1), np.full(grey.shape + (1,), 255, np.uint8)],
-        axis=-1,
-    )
+    """8-bit grey levels (rows, cols) of a darkness image in [0, 1]: white (255) where blank
+    and black (0) where fully inked. Darkness d falls in bin floor(256 d) (d = 1 in the last),
+    whose grey level is ``_GREY_LEVELS``; values outside [0, 1] are clipped, NaN reads as
+    blank. These are the
+    R = G = B of ``matplotlib.image.imsave(..., cmap="gray_r", vmin=0, vmax=1)``.
+
+    Converted :data:`_PNG_ROWS` rows at a time, so that besides the result (one byte per
+    pixel) only a few MB of temporaries are allocated, whatever the page."""
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise InputError(f"png_pixels: expected a 2-D darkness image, got shape {image.shape}")
+    # float32 stays float32: clipping and scaling by 256 are exact in either precision
+    dtype = image.dtype if image.dtype in (np.float32, np.float64) else np.float64
+    grey = np.empty(image.shape, np.uint8)
+    for r0 in range(0, image.shape[0], _PNG_ROWS):
+        darkness = np.fmax(np.asarray(image[r0 : r0 + _PNG_ROWS], dtype=dtype), 0.0)  # NaN: 0
+        np.minimum(darkness, 1.0, out=darkness)
+        darkness *= 256.0
+        np.minimum(darkness, 255.0, out=darkness)
+        np.take(_GREY_LEVELS, darkness.astype(np.uint8), out=grey[r0 : r0 + _PNG_ROWS])
+    return grey
 
 
 def _offsets(starts: np.ndarray, n: int) -> np.ndarray:

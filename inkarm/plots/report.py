@@ -4,6 +4,10 @@ pen speed against time.
 Figures are plain :class:`matplotlib.figure.Figure` objects (no pyplot, no backend chosen; see
 :mod:`inkarm.plots.figure`). Inputs are plain arrays (time in [s], page positions in [mm], force in [N]) and a canvas
 (anything with ``image``, row 0 at the top of the page, and ``px_per_mm``).
+
+The ink panel draws only the pixels it shows (the zoomed box around ink and plan, a few pixels
+more), block-averaged down to at most ``max_image_px`` on its longer side: matplotlib's image
+pipeline costs tens of bytes per pixel drawn, so it must not see the whole page.
 """
 
 from __future__ import annotations
@@ -13,12 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from inkarm.analysis.metrics import plan_strokes_from_reference
+from inkarm.analysis.metrics import ink_box, plan_strokes_from_reference
 from inkarm.errors import InputError
 from inkarm.plots.figure import Figure, figure_of, new_axes, new_figure, save_figure
 
 PLAN_COLOUR = "tab:red"
 INK_CMAP = "gray_r"
+INK_SHOWN = 0.05  # darkness above which a pixel counts as ink for the zoom
+CROP_MARGIN_PX = 2  # raster pixels drawn beyond the view on each side
+MAX_IMAGE_PX = 2048  # longest side of the ink image handed to matplotlib
 
 
 def _extent_of_interest(
@@ -27,12 +34,18 @@ def _extent_of_interest(
     """(x0, x1, y0, y1) in [mm]: the box around the ink and the plan plus ``margin_mm``,
     clipped to the page; the whole page when there is neither."""
     ppm = canvas.px_per_mm
-    n_rows, n_cols = canvas.image.shape
+    image = canvas.image
+    n_rows, n_cols = image.shape
     page = (0.0, n_cols / ppm, 0.0, n_rows / ppm)
-    rows, cols = np.nonzero(canvas.image > 0.05)
-    xs = [(cols + 0.5) / ppm] + [np.asarray(s, float)[:, 0] for s in plan_strokes]
-    ys = [(n_rows - rows - 0.5) / ppm] + [np.asarray(s, float)[:, 1] for s in plan_strokes]
-    x, y = np.concatenate(xs), np.concatenate(ys)
+    xs = [np.asarray(s, float)[:, 0] for s in plan_strokes]
+    ys = [np.asarray(s, float)[:, 1] for s in plan_strokes]
+    box = ink_box(image, INK_SHOWN, strict=True)
+    if box is not None:  # the centres of the ink's extreme pixels
+        r0, r1, c0, c1 = box
+        xs.append(np.array([c0 + 0.5, c1 - 0.5]) / ppm)
+        ys.append((n_rows - np.array([r1 - 0.5, r0 + 0.5])) / ppm)
+    x = np.concatenate(xs) if xs else np.empty(0)
+    y = np.concatenate(ys) if ys else np.empty(0)
     if x.size == 0:
         return page
     return (
@@ -43,6 +56,34 @@ def _extent_of_interest(
     )
 
 
+def _view_image(
+    image: np.ndarray, ppm: float, view: tuple[float, float, float, float], max_px: int
+) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """The pixels of the page raster ``image`` (row 0 at the top, ``ppm`` px/mm) that cover
+    ``view`` = (x0, x1, y0, y1) in [mm] plus :data:`CROP_MARGIN_PX`, and their extent
+    (left, right, bottom, top) in [mm]. A crop longer than ``max_px`` on a side is
+    block-averaged by the smallest integer factor that brings it within (the extent then
+    covers the whole blocks, a few pixels more or less at the far edges)."""
+    n_rows, n_cols = image.shape
+    x0, x1, y0, y1 = view
+    c0 = max(0, int(np.floor(x0 * ppm)) - CROP_MARGIN_PX)
+    c1 = min(n_cols, int(np.ceil(x1 * ppm)) + CROP_MARGIN_PX)
+    r0 = max(0, int(np.floor(n_rows - y1 * ppm)) - CROP_MARGIN_PX)
+    r1 = min(n_rows, int(np.ceil(n_rows - y0 * ppm)) + CROP_MARGIN_PX)
+    c1, r1 = max(c1, c0 + 1), max(r1, r0 + 1)
+    crop = image[r0:r1, c0:c1]
+    block = -(-max(crop.shape) // max(int(max_px), 1))
+    if block > 1:
+        h, w = crop.shape[0] // block, crop.shape[1] // block
+        if h and w:  # drop the partial blocks at the bottom and right
+            r1, c1 = r0 + h * block, c0 + w * block
+            crop = np.empty((h, w), np.float32)
+            for i in range(0, h, 64):  # a few rows of blocks at a time
+                rows = image[r0 + i * block : r0 + min(i + 64, h) * block, c0:c1]
+                crop[i : i + 64] = rows.reshape(-1, block, w, block).mean(axis=(1, 3))
+    return crop, (c0 / ppm, c1 / ppm, (n_rows - r1) / ppm, (n_rows - r0) / ppm)
+
+
 def plot_canvas(
     canvas,
     ax=None,
@@ -50,20 +91,31 @@ def plot_canvas(
     plan_strokes: Sequence[np.ndarray] = (),
     zoom: bool = True,
     margin_mm: float = 5.0,
+    max_image_px: int = MAX_IMAGE_PX,
 ) -> Figure:
     """Draw the ink of ``canvas`` in page coordinates [mm] on ``ax`` (a new figure's when
     None), the planned strokes ((K, 2) polylines in [mm]) over it as thin coloured lines,
-    zoomed to the ink and plan unless ``zoom`` is False. Returns the figure."""
+    zoomed to the ink and plan unless ``zoom`` is False. Returns the figure.
+
+    Only the raster under the view is drawn (plus a few pixels), block-averaged when longer
+    than ``max_image_px`` on a side, so that memory and time follow the view, not the page."""
     ax = new_axes(ax, (5, 6))
     ppm = canvas.px_per_mm
-    n_rows, n_cols = canvas.image.shape
+    image = canvas.image
+    n_rows, n_cols = image.shape
+    x0, x1, y0, y1 = (
+        _extent_of_interest(canvas, plan_strokes, margin_mm)
+        if zoom
+        else (0.0, n_cols / ppm, 0.0, n_rows / ppm)
+    )
+    pixels, extent = _view_image(image, ppm, (x0, x1, y0, y1), max_image_px)
     ax.imshow(
-        canvas.image,
+        pixels,
         cmap=INK_CMAP,
         vmin=0.0,
         vmax=1.0,
         origin="upper",
-        extent=(0.0, n_cols / ppm, 0.0, n_rows / ppm),
+        extent=extent,
         interpolation="antialiased",
     )
     for index, stroke in enumerate(plan_strokes):
@@ -76,11 +128,6 @@ def plot_canvas(
             alpha=0.7,
             label="plan" if index == 0 else None,
         )
-    x0, x1, y0, y1 = (
-        _extent_of_interest(canvas, plan_strokes, margin_mm)
-        if zoom
-        else (0.0, n_cols / ppm, 0.0, n_rows / ppm)
-    )
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect("equal")

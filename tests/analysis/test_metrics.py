@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from inkarm.analysis import metrics as M
 from inkarm.errors import InputError
-from inkarm.ink.canvas import Canvas, MarkerInk
+from inkarm.ink.canvas import Canvas, MarkerInk, PencilInk
 
 
 def _ink_line(p0, p1, width_mm: float = 0.8, size_mm=(80.0, 80.0)) -> Canvas:
@@ -224,3 +224,91 @@ def test_compute_metrics_names_the_bad_input(kwargs, message):
     args.update(kwargs)
     with pytest.raises(InputError, match=message):
         M.compute_metrics(**args)
+
+
+def _centreline_on_the_whole_page(darkness, px_per_mm: float, threshold: float) -> np.ndarray:
+    """ink_centreline_mm as it was before it cropped to the ink: both transforms on the whole
+    page (the reference the cropped computation must match exactly)."""
+    from scipy import ndimage
+
+    image = np.asarray(darkness)
+    ink = image >= threshold
+    depth = ndimage.distance_transform_edt(np.pad(ink, 1))[1:-1, 1:-1]
+    ridge = ink & (depth >= ndimage.maximum_filter(depth, size=3) - 1e-9)
+    rows, cols = np.nonzero(ridge)
+    n_rows = image.shape[0]
+    return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
+
+
+def _strokes(canvas: Canvas, strokes, force: float = 1.0) -> Canvas:
+    t = 0.0
+    for stroke in strokes:
+        for p in np.asarray(stroke, float):
+            canvas.touch(p, force, t)
+            t += 0.001
+        canvas.lift()
+        t += 0.1
+    return canvas
+
+
+def _line(p0, p1, n: int = 200) -> np.ndarray:
+    return np.asarray(p0, float) + np.linspace(0.0, 1.0, n)[:, None] * np.subtract(p1, p0)
+
+
+def _canvases():
+    th = np.linspace(0.0, 2.0 * np.pi, 600)
+    return {
+        "letter in the middle": _strokes(
+            Canvas(size_mm=(80.0, 90.0), ink=MarkerInk(w0_mm=0.8, k_mm=0.0)),
+            [_line([20, 20], [20, 60]), _line([20, 60], [50, 20]), _line([50, 20], [50, 60])]),
+        "ink over every edge and corner": _strokes(
+            Canvas(size_mm=(30.0, 20.0), ink=MarkerInk(w0_mm=2.0, k_mm=0.0)),
+            [_line([-3, 10], [33, 10]), _line([15, -3], [15, 23]), _line([0, 0], [30, 20]),
+             [[0.0, 20.0]], [[30.0, 0.0]]]),
+        "far-apart dots and a thick circle": _strokes(
+            Canvas(size_mm=(120.0, 60.0), px_per_mm=7.0, ink="brush"),
+            [[[3.0, 57.0]], [[117.0, 4.0]],
+             np.column_stack([60 + 12 * np.cos(th), 30 + 12 * np.sin(th)])]),
+        "light pencil near the top edge": _strokes(
+            Canvas(size_mm=(50.0, 50.0), px_per_mm=13.0, ink=PencilInk(width_mm=1.1)),
+            [_line([5, 49.8], [45, 49.2]), _line([25, 49.9], [25, 30])], force=0.3),
+    }
+
+
+@pytest.mark.parametrize("name", list(_canvases()))
+def test_centreline_on_the_inks_box_is_exactly_the_one_on_the_whole_page(name):
+    canvas = _canvases()[name]
+    image = canvas.image
+    assert image.max() > 0
+    for threshold in (0.5 * image.max(), 0.05, 0.5, 0.9 * image.max(), 2.0):
+        cropped = M.ink_centreline_mm(image, canvas.px_per_mm, threshold)
+        whole = _centreline_on_the_whole_page(image, canvas.px_per_mm, threshold)
+        assert cropped.shape == whole.shape and cropped.dtype == whole.dtype
+        np.testing.assert_array_equal(cropped, whole)
+    plan = [np.array([[10.0, 10.0], [20.0, 30.0]])]
+    expected = M.chamfer_mm(
+        _centreline_on_the_whole_page(image, canvas.px_per_mm, 0.5 * image.max()),
+        M.resample_polyline(plan[0], 0.5 / canvas.px_per_mm),
+    )
+    assert M.ink_chamfer_mm(image, canvas.px_per_mm, plan) == expected
+
+
+def test_centreline_of_a_blank_page_is_empty():
+    assert M.ink_centreline_mm(np.zeros((40, 30)), 10.0).shape == (0, 2)
+
+
+@pytest.mark.parametrize("scan_rows", [512, 3])
+def test_ink_box_bounds_the_ink_and_grows_by_the_margin_within_the_raster(monkeypatch, scan_rows):
+    monkeypatch.setattr(M, "_SCAN_ROWS", scan_rows)
+    image = np.zeros((30, 40), np.float32)
+    image[4, 7] = 0.5
+    image[20, 33] = 0.2
+    assert M.ink_box(image, 0.2) == (4, 21, 7, 34)
+    assert M.ink_box(image, 0.2, strict=True) == (4, 5, 7, 8)
+    assert M.ink_box(image, 0.2, margin=5) == (0, 26, 2, 39)
+    assert M.ink_box(image, 0.2, margin=100) == (0, 30, 0, 40)
+    assert M.ink_box(image, 0.6) is None
+    image[29, 0] = 1.0
+    assert M.ink_box(image, 0.2) == (4, 30, 0, 34)
+    with pytest.raises(InputError, match=r"ink_box: darkness must be 2-D"):
+        M.ink_box(np.zeros(5), 0.5)

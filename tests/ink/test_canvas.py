@@ -10,8 +10,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from inkarm.core.budget import BudgetError
 from inkarm.errors import InputError
-from inkarm.ink.canvas import BrushInk, Canvas, MarkerInk, PencilInk, make_ink
+from inkarm.ink import canvas as canvas_module
+from inkarm.ink.canvas import (
+    RASTER_BYTES_PER_PX,
+    BrushInk,
+    Canvas,
+    MarkerInk,
+    PencilInk,
+    make_ink,
+    raster_bytes,
+    require_raster_memory,
+)
 
 
 def _draw(canvas: Canvas, points, force: float = 1.0, dt: float = 0.001, t0: float = 0.0) -> None:
@@ -161,8 +172,8 @@ def test_to_png_writes_black_ink_on_white(tmp_path):
     canvas = Canvas(size_mm=(20.0, 10.0))
     _draw(canvas, _line([2.0, 5.0], [18.0, 5.0], 50))
     pixels = imread(canvas.to_png(tmp_path / "page.png"))
-    assert pixels.shape[:2] == (100, 200)
-    assert pixels[50, 100, 0] < 0.05 and pixels[5, 5, 0] > 0.95
+    assert pixels.shape == (100, 200)  # 8-bit greyscale: one channel
+    assert pixels[50, 100] < 0.05 and pixels[5, 5] > 0.95
 
 
 @settings(max_examples=25, deadline=None)
@@ -281,24 +292,27 @@ def test_make_ink_by_name_and_its_errors():
     [
         (
             lambda: MarkerInk(w0_mm=0.0),
-            r"MarkerInk.w0_mm: expected a positive finite number, got 0.0",
+            r"w0_mm: MarkerInk expects a width \[mm\] in \[0.01, 25\], got 0.0",
         ),
-        (lambda: MarkerInk(k_mm=-1.0), r"MarkerInk.k_mm: expected a finite number >= 0, got -1.0"),
+        (
+            lambda: MarkerInk(k_mm=-1.0),
+            r"k_mm: MarkerInk expects an extra width \[mm\] in \[0, 25\], got -1.0",
+        ),
         (
             lambda: MarkerInk(opacity=1.5),
-            r"MarkerInk.opacity: expected an opacity in \(0, 1\], got 1.5",
+            r"opacity: MarkerInk expects an opacity in \(0, 1\], got 1.5",
         ),
         (
             lambda: BrushInk(w_min_mm=5.0, w_max_mm=2.0),
-            r"BrushInk: w_min_mm = 5.0 exceeds w_max_mm = 2.0",
+            r"^w_min_mm: BrushInk expects w_min_mm <= w_max_mm = 2.0, got 5.0$",
         ),
         (
             lambda: BrushInk(gamma=float("nan")),
-            r"BrushInk.gamma: expected a positive finite number",
+            r"gamma: BrushInk expects an exponent of the speed in \[0.01, 10\], got nan",
         ),
         (
             lambda: PencilInk(max_opacity=0.0),
-            r"PencilInk.max_opacity: expected an opacity in \(0, 1\]",
+            r"max_opacity: PencilInk expects an opacity in \(0, 1\]",
         ),
         (
             lambda: Canvas(size_mm=(0.0, 10.0)),
@@ -311,6 +325,14 @@ def test_make_ink_by_name_and_its_errors():
         (
             lambda: Canvas(size_mm=(0.01, 0.01), px_per_mm=1.0),
             r"Canvas: size_mm \(0.01, 0.01\) at 1.0 px/mm has no pixels",
+        ),
+        (
+            lambda: Canvas(px_per_mm=float("inf")),
+            r"Canvas.px_per_mm: expected a positive finite number, got inf",
+        ),
+        (
+            lambda: Canvas(size_mm=(1e300, 1e300)),
+            r"px_per_mm: Canvas: a raster of 1e\+300 x 1e\+300 mm at 10 px/mm has 1e\+301 x",
         ),
         (lambda: Canvas(ink="ballpoint"), r"ink model 'ballpoint'"),
     ],
@@ -337,32 +359,197 @@ def test_touch_rejects_bad_force_position_and_time_travel():
         canvas.touch([5.0, 5.0], 1.0, 0.5)
 
 
-def test_png_pixels_are_those_matplotlib_imsave_wrote(tmp_path):
-    """to_png writes with Pillow the very pixels of imsave(cmap="gray_r", vmin=0, vmax=1)."""
-    from matplotlib.image import imread, imsave
+def _imsave_grey(path, image) -> np.ndarray:
+    """The grey levels imsave(cmap="gray_r", vmin=0, vmax=1) writes: R of an opaque RGBA image
+    with R = G = B."""
+    from matplotlib.image import imsave
+    from PIL import Image
+
+    imsave(path, image, cmap="gray_r", vmin=0.0, vmax=1.0)
+    rgba = np.asarray(Image.open(path))
+    assert rgba.shape[-1] == 4 and np.all(rgba[..., 3] == 255)
+    assert np.array_equal(rgba[..., 0], rgba[..., 1]) and np.array_equal(rgba[..., 0], rgba[..., 2])
+    return rgba[..., 0]
+
+
+@pytest.mark.parametrize("chunk_rows", [256, 7])
+def test_png_pixels_are_the_grey_levels_matplotlib_imsave_wrote(tmp_path, monkeypatch, chunk_rows):
+    """to_png writes, as 8-bit greyscale, the grey levels of imsave(cmap="gray_r", vmin=0,
+    vmax=1) (its R = G = B), however many rows png_pixels converts at a time."""
+    from matplotlib.image import imread
     from PIL import Image
 
     from inkarm.ink.canvas import png_pixels
 
+    monkeypatch.setattr(canvas_module, "_PNG_ROWS", chunk_rows)
     edges = np.arange(257) / 256.0  # every bin edge, and just either side of it
     values = np.concatenate(
         [np.linspace(0.0, 1.0, 4097), edges, np.nextafter(edges, 2.0), np.nextafter(edges, -1.0)]
     )
     values = np.clip(values, 0.0, 1.0)
     image = np.concatenate([values, np.zeros(-len(values) % 64)]).reshape(-1, 64)
-    imsave(tmp_path / "mpl.png", image, cmap="gray_r", vmin=0.0, vmax=1.0)
-    expected = np.asarray(Image.open(tmp_path / "mpl.png"))
-    np.testing.assert_array_equal(png_pixels(image), expected)
-    imsave(tmp_path / "mpl32.png", image.astype(np.float32), cmap="gray_r", vmin=0.0, vmax=1.0)
-    expected = np.asarray(Image.open(tmp_path / "mpl32.png"))
-    np.testing.assert_array_equal(png_pixels(image.astype(np.float32)), expected)
+    np.testing.assert_array_equal(png_pixels(image), _imsave_grey(tmp_path / "mpl.png", image))
+    image32 = image.astype(np.float32)
+    np.testing.assert_array_equal(png_pixels(image32), _imsave_grey(tmp_path / "m32.png", image32))
+    outside = np.array([[-0.5, 0.0, 1.0, 1.5, np.nan]])  # clipped; NaN is blank
+    np.testing.assert_array_equal(png_pixels(outside), [[255, 255, 0, 0, 255]])
 
     canvas = Canvas(size_mm=(20.0, 10.0), px_per_mm=5.0, ink="brush")
     _draw(canvas, _line([2.0, 2.0], [18.0, 8.0], 80), force=0.7)
-    imsave(tmp_path / "page_mpl.png", canvas.image, cmap="gray_r", vmin=0.0, vmax=1.0)
+    expected = _imsave_grey(tmp_path / "page_mpl.png", canvas.image)
     ours = canvas.to_png(tmp_path / "page.png")
-    written = np.asarray(Image.open(ours))
-    assert written.dtype == np.uint8 and written.shape == (50, 100, 4)
-    np.testing.assert_array_equal(written, np.asarray(Image.open(tmp_path / "page_mpl.png")))
-    np.testing.assert_array_equal(imread(ours), imread(tmp_path / "page_mpl.png"))
-    assert len(np.unique(written[..., 0])) > 10  # grey levels, not just black and white
+    with Image.open(ours) as png:
+        assert png.mode == "L"
+        written = np.asarray(png)
+    assert written.dtype == np.uint8 and written.shape == (50, 100)
+    np.testing.assert_array_equal(written, expected)
+    np.testing.assert_array_equal(imread(ours), imread(tmp_path / "page_mpl.png")[..., 0])
+    assert len(np.unique(written)) > 10  # grey levels, not just black and white
+
+
+def test_to_png_of_a_blank_a_cleared_and_an_edge_inked_page(tmp_path):
+    from PIL import Image
+
+    from inkarm.ink.canvas import png_pixels
+
+    canvas = Canvas(size_mm=(20.0, 10.0))
+    assert np.all(np.asarray(Image.open(canvas.to_png(tmp_path / "blank.png"))) == 255)
+    _draw(canvas, _line([-2.0, 5.0], [22.0, 9.0], 50))
+    _draw(canvas, [[0.0, 0.0]], t0=1.0)
+    written = np.asarray(Image.open(canvas.to_png(tmp_path / "edges.png")))
+    np.testing.assert_array_equal(written, png_pixels(canvas.image))
+    assert written.min() == 0
+    canvas.clear()
+    _draw(canvas, [[15.0, 2.0]], t0=2.0)
+    written = np.asarray(Image.open(canvas.to_png(tmp_path / "cleared.png")))
+    np.testing.assert_array_equal(written, png_pixels(canvas.image))
+    assert written[:, :100].min() == 255 and written.min() == 0
+
+
+def test_png_pixels_wants_a_2d_image():
+    from inkarm.ink.canvas import png_pixels
+
+    with pytest.raises(InputError, match=r"png_pixels: expected a 2-D darkness image"):
+        png_pixels(np.zeros((2, 3, 4)))
+
+
+def test_wide_capsules_are_rasterised_in_smaller_batches_with_the_same_pixels(monkeypatch):
+    """Past _QUEUE_PIXELS padded pixels the queue is flushed early: the pixels do not change."""
+    monkeypatch.setattr(canvas_module, "_QUEUE_PIXELS", 2000)
+    rng = np.random.default_rng(3)
+    canvas = Canvas(size_mm=(20.0, 15.0), px_per_mm=7.0)
+    expected = np.zeros(canvas.shape, np.float32)
+    batches = []
+    original = Canvas._rasterise_queue
+
+    def spy(self):
+        batches.append(len(self._queue))
+        original(self)
+
+    monkeypatch.setattr(Canvas, "_rasterise_queue", spy)
+    for _ in range(40):
+        x0, x1 = rng.uniform(0.0, 20.0, 2)
+        y0, y1 = rng.uniform(0.0, 15.0, 2)
+        w0, w1 = rng.uniform(0.1, 3.0, 2)
+        opacity = rng.uniform(0.1, 1.0)
+        canvas._stamp(x0, y0, w0, x1, y1, w1, opacity)
+        one = _capsule_one_at_a_time(canvas.shape, 7.0, x0, y0, w0, x1, y1, w1, opacity)
+        np.maximum(expected, one, out=expected)
+    blank = np.zeros(canvas.shape, np.float32)  # composited over an empty page
+    np.testing.assert_array_equal(canvas.image, 1.0 - (1.0 - blank) * (1.0 - expected))
+    assert max(batches) < 40 and sum(batches) == 40  # split, and every capsule drawn once
+
+
+def test_raster_budget_refuses_a_huge_page_at_once_naming_estimate_and_variable(monkeypatch):
+    import time
+
+    monkeypatch.delenv("INKARM_MAX_MEMORY_MB", raising=False)
+    start = time.perf_counter()
+    with pytest.raises(BudgetError) as caught:
+        Canvas(size_mm=(1e5, 1e5), px_per_mm=10.0)
+    assert time.perf_counter() - start < 1.0  # refused before allocating anything
+    error = caught.value
+    assert error.key == "ink.px_per_mm" and error.value == 10.0
+    assert error.variable == "INKARM_MAX_MEMORY_MB" and error.limit == 2048.0
+    pixels = 1_000_000 * 1_000_000
+    assert error.estimate == pytest.approx(RASTER_BYTES_PER_PX * pixels / 2**20)
+    message = str(error)
+    assert message.startswith(
+        "ink.px_per_mm: the ink raster of a 100000 x 100000 mm page at 10 px/mm"
+    )
+    assert "1,000,000 x 1,000,000 pixels" in message
+    assert f"about {RASTER_BYTES_PER_PX * pixels / 2**30:.3g} GB" in message
+    assert "environment variable INKARM_MAX_MEMORY_MB" in message
+
+
+def test_raster_budget_accepts_a_page_within_it_and_a_raised_limit(monkeypatch):
+    monkeypatch.delenv("INKARM_MAX_MEMORY_MB", raising=False)
+    assert raster_bytes((210.0, 297.0), 10.0) == RASTER_BYTES_PER_PX * 2970 * 2100
+    require_raster_memory((210.0, 297.0), 40.0)  # A4 at the finest resolution a scenario allows
+    assert Canvas(size_mm=(210.0, 297.0), px_per_mm=10.0).shape == (2970, 2100)
+    big = ((1000.0, 1000.0), 15.0)  # 225 M pixels: over the default 2048 MB
+    with pytest.raises(BudgetError, match=r"INKARM_MAX_MEMORY_MB"):
+        require_raster_memory(*big)
+    monkeypatch.setenv("INKARM_MAX_MEMORY_MB", str(raster_bytes(*big) / 2**20 + 1.0))
+    require_raster_memory(*big)  # the check passes (nothing allocated here)
+    # the canvas itself consults the limit in force
+    monkeypatch.setenv("INKARM_MAX_MEMORY_MB", "1")
+    with pytest.raises(BudgetError, match=r"more than the limit of 1 MB"):
+        Canvas(size_mm=(100.0, 100.0), px_per_mm=10.0)
+    monkeypatch.setenv("INKARM_MAX_MEMORY_MB", "100")
+    assert Canvas(size_mm=(100.0, 100.0), px_per_mm=10.0).shape == (1000, 1000)
+
+
+INK_RANGES = [  # model, field, accepted values, refused values, the range the message gives
+    (MarkerInk, "w0_mm", (0.01, 25.0), (0.0, 0.009, 26.0, math.inf, math.nan, -1.0), "[0.01, 25]"),
+    (MarkerInk, "k_mm", (0.0, 25.0), (-1e-9, 25.5, math.inf, math.nan), "[0, 25]"),
+    (MarkerInk, "f0_n", (1e-3, 1e3), (0.0, 1e-4, 2e3, math.inf, math.nan), "[0.001, 1000]"),
+    (MarkerInk, "opacity", (1e-6, 1.0), (0.0, 1.01, math.nan), "(0, 1]"),
+    (BrushInk, "w_ref_mm", (0.01, 25.0), (0.0, 30.0, math.inf, math.nan), "[0.01, 25]"),
+    (BrushInk, "v_ref_mm_s", (0.01, 1e4), (0.0, 0.001, 1e5, math.inf, math.nan), "[0.01, 10000]"),
+    (BrushInk, "gamma", (0.01, 10.0), (0.0, -1.0, 10.5, 1e300, math.inf, math.nan), "[0.01, 10]"),
+    (BrushInk, "w_min_mm", (0.01, 4.0), (0.0, -0.5, math.nan), "[0.01, 25]"),
+    (BrushInk, "w_max_mm", (0.3, 25.0), (26.0, math.inf, math.nan), "[0.01, 25]"),
+    (BrushInk, "opacity", (1e-6, 1.0), (0.0, 2.0, math.nan), "(0, 1]"),
+    (PencilInk, "width_mm", (0.01, 25.0), (0.0, 0.005, 25.1, math.inf, math.nan), "[0.01, 25]"),
+    (PencilInk, "max_opacity", (1e-6, 1.0), (0.0, 1.5, math.nan), "(0, 1]"),
+    (PencilInk, "f0_n", (1e-3, 1e3), (0.0, 1e4, math.inf, math.nan), "[0.001, 1000]"),
+]
+
+
+@pytest.mark.parametrize(("model", "field", "accepted", "refused", "interval"), INK_RANGES,
+                         ids=[f"{m.__name__}.{f}" for m, f, *_ in INK_RANGES])
+def test_ink_parameters_out_of_range_are_refused_naming_the_field_and_range(
+    model, field, accepted, refused, interval
+):
+    for value in accepted:
+        assert getattr(model(**{field: value}), field) == value
+    for value in refused:
+        with pytest.raises(InputError) as caught:
+            model(**{field: value})
+        error = caught.value
+        assert error.key == field
+        assert error.value == value or (math.isnan(value) and math.isnan(error.value))
+        assert str(error) == f"{field}: {model.__name__} expects " + error.message.split(
+            " expects ", 1)[1]
+        assert f" in {interval}, got {value!r}" in error.message
+
+
+def test_ink_errors_name_the_scenario_key(tmp_path):
+    """Through a scenario file the field's error reads ink.<field>, with the range."""
+    from inkarm.jobs.scenario import load_scenario
+
+    job = tmp_path / "job.toml"
+    job.write_text("[source]\nkind = 'tag'\n[ink]\nmodel = 'brush'\ngamma = 1e300\n")
+    with pytest.raises(InputError, match=r"job.toml: ink.gamma: BrushInk expects an exponent "
+                       r"of the speed in \[0.01, 10\], got 1e\+300"):
+        load_scenario(job)
+
+
+def test_a_brush_all_but_at_rest_does_not_overflow():
+    """A steep exponent at a low-passed speed that has decayed towards 0 (a brush resting on
+    the paper): the width is w_max, not an OverflowError."""
+    ink = BrushInk(gamma=10.0)
+    assert ink.mark(1.0, 1e-200) == (4.0, 0.9)
+    assert ink.mark(1.0, 5e-324) == (4.0, 0.9)
+    assert ink.mark(1.0, 1e300)[0] == 0.3
