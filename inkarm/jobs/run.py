@@ -18,7 +18,7 @@ from inkarm.core.budget import SIM_S, require, require_memory
 from inkarm.core.log import DrawLog
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, SimulationError
-from inkarm.ink.canvas import Canvas
+from inkarm.ink.canvas import Canvas, require_raster_memory
 from inkarm.jobs.scenario import Scenario, place, source_drawing
 from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
 from inkarm.sim.plant import MujocoPlant
@@ -126,6 +126,7 @@ def check(scenario: Scenario) -> Drawing:
     try:
         drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
         check_budget(drawing, scenario, cell)
+        require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
         check_reachable(drawing, kinematic_model(cell), scenario.controller)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None

@@ -76,7 +76,7 @@ ROBOT_KEYS = ("name", "file", "gains")
 # Upper bounds of the placement's scalings: a sheet is at most 2 m, a drawing at most 1000x its
 # source, at most 100x slower.
 PLACEMENT_MAXIMA = {"height_mm": 2000.0, "scale": 1000.0, "time_scale": 100.0}
-MAX_PX_PER_MM = 40.0  # an A4 raster of 8400 x 11880 float32 pixels, 400 MB
+MAX_PX_PER_MM = 40.0  # finer than any pen; the raster's memory has its own budget (ink.canvas)
 DEFAULT_SCENARIO = Path(__file__).parents[1] / "data" / "default.toml"
 
 
