@@ -37,7 +37,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inkarm.analysis.dppla import DPPLAResult, dppla, segments_for_compression
+from inkarm.analysis.dppla import (
+    DPPLA_STEPS,
+    DPPLAResult,
+    dppla,
+    dppla_cost,
+    segments_for_compression,
+)
+from inkarm.core.budget import require, require_memory
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
 
@@ -98,7 +105,16 @@ def target_density(pos, breakpoints) -> np.ndarray:
 def target_velocity(traj: Trajectory, breakpoints) -> np.ndarray:
     """V_T(t_i) = ||Tg_i - Tg_{i-1}|| / (t_i - t_{i-1}) in [mm/s], (k,) (seed 001, sec. 5)."""
     bp = np.asarray(breakpoints)
-    return 1.0 / target_density(traj.pos, bp) / np.diff(traj.t[bp])
+    with np.errstate(over="ignore", divide="ignore"):
+        velocity = 1.0 / target_density(traj.pos, bp) / np.diff(traj.t[bp])
+    if not np.all(np.isfinite(velocity)):
+        i = int(np.argmax(~np.isfinite(velocity)))
+        raise InputError(
+            f"target velocity: segment {i} ({traj.t[bp[i]]:g} s to {traj.t[bp[i + 1]]:g} s) "
+            "is too short in time for a finite speed; expected sample times at least a few "
+            "ulps apart", value=float(velocity[i]),
+        )
+    return velocity
 
 
 @dataclass(frozen=True)
@@ -202,13 +218,29 @@ class DrawingAnalysis:
 def analyse_drawing(
     drawing: Drawing, compression: float = 0.75, banded: bool = False
 ) -> DrawingAnalysis:
-    """:func:`analyse` every stroke with enough samples and pool their segments."""
-    analyses, skipped = [], []
+    """:func:`analyse` every stroke with enough samples and pool their segments.
+
+    The DPPLA of every stroke is estimated first: a stroke whose tables exceed
+    ``INKARM_MAX_MEMORY_MB``, or strokes whose DP steps together exceed
+    ``INKARM_MAX_DPPLA_STEPS``, are refused (:class:`~inkarm.core.budget.BudgetError`) before
+    any is computed.
+    """
+    todo, skipped, steps = [], [], 0.0
     for i, traj in enumerate(drawing.strokes):
-        if segments_for_compression(compression, traj.n, traj.dim) < 3:
+        k = segments_for_compression(compression, traj.n, traj.dim)
+        if k < 3:
             skipped.append(i)
-        else:
-            analyses.append(analyse(traj, compression, banded))
+            continue
+        stroke_steps, n_bytes, what = dppla_cost(k, traj.n, traj.dim, banded=banded)
+        require_memory(n_bytes, f"stroke {i}: {what}")
+        require(stroke_steps, DPPLA_STEPS, f"stroke {i}: {what}")
+        steps += stroke_steps
+        todo.append(i)
+    if len(todo) > 1:
+        samples = sum(drawing.strokes[i].n for i in todo)
+        kind = "banded" if banded else "exact"
+        require(steps, DPPLA_STEPS, f"{kind} DPPLA of {len(todo)} strokes, {samples} samples")
+    analyses = [analyse(drawing.strokes[i], compression, banded) for i in todo]
     if not analyses:
         raise InputError(
             f"analysis: no stroke has enough samples for 3 segments at compression {compression}"

@@ -36,6 +36,17 @@ candidates, O(k band^2) = O(w^2 / k). :func:`dppla` with ``banded=True`` applies
 restrictions, so it may miss the optimum when targets crowd far from the uniform segmentation
 (``DPPLAResult.optimal_in_band`` says whether it did, when checked); ``window=False`` keeps
 only the paper's literal bound on the segment length (O(k w band) = O(w^2) time).
+
+Memory: the exact DP keeps the (k+1, w) tables of delta and parents, O(k w). The banded DP
+keeps only the band: the parents of each layer's window (O(k band) with the window), the
+previous layer's delta and the segment errors of the rows in the current window, computed in
+chunks as the windows advance (each error still computed once).
+
+Budgets (:mod:`inkarm.core.budget`): before any table is allocated, the DP's memory is
+estimated (:func:`exact_cost`, :func:`banded_cost`) and checked against
+``INKARM_MAX_MEMORY_MB``, and its inner steps (candidate segment starts tried, a few ns each)
+against ``INKARM_MAX_DPPLA_STEPS`` (:data:`DPPLA_STEPS`); a DP over either is refused with a
+:class:`~inkarm.core.budget.BudgetError` naming the estimate and the setting.
 """
 
 from __future__ import annotations
@@ -45,6 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inkarm.core.budget import Limit, require, require_memory
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 
@@ -52,6 +64,15 @@ ERRORS = ("interpolation", "perpendicular")
 EXACT_BUDGET = 2e7
 """Largest k w^2 / 2 (inner DP steps) for which the exact DP counts as cheap: a banded result
 is then checked against it by default (and :mod:`inkarm.plans.restyle` prefers it)."""
+DPPLA_STEPS = Limit("INKARM_MAX_DPPLA_STEPS", 2e9, "DP steps")
+"""Inner steps (candidate segment starts) of one DPPLA: a few seconds at 2-4 ns a step."""
+_CHUNK = 1 << 14
+"""Segment errors computed per vectorised call by the banded DP (bounds its temporaries)."""
+_COST_TEMPORARIES = 24
+"""Arrays of (n, p) floats that :class:`SegmentCost` allocates while evaluating n errors."""
+_LOOP_STEPS = 5000
+"""Inner steps that one Python-level iteration of a DP (a row of the exact DP, a layer of the
+banded one) costs in overhead, about 15 us."""
 
 
 @dataclass(frozen=True)
@@ -239,6 +260,95 @@ def _windows(k: int, w: int, band: int | None) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def _exact_windows(k: int, w: int, prune: bool) -> tuple[np.ndarray, np.ndarray]:
+    if prune:
+        return _windows(k, w, None)
+    return np.arange(k + 1), np.full(k + 1, w - 1)
+
+
+def _exact_layers(j: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(m0, m1, start) of the exact DP's row j: layers m0..m1 hold j, candidates from start."""
+    m0 = np.maximum(np.searchsorted(hi, j, side="left"), 1)
+    m1 = np.searchsorted(lo, j, side="right") - 1
+    return m0, m1, lo[m0 - 1]
+
+
+def _cost_bytes(w: int, p: int, error: str) -> float:
+    """Bytes of a :class:`SegmentCost` on w samples in p dimensions (its prefix sums)."""
+    per_sample = 3 * p + 4 if error == "interpolation" else p * p + 2 * p + 2
+    return 8.0 * per_sample * (w + 1)
+
+
+def exact_cost(k: int, w: int, p: int = 2, error: str = "interpolation",
+               prune: bool = True) -> tuple[float, float]:
+    """(inner steps, bytes) of the exact DP of k segments on w samples in p dimensions: the
+    (k+1, w) tables, the largest row of candidates and the segment errors' temporaries."""
+    lo, hi = _exact_windows(k, w, prune)
+    j = np.arange(1, w)
+    m0, m1, start = _exact_layers(j, lo, hi)
+    rects = np.maximum(m1 - m0 + 1, 0).astype(float) * (j - start)
+    steps = float(np.sum(rects)) + _LOOP_STEPS * (w - 1)
+    widest = float(np.max(j - start)) if w > 1 else 0.0
+    n_bytes = (16.0 * (k + 1) * w + 16.0 * float(np.max(rects, initial=0.0))
+               + 8.0 * _COST_TEMPORARIES * widest * p + _cost_bytes(w, p, error))
+    return steps, n_bytes
+
+
+def banded_cost(k: int, w: int, band: int, window: bool = True, p: int = 2,
+                error: str = "interpolation") -> tuple[float, float]:
+    """(inner steps, bytes) of the banded DP: parents of every layer's window, one chunk of
+    segment errors and the candidates of one layer."""
+    lo, hi = _windows(k, w, band if window else None)
+    widths = np.maximum(hi[1:] - lo[1:] + 1, 0).astype(float)
+    steps = float(np.sum(widths)) * band + _LOOP_STEPS * k
+    widest = float(np.max(widths, initial=0.0))
+    chunk = max(_CHUNK // band, 1)
+    n_bytes = (8.0 * float(np.sum(widths))  # parents
+               + 16.0 * (widest + 2 * chunk) * band  # cached errors, and their copy
+               + 8.0 * _COST_TEMPORARIES * chunk * band * p  # one chunk of errors
+               + 24.0 * widest * band + 16.0 * widest  # one layer's candidates
+               + _cost_bytes(w, p, error))
+    return steps, n_bytes
+
+
+def _band(band, w: int, k: int) -> int:
+    """The banded DP's band: the given one (a positive integer) or the paper's 2 w / k."""
+    if band is None:
+        return math.ceil(2 * w / k)
+    if not isinstance(band, (int, np.integer)) or isinstance(band, bool) or band < 1:
+        raise InputError(f"dppla band: expected a positive integer number of samples, got {band!r}")
+    return int(band)
+
+
+def dppla_cost(k: int, w: int, p: int = 2, *, banded: bool = False, band: int | None = None,
+               window: bool = True, error: str = "interpolation") -> tuple[float, float, str]:
+    """(inner steps, bytes, what) of :func:`dppla` with these settings on w samples in p
+    dimensions, estimated before any work (:func:`exact_cost`, :func:`banded_cost`)."""
+    if not banded:
+        steps, n_bytes = exact_cost(k, w, p, error)
+        return steps, n_bytes, (f"exact DPPLA of {w} samples in {k} segments (O(k w^2); the "
+                                "banded DP is O(w^2 / k))")
+    width = min(_band(band, w, k), w - 1)  # no segment is longer than w - 1 samples
+    steps, n_bytes = banded_cost(k, w, width, window, p, error)
+    return steps, n_bytes, f"banded DPPLA of {w} samples in {k} segments, band {width}"
+
+
+def check_budget(k: int, w: int, p: int = 2, **settings) -> None:
+    """Refuse (:class:`~inkarm.core.budget.BudgetError`) a :func:`dppla` whose estimated
+    memory exceeds ``INKARM_MAX_MEMORY_MB`` or whose inner steps exceed
+    ``INKARM_MAX_DPPLA_STEPS``; ``settings`` as for :func:`dppla_cost`."""
+    steps, n_bytes, what = dppla_cost(k, w, p, **settings)
+    require_memory(n_bytes, what)
+    require(steps, DPPLA_STEPS, what)
+
+
+def _require_exact(k: int, w: int, p: int, error: str, prune: bool = True) -> None:
+    steps, n_bytes = exact_cost(k, w, p, error, prune)
+    what = f"exact DPPLA of {w} samples in up to {k} segments"
+    require_memory(n_bytes, what)
+    require(steps, DPPLA_STEPS, what)
+
+
 def _bellman(cost: SegmentCost, k: int, prune: bool = True):
     """Exact DP: fill delta(m, j) and the arg-min parents one row j at a time, every start i
     and every layer m at once (seed 001, sec. 3). Each segment error is computed once.
@@ -247,10 +357,7 @@ def _bellman(cost: SegmentCost, k: int, prune: bool = True):
     every m <= k (used to pick k from an error tolerance).
     """
     w = cost.w
-    if prune:
-        lo, hi = _windows(k, w, None)
-    else:
-        lo, hi = np.arange(k + 1), np.full(k + 1, w - 1)
+    lo, hi = _exact_windows(k, w, prune)
     delta = np.full((k + 1, w), np.inf)
     parent = np.full((k + 1, w), -1, dtype=np.int64)
     delta[0, 0] = 0.0
@@ -266,40 +373,71 @@ def _bellman(cost: SegmentCost, k: int, prune: bool = True):
     return delta, parent
 
 
+def _error_rows(cost: SegmentCost, r0: int, r1: int, back: np.ndarray) -> np.ndarray:
+    """Segment errors d(j - r, j) of rows j = r0..r1-1 and r in ``back``, (r1 - r0, band);
+    inf where j - r < 0."""
+    j_all = np.arange(r0, r1)[:, None]
+    i_all = j_all - back[None, :]
+    valid = i_all >= 0
+    errors = np.full(i_all.shape, np.inf)
+    errors[valid] = cost(i_all[valid], np.broadcast_to(j_all, i_all.shape)[valid])
+    return errors
+
+
 def _bellman_banded(cost: SegmentCost, k: int, band: int, window: bool):
     """Banded DP: segments at most ``band`` samples long (the paper's lb = max(j - band, 0))
     and, with ``window``, break point m within ``band`` of m (w-1)/k.
 
-    The errors d(j - r, j), r = 1..band, of every row are computed once, in one vectorised
-    call (w band = O(w^2 / k) of them, and as much memory); each layer then only gathers.
+    Layer m only ends on rows [lo_m, hi_m] (both monotone in m), so only those are kept: the
+    previous layer's delta, the parents of every layer's window (O(k band) with ``window``)
+    and the errors d(j - r, j), r = 1..band, of the rows in the current window, computed in
+    chunks of about ``_CHUNK`` errors as the window advances (each row once).
+
+    Returns (delta(k, w-1), parents, lo): the parent of (m, j) is
+    ``parents[m - 1][j - lo[m]]``.
     """
     w = cost.w
     lo, hi = _windows(k, w, band if window else None)
     back = np.arange(1, band + 1)
-    j_all = np.arange(w)[:, None]
-    i_all = j_all - back[None, :]
-    valid = i_all >= 0
-    errors = np.full((w, band), np.inf)
-    errors[valid] = cost(i_all[valid], np.broadcast_to(j_all, i_all.shape)[valid])
-    delta = np.full((k + 1, w), np.inf)
-    parent = np.full((k + 1, w), -1, dtype=np.int64)
-    delta[0, 0] = 0.0
+    chunk = max(_CHUNK // band, 1)
+    cache, c_lo, c_hi = np.empty((0, band)), int(lo[1]), int(lo[1])  # error rows [c_lo, c_hi)
+    prev, p_lo = np.array([0.0]), 0  # delta(0, j): 0 at j = 0, inf elsewhere
+    parents = []
     for m in range(1, k + 1):
-        j = np.arange(lo[m], hi[m] + 1)
-        i = np.maximum(j[:, None] - back[None, :], 0)
-        # delta(m-1, i) is inf outside layer m-1's window, errors are inf where i < 0.
-        total = delta[m - 1, i] + errors[j]
+        a, b = int(lo[m]), int(hi[m]) + 1
+        if a >= c_hi:
+            cache, c_lo, c_hi = np.empty((0, band)), a, a
+        elif a > c_lo:
+            cache, c_lo = cache[a - c_lo :], a
+        if b > c_hi:
+            top = min(w, max(b, c_hi + chunk))
+            pieces = [_error_rows(cost, r, min(r + chunk, top), back)
+                      for r in range(c_hi, top, chunk)]
+            cache, c_hi = np.concatenate([cache, *pieces]), top
+        # delta(m-1, i) for i = j-1, ..., j-band: layer m-1's window padded with inf (also
+        # where i < 0, where the errors are inf too), read as a sliding window: row j - a,
+        # column r - 1 is padded[j - r - p_lo + band].
+        padded = np.full(max(len(prev), b - 1 - p_lo) + band, np.inf)
+        padded[band : band + len(prev)] = prev
+        candidates = np.ndarray((b - a, band), float, padded, (a - p_lo + band - 1) * 8, (8, -8))
+        total = candidates + cache[a - c_lo : b - c_lo]
         best = np.argmin(total, axis=1)
-        rows = np.arange(len(j))
-        delta[m, j] = total[rows, best]
-        parent[m, j] = i[rows, best]
-    return delta, parent
+        prev, p_lo = total[np.arange(b - a), best], a
+        parents.append(np.maximum(np.arange(a - 1, b - 1) - best, 0))
+    return float(prev[w - 1 - p_lo]), parents, lo
 
 
 def _backtrack(parent: np.ndarray, k: int, w: int) -> np.ndarray:
     points = [w - 1]
     for m in range(k, 0, -1):
         points.append(int(parent[m, points[-1]]))
+    return np.array(points[::-1])
+
+
+def _backtrack_banded(parents: list[np.ndarray], lo: np.ndarray, k: int, w: int) -> np.ndarray:
+    points = [w - 1]
+    for m in range(k, 0, -1):
+        points.append(int(parents[m - 1][points[-1] - lo[m]]))
     return np.array(points[::-1])
 
 
@@ -333,20 +471,19 @@ def dppla(
             False never, None when k w^2 / 2 <= ``EXACT_BUDGET``.
     """
     x, tau = _check_samples(x, weights, tau)
-    w = x.shape[0]
+    w, p = x.shape
     k = _check_k(k, w)
-    cost = SegmentCost(x, tau, error)
+    check_budget(k, w, p, banded=banded, band=band, window=window, error=error)
     if not banded:
+        cost = SegmentCost(x, tau, error)
         delta, parent = _bellman(cost, k)
         total = float(delta[k, w - 1])
         return DPPLAResult(_backtrack(parent, k, w), total, math.sqrt(total / w))
-    if band is None:
-        band = math.ceil(2 * w / k)
-    if not isinstance(band, (int, np.integer)) or band < 1:
-        raise InputError(f"dppla band: expected a positive integer number of samples, got {band!r}")
-    band = int(band)
-    delta, parent = _bellman_banded(cost, k, band, window)
-    total = float(delta[k, w - 1])
+    band = _band(band, w, k)
+    if verify:
+        check_budget(k, w, p, error=error)
+    cost = SegmentCost(x, tau, error)
+    total, parents, lo = _bellman_banded(cost, k, min(band, w - 1), window)
     if not np.isfinite(total):
         raise InputError(
             f"dppla band: {band} samples is too narrow to cover {w} samples with {k} segments "
@@ -357,7 +494,8 @@ def dppla(
         exact, _ = _bellman(cost, k)
         optimum = float(exact[k, w - 1])
         in_band = total <= optimum + 1e-9 * max(optimum, 1.0)
-    return DPPLAResult(_backtrack(parent, k, w), total, math.sqrt(total / w), True, band, in_band)
+    breakpoints = _backtrack_banded(parents, lo, k, w)
+    return DPPLAResult(breakpoints, total, math.sqrt(total / w), True, band, in_band)
 
 
 def dppla_tolerance(
@@ -372,11 +510,12 @@ def dppla_tolerance(
     x, tau = _check_samples(x, weights, tau)
     if not (isinstance(rms, (int, float)) and np.isfinite(rms) and rms >= 0):
         raise InputError(f"dppla tolerance: expected a non-negative RMS error, got {rms!r}")
-    w = x.shape[0]
+    w, p = x.shape
     cost = SegmentCost(x, tau, error)
     k_max = 1
     while True:
         k_max = min(2 * k_max, w - 1)
+        _require_exact(k_max, w, p, error, prune=False)
         delta, parent = _bellman(cost, k_max, prune=False)
         ok = np.flatnonzero(delta[1:, w - 1] <= rms * rms * w * (1 + 1e-12))
         if ok.size or k_max == w - 1:

@@ -22,8 +22,29 @@ from inkarm.core.trajectory import Trajectory, time_derivative
 from inkarm.errors import InputError
 
 
+def _finite(values: np.ndarray, what: str, traj: Trajectory) -> np.ndarray:
+    """``values`` if finite; else an InputError: sample times too close (or positions too far
+    apart) for the finite differences to stay within floating point."""
+    if not np.all(np.isfinite(values)):
+        i = int(np.argwhere(~np.isfinite(values))[0][0])
+        raise InputError(
+            f"{what}: overflows at sample {i} (t = {traj.t[i]:g} s); the sample times are too "
+            f"close for finite differences (smallest step {float(np.min(np.diff(traj.t))):g} s)",
+            value=float(traj.t[i]),
+        )
+    return values
+
+
+def _derivative(values: np.ndarray, traj: Trajectory, what: str) -> np.ndarray:
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        return _finite(time_derivative(values, traj.t), what, traj)
+
+
 def _velocity(traj: Trajectory) -> np.ndarray:
-    return traj.velocity()
+    if traj.vel is not None:
+        return traj.vel
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        return _finite(traj.velocity(), "velocity", traj)
 
 
 def _check_samples(traj: Trajectory, minimum: int, what: str) -> None:
@@ -35,19 +56,19 @@ def speed(traj: Trajectory) -> np.ndarray:
     """Tangential speed |dx/dt| in [mm/s], shape (N,): :meth:`Trajectory.speed`, refusing a
     single sample."""
     _check_samples(traj, 2, "speed")
-    return traj.speed()
+    return np.linalg.norm(_velocity(traj), axis=1)
 
 
 def acceleration(traj: Trajectory) -> np.ndarray:
     """d^2x/dt^2 in [mm/s^2], shape (N, D)."""
     _check_samples(traj, 3, "acceleration")
-    return time_derivative(_velocity(traj), traj.t)
+    return _derivative(_velocity(traj), traj, "acceleration")
 
 
 def jerk(traj: Trajectory) -> np.ndarray:
     """d^3x/dt^3 in [mm/s^3], shape (N, D)."""
     _check_samples(traj, 4, "jerk")
-    return time_derivative(acceleration(traj), traj.t)
+    return _derivative(acceleration(traj), traj, "jerk")
 
 
 def curvature(traj: Trajectory) -> np.ndarray:
@@ -59,15 +80,17 @@ def curvature(traj: Trajectory) -> np.ndarray:
     _check_samples(traj, 3, "curvature")
     v = _velocity(traj)
     a = acceleration(traj)
-    if traj.dim == 2:
-        cross = v[:, 0] * a[:, 1] - v[:, 1] * a[:, 0]
-    elif traj.dim == 3:
-        cross = np.linalg.norm(np.cross(v, a), axis=1)
-    else:
+    if traj.dim not in (2, 3):
         raise InputError(f"curvature: needs a 2-D or 3-D trajectory, got D = {traj.dim}")
-    s3 = np.linalg.norm(v, axis=1) ** 3
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(s3 > 0, cross / s3, np.nan)
+    # Where |v|^3 or the cross product overflows the curvature is returned as NaN too.
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        if traj.dim == 2:
+            cross = v[:, 0] * a[:, 1] - v[:, 1] * a[:, 0]
+        else:
+            cross = np.linalg.norm(np.cross(v, a), axis=1)
+        s3 = np.linalg.norm(v, axis=1) ** 3
+        kappa = np.where(s3 > 0, cross / s3, np.nan)
+    return np.where(np.isfinite(s3) & np.isfinite(cross), kappa, np.nan)
 
 
 def jerk_cost(traj: Trajectory) -> float:
@@ -76,7 +99,12 @@ def jerk_cost(traj: Trajectory) -> float:
     The minimum-jerk movement of amplitude A in time T has cost 720 A^2 / T^5.
     """
     j = jerk(traj)
-    return float(np.trapezoid(np.sum(j * j, axis=1), traj.t))
+    with np.errstate(over="ignore"):
+        cost = float(np.trapezoid(np.sum(j * j, axis=1), traj.t))
+    if not np.isfinite(cost):
+        raise InputError(f"jerk_cost: overflows ({cost}); the jerk is too large for floating "
+                         "point (sample times too close?)")
+    return cost
 
 
 def speed_peaks(traj: Trajectory, threshold: float = 0.1) -> int:

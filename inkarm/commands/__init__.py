@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from inkarm.errors import InputError
@@ -26,3 +28,30 @@ def output_folder(path: str | Path) -> Path:
         raise InputError(f"--out {out}: exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
     return out
+
+
+@contextmanager
+def options_named(**options: str) -> Iterator[None]:
+    """Name the command-line option of an :class:`InputError` raised inside: an error whose
+    ``key`` is one of ``options`` (a library argument such as ``n_glyphs``) gets the option
+    (``--glyphs``) as its key instead, so the one line the CLI prints says what to change."""
+    try:
+        yield
+    except InputError as e:
+        if e.key in options:
+            e.key = options[e.key]
+            e.args = (str(e),)
+        raise
+
+
+TRACE_OPTIONS = {"speed": "--speed", "rate": "--rate"}
+"""Library keys of :func:`inkarm.io.trace.load_trace` and their options."""
+
+
+def load_trace_for(args: argparse.Namespace):
+    """The trace ``args.trace`` read with the ``--speed`` and ``--rate`` options, errors naming
+    the option at fault."""
+    from inkarm.io.trace import load_trace
+
+    with options_named(**TRACE_OPTIONS):
+        return load_trace(args.trace, speed=args.speed, rate=args.rate)

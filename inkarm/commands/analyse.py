@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options, output_folder
+from inkarm.commands import add_trace_options, load_trace_for, output_folder
+from inkarm.errors import InputError
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -34,10 +35,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     from inkarm.analysis.density import analyse_drawing
-    from inkarm.io.trace import load_trace
+    from inkarm.core.budget import BudgetError
 
-    drawing = load_trace(args.trace, speed=args.speed, rate=args.rate)
-    result = analyse_drawing(drawing, args.compression, banded=args.banded)
+    if not 0 < args.compression < 1:
+        raise InputError(f"must lie in (0, 1), got {args.compression:g}", key="--compression",
+                         value=args.compression)
+    drawing = load_trace_for(args)
+    try:
+        result = analyse_drawing(drawing, args.compression, banded=args.banded)
+    except BudgetError as e:
+        if not args.banded and "exact DPPLA" in e.message:
+            e.message += "; or use --banded"
+        raise e.within(file=str(args.trace)) from None
+    except InputError as e:
+        raise e.within(file=str(args.trace)) from None
     if args.out is not None:
         output_folder(args.out)
     strokes = [i for i in range(len(drawing.strokes)) if i not in result.skipped]

@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options, output_folder
+from inkarm.commands import add_trace_options, load_trace_for, options_named, output_folder
+from inkarm.errors import InputError
 from inkarm.plans.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
@@ -73,24 +74,32 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+_OPTIONS = {name: "--" + name.replace("_", "-") for name in
+            ("compression", "order", "d", "dt", "segment_time", "style", "along", "across")}
+
+
 def run(args: argparse.Namespace) -> int:
-    from inkarm.io.trace import load_trace
     from inkarm.plans.restyle import restyle
     from inkarm.plots.figure import save_figure
     from inkarm.plots.restyle import plot_restyle
 
-    cfg = RestyleConfig(
-        compression=args.compression,
-        order=args.order,
-        d=args.d,
-        dt=args.dt,
-        segment_time=args.segment_time,
-        style=args.style,
-        along=args.along,
-        across=args.across,
-    )
-    trace = load_trace(args.trace, speed=args.speed, rate=args.rate)
-    result = restyle(trace, cfg)
+    with options_named(**_OPTIONS):
+        cfg = RestyleConfig(
+            compression=args.compression,
+            order=args.order,
+            d=args.d,
+            dt=args.dt,
+            segment_time=args.segment_time,
+            style=args.style,
+            along=args.along,
+            across=args.across,
+        )
+    trace = load_trace_for(args)
+    try:
+        with options_named(**_OPTIONS):
+            result = restyle(trace, cfg)
+    except InputError as e:
+        raise e.within(file=str(args.trace)) from None
     output_folder(args.out)
     stem = args.trace.stem
     result.drawing.to_csv(args.out / f"{stem}_restyled.csv")

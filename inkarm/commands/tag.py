@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from inkarm.commands import options_named
 from inkarm.commands.write import check_common
-from inkarm.plans.glyphs import make_tag
+from inkarm.plans.glyphs import check_tag, make_tag
 from inkarm.plans.handstyles import get_handstyle, load_handstyles
 
 DEFAULT_STYLE = "graffiti"
@@ -42,8 +43,10 @@ def run(args) -> int:
     check_common(args)
     extra = load_handstyles(args.styles) if args.styles else None
     style = get_handstyle(args.style, extra)
-    tag = make_tag(style, seed=args.seed, n_glyphs=args.glyphs, size=args.size)
-    drawing = tag.realise(dt=args.dt)
+    with options_named(n_glyphs="--glyphs", size="--size", dt="--dt"):
+        check_tag(style, args.glyphs, size=args.size, dt=args.dt)  # before any work
+        tag = make_tag(style, seed=args.seed, n_glyphs=args.glyphs, size=args.size)
+        drawing = tag.realise(dt=args.dt)
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
     fig = tag_figure(tag, drawing, title=f"seed {args.seed}, style {args.style}")

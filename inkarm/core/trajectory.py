@@ -17,6 +17,81 @@ from inkarm.errors import InputError
 A4_MM = (210.0, 297.0)
 
 
+MAX_COORD_MM = 1e6
+"""Largest |coordinate| in [mm] read from a trace file (CSV or SVG): a kilometre. Anything
+bigger is a unit or data error, and would overflow lengths, speeds and squared errors."""
+MAX_TIME_S = 1e10
+"""Largest |t| in [s] read from a CSV trace (about 300 years: Unix times in seconds pass)."""
+CSV_ROW_BYTES = 256
+"""Bytes per CSV row assumed when bounding the rows of a file from its size."""
+CSV_MAX_LINE = 4096
+"""Longest line of a CSV trace, in characters."""
+
+
+def _csv_lines(f, path: Path, counter: list[int]):
+    """The lines of ``f``, each at most :data:`CSV_MAX_LINE` characters; ``counter[0]`` sums
+    the characters read."""
+    lineno = 0
+    while True:
+        line = f.readline(CSV_MAX_LINE + 1)
+        if not line:
+            return
+        lineno += 1
+        if len(line) > CSV_MAX_LINE and not line.endswith("\n"):
+            raise InputError(f"{path}:{lineno}: line longer than {CSV_MAX_LINE} characters; "
+                             "expected CSV rows t,x,y[,z][,stroke]")
+        counter[0] += len(line)
+        yield line
+
+
+def _read_csv_rows(f, path: Path, size: int) -> tuple[list[str], np.ndarray, list[int]]:
+    """(header, (rows, columns) values, line number of each row) of a CSV trace, counting the
+    rows against ``INKARM_MAX_STEPS`` as they are read."""
+    from array import array
+
+    from inkarm.core.budget import STEPS, require
+
+    counter = [0]
+    reader = csv.reader(_csv_lines(f, path, counter))
+    limit = STEPS.value
+    try:
+        first = next(reader, None)
+        if first is None:
+            raise InputError(f"{path}: empty file; expected a header t,x,y[,z][,stroke]")
+        header = [h.strip().lower() for h in first]
+        allowed = (["t", "x", "y"], ["t", "x", "y", "z"])
+        if [h for h in header if h != "stroke"] not in allowed:
+            raise InputError(
+                f"{path}: header {','.join(first)[:80]!r}; expected t,x,y or t,x,y,z "
+                "(optionally with a stroke column)"
+            )
+        values, linenos = array("d"), []
+        for row in reader:
+            lineno = reader.line_num
+            if not row or all(not c.strip() for c in row):
+                continue
+            if len(row) != len(header):
+                raise InputError(f"{path}:{lineno}: expected {len(header)} fields, got {len(row)}")
+            try:
+                values.extend(float(c) for c in row)
+            except ValueError:
+                raise InputError(f"{path}:{lineno}: non-numeric field in {row}") from None
+            linenos.append(lineno)
+            if len(linenos) > limit:
+                rows = len(linenos) * size / max(counter[0], 1)
+                require(rows, STEPS, f"{path}: rows of samples (line {lineno} and more to read)",
+                        value=size)
+    except csv.Error as e:
+        raise InputError(f"{path}:{reader.line_num}: not CSV ({e})") from None
+    if not linenos:
+        raise InputError(f"{path}: no data rows")
+    arr = np.frombuffer(values, dtype=float).reshape(len(linenos), len(header))
+    if not np.all(np.isfinite(arr)):
+        lineno = linenos[int(np.argwhere(~np.isfinite(arr))[0][0])]
+        raise InputError(f"{path}:{lineno}: NaN or inf value")
+    return header, arr, linenos
+
+
 def _as_array(name: str, value, ndim: int) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if arr.ndim != ndim:
@@ -261,44 +336,37 @@ class Drawing:
 
     @staticmethod
     def from_csv(path: str | Path, page_size: tuple[float, float] = A4_MM) -> Drawing:
-        """Read ``t,x,y[,z]`` with an optional ``stroke`` column (integer stroke index)."""
+        """Read ``t,x,y[,z]`` with an optional ``stroke`` column (integer stroke index).
+
+        Bounded before and while parsing: a file too big for ``INKARM_MAX_STEPS`` rows (at
+        :data:`CSV_ROW_BYTES` bytes a row) is refused from its size, rows are counted as they
+        are read, lines are at most :data:`CSV_MAX_LINE` characters; coordinates beyond
+        :data:`MAX_COORD_MM` and times beyond :data:`MAX_TIME_S` are refused naming the line.
+        """
+        from inkarm.core.budget import STEPS, require
+
         path = Path(path)
         if not path.is_file():
             raise InputError(f"{path}: no such file")
+        size = path.stat().st_size
+        require(size / CSV_ROW_BYTES, STEPS,
+                f"{path}: rows of a {size / 1e6:.3g} MB CSV file (at {CSV_ROW_BYTES} bytes a row)",
+                value=size)
         try:
             with open(path, newline="", encoding="utf-8-sig") as f:
-                rows = list(csv.reader(f))
+                header, arr, linenos = _read_csv_rows(f, path, size)
         except UnicodeDecodeError:
             raise InputError(f"{path}: not a UTF-8 text file; expected CSV t,x,y[,z][,stroke]") from None
-        if not rows:
-            raise InputError(f"{path}: empty file; expected a header t,x,y[,z][,stroke]")
-        header = [h.strip().lower() for h in rows[0]]
-        allowed = (["t", "x", "y"], ["t", "x", "y", "z"])
         cols = [h for h in header if h != "stroke"]
-        if cols not in allowed:
-            raise InputError(
-                f"{path}: header {','.join(rows[0])!r}; expected t,x,y or t,x,y,z "
-                "(optionally with a stroke column)"
-            )
-        data, linenos = [], []
-        for lineno, row in enumerate(rows[1:], start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            linenos.append(lineno)
-            if len(row) != len(header):
-                raise InputError(f"{path}:{lineno}: expected {len(header)} fields, got {len(row)}")
-            try:
-                data.append([float(c) for c in row])
-            except ValueError:
-                raise InputError(f"{path}:{lineno}: non-numeric field in {row}") from None
-        if not data:
-            raise InputError(f"{path}: no data rows")
-        arr = np.array(data)
-        if not np.all(np.isfinite(arr)):
-            lineno = linenos[int(np.argwhere(~np.isfinite(arr))[0][0])]
-            raise InputError(f"{path}:{lineno}: NaN or inf value")
         pos_idx = [header.index(c) for c in cols[1:]]
         t_idx = header.index("t")
+        for idx, bound, unit in [(t_idx, MAX_TIME_S, "s")] + [(i, MAX_COORD_MM, "mm") for i in pos_idx]:
+            outside = np.abs(arr[:, idx]) > bound
+            if outside.any():
+                row = int(np.argmax(outside))
+                raise InputError(
+                    f"{path}:{linenos[row]}: {header[idx]} = {arr[row, idx]:g} {unit} is outside "
+                    f"|{header[idx]}| <= {bound:g} {unit}", value=float(arr[row, idx]))
         if "stroke" in header:
             sid = arr[:, header.index("stroke")]
             if np.any(sid != np.round(sid)):

@@ -20,8 +20,12 @@ the viewBox, or A4 without one.
 Before svgelements sees the file, the XML is parsed and checked here: every ``d``,
 ``points`` and ``transform`` that is drawn must follow the SVG grammar (svgelements would
 silently drop what follows a typo), nesting is at most :data:`MAX_DEPTH` elements deep, and
-the flattened drawing at most :data:`MAX_SAMPLES` samples. Every problem is an
-:class:`~inkarm.errors.InputError` naming the file and the element.
+the flattened drawing at most :data:`MAX_SAMPLES` points, every point within
+:data:`~inkarm.core.trajectory.MAX_COORD_MM` of the page origin, and the page no larger. The
+sampled trace is estimated (length / speed x rate samples) before it is sampled and refused
+beyond ``INKARM_MAX_STEPS`` (:mod:`inkarm.core.budget`); ``speed`` and ``rate`` must lie in
+:data:`SPEED_RANGE` and :data:`RATE_RANGE`. Every problem is an
+:class:`~inkarm.errors.InputError` naming the file and the element (or the setting).
 """
 
 from __future__ import annotations
@@ -35,7 +39,8 @@ from pathlib import Path
 import numpy as np
 import svgelements as se
 
-from inkarm.core.trajectory import A4_MM, Drawing, Trajectory
+from inkarm.core.budget import STEPS, require
+from inkarm.core.trajectory import A4_MM, MAX_COORD_MM, Drawing, Trajectory
 from inkarm.errors import InkarmError, InputError
 
 DEFAULT_SPEED = 50.0
@@ -45,7 +50,14 @@ DEFAULT_RATE = 200.0
 MAX_DEPTH = 200
 """Deepest element nesting read from an SVG file (svgelements recurses per level)."""
 MAX_SAMPLES = 2_000_000
-"""Most samples (flattened points, and points after resampling) read from one SVG file."""
+"""Most points (after flattening curves) read from one SVG file; the samples after resampling
+are bounded by ``INKARM_MAX_STEPS``."""
+SPEED_RANGE = (1e-3, 1e5)
+"""Accepted pen speeds along an SVG path in [mm/s]."""
+RATE_RANGE = (1e-3, 1e7)
+"""Accepted sampling rates of an SVG path in [Hz]."""
+MIN_LENGTH_MM = 1e-9
+"""Sub-paths shorter than this [mm] are not drawn (a point, not a stroke)."""
 
 _MM_PER_UNIT = {
     "mm": 1.0,
@@ -75,6 +87,8 @@ _NOT_DRAWN = frozenset(
 )
 _DRAWN = (se.Path, se.Polyline, se.Polygon)
 _CURVE_POINTS = 32
+_MAX_TRANSFORM_ARG = 1e9
+"""Largest |argument| of an SVG transform (an angle, scale or offset beyond it is an error)."""
 """Points per curve piece when flattening, before the arc-length resampling."""
 
 
@@ -105,11 +119,13 @@ def read_svg(path: str | Path, speed: float = DEFAULT_SPEED, rate: float = DEFAU
         rate: Sampling rate in [Hz]; samples are at most ``speed / rate`` [mm] apart.
     """
     path = Path(path)
-    for name, value in (("speed", speed), ("rate", rate)):
-        if not (np.isfinite(value) and value > 0):
+    for name, value, (low, high), unit in (("speed", speed, SPEED_RANGE, "mm/s"),
+                                           ("rate", rate, RATE_RANGE, "Hz")):
+        if not (isinstance(value, (int, float)) and low <= value <= high):
+            got = f"{value:g}" if isinstance(value, (int, float)) else repr(value)
             raise InputError(
-                f"SVG trace {name} must be positive, got {value}", file=str(path), key=name,
-                value=value,
+                f"SVG trace {name} must lie in [{low:g}, {high:g}] {unit}, got {got}",
+                file=str(path), key=name, value=value,
             )
     if not path.is_file():
         raise InputError("no such file", file=str(path))
@@ -120,7 +136,7 @@ def read_svg(path: str | Path, speed: float = DEFAULT_SPEED, rate: float = DEFAU
         polylines = _flatten_document(root, page)
     except InkarmError as e:
         raise e.within(file=str(path)) from None
-    strokes = _strokes(polylines, speed, speed / rate, path)
+    strokes = _strokes(polylines, speed, rate, path)
     if not strokes:
         raise InputError(
             "no drawable <path>, <polyline> or <polygon> (of non-zero length) found",
@@ -182,12 +198,14 @@ def _length_mm(value: str | None, name: str) -> float | None:
     if value is None:
         return None
     m = _LENGTH.fullmatch(value)
-    if not m or float(m.group(1)) <= 0:
+    length = float(m.group(1)) * _MM_PER_UNIT[m.group(2)] if m else math.nan
+    if not 0 < length <= MAX_COORD_MM:
         raise InputError(
-            f"<svg {name}={value!r}>: expected a positive length in mm, cm, in, pt, pc or px",
+            f"<svg {name}={value!r}>: expected a positive length up to {MAX_COORD_MM:g} mm, "
+            "in mm, cm, in, pt, pc or px",
             value=value,
         )
-    return float(m.group(1)) * _MM_PER_UNIT[m.group(2)]
+    return length
 
 
 def _page(root: ET.Element) -> tuple[float, float, float]:
@@ -217,6 +235,11 @@ def _page(root: ET.Element) -> tuple[float, float, float]:
         w = width if width is not None else height * aspect
         h = height if height is not None else width / aspect
         px_per_mm = 96 / 25.4
+    if not (w <= MAX_COORD_MM and h <= MAX_COORD_MM):
+        raise InputError(
+            f"page of {w:g} x {h:g} mm (from the viewBox and the width or height): expected at "
+            f"most {MAX_COORD_MM:g} mm a side", value=box,
+        )
     root.set("width", repr(w * px_per_mm))
     root.set("height", repr(h * px_per_mm))
     return w, h, px_per_mm
@@ -269,9 +292,15 @@ def _flatten_document(
             count += len(poly)
             if count > MAX_SAMPLES:
                 raise InputError(f"{where}: more than {MAX_SAMPLES} points after flattening")
-            on_page = np.column_stack([poly[:, 0] * mm, page_h - poly[:, 1] * mm])
-            if not np.all(np.isfinite(on_page)):
-                raise InputError(f"{where}: coordinates overflow to infinity or NaN")
+            with np.errstate(over="ignore", invalid="ignore"):
+                on_page = np.column_stack([poly[:, 0] * mm, page_h - poly[:, 1] * mm])
+            outside = ~(np.abs(on_page) <= MAX_COORD_MM)  # also NaN
+            if outside.any():
+                value = on_page[tuple(np.argwhere(outside)[0])]
+                raise InputError(
+                    f"{where}: coordinates overflow: a point at {value:g} mm in the page "
+                    f"frame, expected |x|, |y| <= {MAX_COORD_MM:g} mm", value=float(value),
+                )
             out.append((where, on_page))
     return out
 
@@ -292,20 +321,21 @@ def _svgelements(call, where: str):
 
 
 def _strokes(
-    polylines: list[tuple[str, np.ndarray]], speed: float, spacing: float, path: Path
+    polylines: list[tuple[str, np.ndarray]], speed: float, rate: float, path: Path
 ) -> list[Trajectory]:
-    """Each polyline resampled every ``spacing`` [mm] and timed at ``speed`` [mm/s]."""
+    """Each polyline resampled every ``speed / rate`` [mm] and timed at ``speed`` [mm/s]; the
+    number of samples, length / speed x rate, is checked against ``INKARM_MAX_STEPS`` first."""
     lengths = [float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) for _, p in polylines]
-    needed = sum(length / spacing + 1 for length in lengths)
-    if needed > MAX_SAMPLES:
-        raise InputError(
-            f"{sum(lengths):.4g} mm of paths sampled every {spacing:g} mm need {needed:.3g} "
-            f"samples, more than {MAX_SAMPLES}; lower the rate or raise the speed",
-            file=str(path),
-        )
+    drawn = [length > MIN_LENGTH_MM for length in lengths]
+    total = sum(length for length, keep in zip(lengths, drawn) if keep)
+    needed = total / speed * rate + sum(drawn)
+    require(needed, STEPS, f"{total:.4g} mm of paths at {speed:g} mm/s sampled at {rate:g} Hz "
+            f"(one sample every {speed / rate:.3g} mm); lower the rate or raise the speed",
+            key="rate", value=rate, file=str(path))
+    spacing = speed / rate
     strokes = []
-    for _, poly in polylines:
-        pos = resample_arc_length(poly, spacing)
+    for (_, poly), keep in zip(polylines, drawn):
+        pos = resample_arc_length(poly, spacing) if keep else None
         if pos is not None:
             step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
             t = np.concatenate([[0.0], np.cumsum(step)]) / speed
@@ -365,6 +395,12 @@ def check_transform(text: str | None, where: str) -> None:
             break
         pos = call.end()
         name, args = call.group(1), [float(v) for v in _NUMBER.findall(call.group(2))]
+        if not all(abs(v) <= _MAX_TRANSFORM_ARG for v in args):
+            raise InputError(
+                f"{where}: transform {call.group(0).strip()!r}: arguments must be numbers of "
+                f"magnitude at most {_MAX_TRANSFORM_ARG:g}",
+                value=text,
+            )
         if len(args) not in _TRANSFORM_ARGS.get(name, ()):
             raise InputError(
                 f"{where}: transform {name}({', '.join(map(str, args))}) not understood in "

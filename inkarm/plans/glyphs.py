@@ -9,6 +9,12 @@ a tag that a :class:`~inkarm.plans.handstyles.Handstyle` turns into a trajectory
 
 Randomness comes only from the numpy Generator passed in (or seeded from an int), so a seed
 reproduces a tag exactly.
+
+Budgets (:mod:`inkarm.core.budget`): a tag's cost is estimated before the GA runs
+(:func:`check_tag`): its glyphs against ``INKARM_MAX_TEXT``, the GA's individuals (glyphs x
+population x (generations + 1), about 0.1 ms each) against ``INKARM_MAX_GA_INDIVIDUALS``
+(:data:`GA_INDIVIDUALS`) and, given the time step, the LQT's time steps against
+``INKARM_MAX_STEPS``.
 """
 
 from __future__ import annotations
@@ -17,11 +23,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inkarm.core.budget import STEPS, TEXT, Limit, require
 from inkarm.core.plan import MotorPlan
-from inkarm.core.trajectory import A4_MM, Drawing
+from inkarm.core.trajectory import A4_MM, MAX_COORD_MM, Drawing
 from inkarm.errors import InputError
 from inkarm.plans.handstyles import Handstyle, get_handstyle
 from inkarm.plans.text import TargetSequence, join_ligatures
+
+GA_INDIVIDUALS = Limit("INKARM_MAX_GA_INDIVIDUALS", 250_000, "individuals")
+"""Individuals the ordering GA may evaluate for one tag (about 0.1 ms each: ~30 s)."""
+MAX_GLYPH_TARGETS = 1000
+"""Most random targets in one glyph."""
+MAX_GLYPH_SIZE = 1000.0
+"""Largest glyph height in [mm]."""
+DT_RANGE = (1e-4, 1.0)
+"""Accepted LQT time steps of a tag in [s]."""
 
 # -- the genetic algorithm ----------------------------------------------------------------
 
@@ -132,10 +148,10 @@ class GAConfig:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise InputError(f"GAConfig {key}: expected a non-negative integer, got {value!r}")
-        if self.population < 2 or self.tournament < 1:
+        if self.population < 2 or not 1 <= self.tournament <= self.population:
             raise InputError(
-                f"GAConfig: population must be >= 2 and tournament >= 1, got "
-                f"{self.population} and {self.tournament}"
+                f"GAConfig: population must be >= 2 and tournament >= 1 and at most the "
+                f"population, got {self.population} and {self.tournament}"
             )
         if self.elite > self.population:
             raise InputError(
@@ -164,6 +180,9 @@ def evolve_order(
     m = len(points)
     if m < 2:
         raise InputError(f"evolve_order: need at least 2 points, got {m}")
+    require(cfg.population * (cfg.generations + 1), GA_INDIVIDUALS,
+            f"ordering GA of {cfg.population} individuals over {cfg.generations} generations",
+            key="population", value=cfg.population)
 
     def score(pop: list[np.ndarray]) -> np.ndarray:
         return ordering_fitness(points, np.array(pop), cfg.direction_weight)
@@ -223,8 +242,61 @@ class Tag:
     style: Handstyle
 
     def realise(self, dt: float = 0.01, page_size: tuple[float, float] = A4_MM) -> Drawing:
-        """The tag as a Drawing (the LQT with the tag's style)."""
+        """The tag as a Drawing (the LQT with the tag's style); its time steps are checked
+        against ``INKARM_MAX_STEPS`` first."""
+        if isinstance(dt, (int, float)) and np.isfinite(dt) and dt > 0:
+            targets = sum(len(s.targets) for s in self.plan.strokes)
+            per = max(1.0, self.style.segment_time / dt)
+            require(targets * per, STEPS, f"LQT of {targets} targets, "
+                    f"{self.style.segment_time:g} s each at dt = {dt:g} s", key="dt", value=dt)
         return self.style.realise(self.plan, dt=dt, page_size=page_size)
+
+
+def check_tag(
+    style: Handstyle | None = None,
+    n_glyphs: int = 5,
+    targets: tuple[int, int] = (4, 7),
+    size: float = 12.0,
+    ga: GAConfig = GAConfig(),
+    dt: float | None = None,
+) -> None:
+    """Refuse a tag before any work: bad settings (:class:`InputError` with the ``key`` of
+    the argument of :func:`make_tag`, or ``dt``) and costs over the budgets (module
+    docstring); the LQT's time steps are estimated only given ``style`` and ``dt``."""
+    if isinstance(n_glyphs, bool) or not isinstance(n_glyphs, (int, np.integer)) or n_glyphs < 1:
+        raise InputError(f"make_tag: n_glyphs must be >= 1, got {n_glyphs}", key="n_glyphs",
+                         value=n_glyphs)
+    lo, hi = targets
+    if not 2 <= lo <= hi <= MAX_GLYPH_TARGETS:
+        raise InputError(
+            f"make_tag: targets per glyph must satisfy 2 <= min <= max <= {MAX_GLYPH_TARGETS}, "
+            f"got {targets}", key="targets", value=targets,
+        )
+    if not (isinstance(size, (int, float)) and 0 < size <= MAX_GLYPH_SIZE):
+        raise InputError(
+            f"make_tag: glyph size must be positive and at most {MAX_GLYPH_SIZE:g} mm, got "
+            f"{size} mm", key="size", value=size,
+        )
+    require(n_glyphs, TEXT, f"a tag of {n_glyphs} glyphs", key="n_glyphs", value=n_glyphs)
+    if n_glyphs * 0.8 * size > MAX_COORD_MM:
+        raise InputError(
+            f"make_tag: {n_glyphs} glyphs of {size:g} mm span {n_glyphs * 0.8 * size:g} mm, "
+            f"more than {MAX_COORD_MM:g} mm", key="size", value=size,
+        )
+    if style is not None and dt is not None:
+        if not (isinstance(dt, (int, float)) and np.isfinite(dt) and dt > 0):
+            raise InputError(f"must be a positive number of seconds, got {dt}", key="dt",
+                             value=dt)
+        if not DT_RANGE[0] <= dt <= DT_RANGE[1]:
+            raise InputError(f"must lie in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s, got {dt:g}",
+                             key="dt", value=dt)
+        per = max(1.0, style.segment_time / dt)
+        require(n_glyphs * hi * per, STEPS,
+                f"LQT of {n_glyphs} glyphs of up to {hi} targets, {style.segment_time:g} s "
+                f"each at dt = {dt:g} s", key="dt", value=dt)
+    require(n_glyphs * ga.population * (ga.generations + 1), GA_INDIVIDUALS,
+            f"ordering GA of {n_glyphs} glyphs, {ga.population} individuals over "
+            f"{ga.generations} generations each", key="n_glyphs", value=n_glyphs)
 
 
 def make_tag(
@@ -251,13 +323,8 @@ def make_tag(
         ga: GA settings.
     """
     style = get_handstyle(style) if isinstance(style, str) else style
-    if n_glyphs < 1:
-        raise InputError(f"make_tag: n_glyphs must be >= 1, got {n_glyphs}")
+    check_tag(style, n_glyphs, targets, size, ga)
     lo, hi = targets
-    if not 2 <= lo <= hi:
-        raise InputError(f"make_tag: targets per glyph must satisfy 2 <= min <= max, got {targets}")
-    if not size > 0:
-        raise InputError(f"make_tag: glyph size must be positive, got {size} mm")
     rng = np.random.default_rng(seed)
     advance = 0.8 * size
     if origin is None:

@@ -16,6 +16,12 @@ elongated along the path: the movement may slide along the trace but must pass c
 it. ``style="semi-tied"`` uses seed 000's eq. 22 covariances Sigma_i = H h I H^T instead,
 with one oblique basis H = along L (I + shear e_x e_y^T) for the whole stroke (L the mean
 segment length, h = 1): every target shares the same slanted ellipse, a uniform "hand".
+
+Budgets (:mod:`inkarm.core.budget`): before any stroke is restyled, every stroke's DPPLA is
+estimated (:func:`inkarm.analysis.dppla.check_budget`) and the LQT's time steps, targets x
+max(1, segment_time / dt), are summed and checked against ``INKARM_MAX_STEPS`` (and their
+memory, about :data:`LQT_BYTES_PER_STEP` x order x D bytes a step, against
+``INKARM_MAX_MEMORY_MB``).
 """
 
 from __future__ import annotations
@@ -24,12 +30,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inkarm.analysis.dppla import EXACT_BUDGET, DPPLAResult, dppla, segments_for_compression
+from inkarm.analysis.dppla import (
+    EXACT_BUDGET,
+    DPPLAResult,
+    check_budget,
+    dppla,
+    segments_for_compression,
+)
+from inkarm.core.budget import STEPS, require, require_memory
 from inkarm.core.plan import MotorPlan, StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
 
 STYLES = ("geometric", "semi-tied")
+D_RANGE = (1e-3, 1e4)
+"""Accepted LQT maximum displacements d in [mm]."""
+DT_RANGE = (1e-4, 1.0)
+"""Accepted LQT time steps in [s]."""
+MAX_SEGMENT_TIME = 1e4
+"""Longest time per target in [s]."""
+MAX_FRACTION = 100.0
+"""Largest ``along`` and ``across`` (standard deviations per local segment length)."""
+LQT_BYTES_PER_STEP = 500
+"""Memory of the LQT per time step, per state dimension (order x D), in bytes (measured: 440
+for order 4, 410 for order 7, in 2-D)."""
 
 
 @dataclass(frozen=True)
@@ -67,18 +91,41 @@ class RestyleConfig:
     seed: int | None = 0
 
     def __post_init__(self) -> None:
+        from inkarm.models.lqt.config import MAX_ORDER
+
         if not (isinstance(self.compression, (int, float)) and 0 < self.compression < 1):
-            raise InputError(f"restyle compression: must lie in (0, 1), got {self.compression!r}")
+            self._fail("compression", f"must lie in (0, 1), got {self.compression!r}")
         if self.style not in STYLES:
-            raise InputError(f"restyle style: expected one of {STYLES}, got {self.style!r}")
-        for name in ("along", "across", "min_std"):
+            self._fail("style", f"expected one of {STYLES}, got {self.style!r}")
+        if (isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer))
+                or not 1 <= self.order <= MAX_ORDER):
+            self._fail("order", f"expected an integer 1..{MAX_ORDER}, got {self.order!r}")
+        for name, (low, high), unit in (("d", D_RANGE, "mm"), ("dt", DT_RANGE, "s")):
             value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InputError(f"restyle {name}: must be positive, got {value!r}")
-        if self.segment_time is not None and not self.segment_time > 0:
-            raise InputError(
-                f"restyle segment_time: must be positive seconds, got {self.segment_time!r}"
-            )
+            if not (_number(value) and low <= value <= high):
+                self._fail(name, f"must lie in [{low:g}, {high:g}] {unit}, got {value!r}")
+        for name, high in (("along", MAX_FRACTION), ("across", MAX_FRACTION),
+                           ("min_std", D_RANGE[1])):
+            value = getattr(self, name)
+            if not (_number(value) and 0 < value <= high):
+                self._fail(name, f"must be positive and at most {high:g}, got {value!r}")
+        if not (_number(self.shear) and abs(self.shear) <= MAX_FRACTION):
+            self._fail("shear", f"expected a number in [-{MAX_FRACTION:g}, {MAX_FRACTION:g}], "
+                       f"got {self.shear!r}")
+        if self.segment_time is not None and not (
+            _number(self.segment_time) and 0 < self.segment_time <= MAX_SEGMENT_TIME
+        ):
+            self._fail("segment_time", f"must be positive seconds, at most {MAX_SEGMENT_TIME:g}, "
+                       f"got {self.segment_time!r}")
+
+    def _fail(self, key: str, message: str):
+        raise InputError(message, key=key, value=getattr(self, key))
+
+
+def _number(value) -> bool:
+    """A finite real number (not a bool)."""
+    return (isinstance(value, (int, float, np.integer, np.floating))
+            and not isinstance(value, bool) and bool(np.isfinite(value)))
 
 
 @dataclass(frozen=True)
@@ -110,9 +157,7 @@ def geometric_covariances(targets, along: float, across: float, min_std: float) 
 def stroke_targets(traj: Trajectory, compression: float, banded: bool | None = None) -> DPPLAResult:
     """DPPLA of a stroke's positions at a compression rate (time as the chord parameter)."""
     k = segments_for_compression(compression, traj.n, traj.dim)
-    if banded is None:
-        banded = k * traj.n**2 / 2 > EXACT_BUDGET
-    return dppla(traj.pos, k, banded=banded, tau=traj.t, verify=False)
+    return dppla(traj.pos, k, banded=_banded(banded, k, traj.n), tau=traj.t, verify=False)
 
 
 def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig) -> StrokePlan:
@@ -136,11 +181,42 @@ def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig) -> St
     return StrokePlan.from_arrays(means, covs, segment_time=segment_time)
 
 
+def _lqt_steps(traj: Trajectory, targets: int, cfg: RestyleConfig) -> float:
+    """Time steps of the LQT that re-draws ``traj`` through ``targets`` targets."""
+    segment_time = cfg.segment_time or traj.duration / targets
+    return targets * max(1.0, round(segment_time / cfg.dt))
+
+
+def check_restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> None:
+    """Refuse a restyle over the budgets (module docstring) before any work."""
+    steps, dim = 0.0, drawing.dim
+    for i, traj in enumerate(drawing.strokes):
+        if traj.n < 3:
+            continue
+        k = segments_for_compression(cfg.compression, traj.n, traj.dim)
+        try:
+            check_budget(k, traj.n, traj.dim, banded=_banded(cfg.banded, k, traj.n))
+        except InputError as e:
+            raise e.within(key=f"stroke {i}") from None
+        steps += _lqt_steps(traj, k + 1, cfg)
+    key = "dt" if cfg.segment_time is None else "segment_time"
+    what = (f"LQT of the restyled drawing ({len(drawing.strokes)} strokes, order {cfg.order}, "
+            f"dt = {cfg.dt:g} s)")
+    require(steps, STEPS, what, key=key, value=getattr(cfg, key))
+    require_memory(steps * LQT_BYTES_PER_STEP * cfg.order * dim, what, key=key,
+                   value=getattr(cfg, key))
+
+
+def _banded(banded: bool | None, k: int, w: int) -> bool:
+    return k * w**2 / 2 > EXACT_BUDGET if banded is None else banded
+
+
 def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
     """Restyle every stroke of ``drawing`` (strokes too short for two targets are dropped:
-    fewer than 3 samples)."""
+    fewer than 3 samples); the whole job is checked against the budgets first."""
     from inkarm.models.lqt import LQTConfig, solve
 
+    check_restyle(drawing, cfg)
     lqt = LQTConfig(order=cfg.order, dt=cfg.dt, d=cfg.d)
     strokes, plans, results = [], [], []
     for traj in drawing.strokes:

@@ -161,3 +161,29 @@ def test_straight_trace_has_no_density_curvature_correlation():
     t = np.linspace(0.0, 1.0, 200)
     straight = Trajectory(t=t, pos=np.column_stack([50.0 * t, 20.0 * t]))
     assert np.isnan(analyse(straight, 0.75).correlation)
+
+
+def test_every_stroke_is_budgeted_before_any_is_analysed(monkeypatch):
+    from inkarm.analysis import density
+    from inkarm.core.budget import BudgetError
+
+    calls = []
+    monkeypatch.setattr(density, "analyse", lambda *a, **k: calls.append(a))
+    big = harmonic_ellipse(rate=2000.0)  # 6000 samples: 8.6e9 exact DP steps
+    with pytest.raises(BudgetError, match=r"stroke 1: exact DPPLA of 6000 samples") as info:
+        analyse_drawing(Drawing([harmonic_ellipse(), big]), 0.75)
+    assert info.value.variable == "INKARM_MAX_DPPLA_STEPS" and not calls
+    # Strokes each within the budget but not together.
+    from inkarm.analysis.dppla import exact_cost
+
+    monkeypatch.setenv("INKARM_MAX_DPPLA_STEPS", str(2.5 * exact_cost(54, 330)[0]))
+    with pytest.raises(BudgetError, match=r"exact DPPLA of 3 strokes, 990 samples"):
+        analyse_drawing(Drawing([harmonic_ellipse()] * 3), 0.75)
+    assert not calls
+
+
+def test_sample_times_too_close_for_a_finite_speed_are_refused():
+    t = np.arange(40) * 5e-324
+    trace = Trajectory(t, np.column_stack([np.cos(np.arange(40) / 5), np.sin(np.arange(40) / 3)]))
+    with pytest.raises(InputError, match=r"target velocity: segment 0 .* too short in time"):
+        analyse(trace, 0.75)

@@ -12,13 +12,17 @@ from hypothesis import strategies as st
 
 from inkarm.analysis.dppla import (
     SegmentCost,
+    banded_cost,
+    check_budget,
     compression_rate,
     dppla,
     dppla_tolerance,
+    exact_cost,
     reconstruct,
     segments_for_compression,
     trajectory_channels,
 )
+from inkarm.core.budget import BudgetError
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 
@@ -254,3 +258,94 @@ def test_bad_inputs_are_refused():
         dppla(x, 3, error="hausdorff")
     with pytest.raises(InputError, match="dppla tolerance: expected a non-negative RMS"):
         dppla_tolerance(x, -1.0)
+
+
+# -- memory and time budgets ---------------------------------------------------------------
+
+
+def smooth(w: int) -> np.ndarray:
+    t = np.linspace(0.0, 6 * np.pi, w)
+    return np.column_stack([60 * np.cos(t), 20 * np.sin(2 * t) + t])
+
+
+def peak_bytes(fn) -> tuple[object, int]:
+    """fn()'s result and the peak of the memory it allocated (tracemalloc)."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        result = fn()
+        return result, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_banded_dp_allocates_only_the_band():
+    # 40,000 samples in 6,666 segments (band 13): the (k+1, w) tables of delta and parents
+    # alone were 4.3 GB; the band needs a few MB (the samples and prefix sums included).
+    w, k = 40_000, 6_666
+    x = smooth(w)
+    result, peak = peak_bytes(lambda: dppla(x, k, banded=True, verify=False))
+    assert peak < 40 * 2**20
+    assert peak <= banded_cost(k, w, result.band)[1]
+    assert result.k == k and result.breakpoints[-1] == w - 1 and np.all(np.diff(result.breakpoints) > 0)
+    np.testing.assert_allclose(reconstruct(x, result.breakpoints), x, atol=1.0)
+
+
+@pytest.mark.parametrize(("w", "k", "band_factor", "window"),
+                         [(2000, 100, 2, True), (2000, 100, 2, False), (5000, 10, 2, True),
+                          (3000, 1000, 2, False), (4000, 40, 0.5, True)])
+def test_banded_estimate_bounds_its_allocations(w, k, band_factor, window):
+    x = smooth(w)
+    band = max(math.ceil(band_factor * w / k), math.ceil((w - 1) / k))
+    _, peak = peak_bytes(lambda: dppla(x, k, banded=True, band=band, window=window, verify=False))
+    steps, n_bytes = banded_cost(k, w, band, window)
+    assert peak <= n_bytes <= 4 * peak + 2**20
+    assert steps >= k * band  # every layer tries at least one row of band candidates
+
+
+def test_exact_estimate_bounds_its_allocations_and_counts_its_steps():
+    w, k = 1500, 200
+    x = smooth(w)
+    _, peak = peak_bytes(lambda: dppla(x, k))
+    steps, n_bytes = exact_cost(k, w)
+    assert peak <= n_bytes <= 4 * peak
+    assert k * (w - k) ** 2 / 2 <= steps <= k * w * w / 2 + 5000 * w
+
+
+def test_banded_results_do_not_depend_on_the_chunking(monkeypatch):
+    import inkarm.analysis.dppla as module
+
+    x = np.cumsum(np.random.default_rng(3).normal(size=(700, 2)), axis=0)
+    reference = dppla(x, 60, banded=True, verify=False)
+    for chunk in (1, 7, 100):
+        monkeypatch.setattr(module, "_CHUNK", chunk)
+        again = dppla(x, 60, banded=True, verify=False)
+        assert again.cost == reference.cost
+        np.testing.assert_array_equal(again.breakpoints, reference.breakpoints)
+
+
+def test_exact_dp_over_the_memory_budget_is_refused_before_allocating():
+    # 100,000 samples in 16,666 segments once asked for 12.4 GiB and failed.
+    x = smooth(100_000)
+    (error, peak) = peak_bytes(lambda: pytest.raises(BudgetError, dppla, x, 16_666).value)
+    assert peak < 10 * 2**20
+    assert error.variable == "INKARM_MAX_MEMORY_MB" and error.estimate > 2048
+    assert "exact DPPLA of 100000 samples in 16666 segments" in str(error)
+    assert dppla(x, 16_666, banded=True, verify=False).k == 16_666
+
+
+def test_exact_dp_over_the_step_budget_is_refused(monkeypatch):
+    x = smooth(300)
+    monkeypatch.setenv("INKARM_MAX_DPPLA_STEPS", "1e6")
+    with pytest.raises(BudgetError, match="INKARM_MAX_DPPLA_STEPS") as info:
+        dppla(x, 50)
+    assert info.value.estimate == exact_cost(50, 300)[0]
+    with pytest.raises(BudgetError, match="INKARM_MAX_DPPLA_STEPS"):
+        dppla_tolerance(x, 0.0)
+    with pytest.raises(BudgetError, match="INKARM_MAX_DPPLA_STEPS"):
+        dppla(x, 50, banded=True, verify=True)  # the certificate is the exact DP
+    assert dppla(x, 50, banded=True, verify=False).banded
+    monkeypatch.setenv("INKARM_MAX_DPPLA_STEPS", "1")
+    with pytest.raises(BudgetError, match="banded DPPLA of 300 samples in 50 segments, band 12"):
+        check_budget(50, 300, banded=True)

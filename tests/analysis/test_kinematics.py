@@ -110,3 +110,17 @@ def test_errors():
         kin.curvature(Trajectory(t=[0.0, 1.0, 2.0], pos=[[0.0], [1.0], [2.0]]))
     with pytest.raises(InputError, match="max_radius: expected a positive length"):
         kin.power_law_fit(line, max_radius=0)
+
+
+def test_derivatives_that_overflow_are_refused_not_infinite():
+    rng = np.random.default_rng(0)
+    pos = rng.normal(size=(6, 2)) * 1e6
+    for name in ("speed", "acceleration", "jerk", "curvature", "jerk_cost", "speed_peaks"):
+        with pytest.raises(InputError, match=r"velocity: overflows at sample 0 .* too close"):
+            getattr(kin, name)(Trajectory(t=np.arange(6) * 1e-300, pos=pos))
+    close = Trajectory(t=np.arange(6) * 1e-100, pos=pos)
+    with pytest.raises(InputError, match="jerk_cost: overflows"):
+        kin.jerk_cost(close)
+    with np.errstate(all="raise"):
+        kappa = kin.curvature(close)  # |v|^3 overflows: undefined, like a pen at rest
+    assert np.all(np.isnan(kappa) | np.isfinite(kappa))

@@ -217,8 +217,10 @@ def test_bad_svg_documents_are_refused(tmp_path):
         read_svg(write_svg(tmp_path, "", 'width="-3mm"'))
     with pytest.raises(InputError, match=r"viewBox='0 0 1'>: expected four numbers"):
         read_svg(write_svg(tmp_path, "", 'viewBox="0 0 1"'))
-    with pytest.raises(InputError, match="SVG trace speed must be positive"):
+    with pytest.raises(InputError, match=r"speed: SVG trace speed must lie in \[0.001, 100000\]"):
         read_svg(write_svg(tmp_path, '<path d="M0 0 L1 1"/>'), speed=0.0)
+    with pytest.raises(InputError, match=r"rate: SVG trace rate must lie in .* got 1e\+09"):
+        read_svg(write_svg(tmp_path, '<path d="M0 0 L1 1"/>'), rate=1e9)
 
 
 # -- svgelements: what it is handed and what it may raise ------------------------------------
@@ -293,7 +295,16 @@ def test_deep_nesting_up_to_the_limit_is_read_and_beyond_it_is_refused(tmp_path)
         ("<svg><path d='M0 0 Z 5'/></svg>", r"hostile\.svg: <path>: d: expected a path command"),
         ("<svg><path d='#'/></svg>", r"hostile\.svg: <path>: d: expected a path command \(M, L"),
         ("<svg><path d='M0 0 L1e999 0'/></svg>", r"hostile\.svg: <path>: coordinates overflow"),
-        ("<svg><path d='M0 0 L1e12 0'/></svg>", r"hostile\.svg: 1e\+12 mm of paths .* samples"),
+        ("<svg><path d='M0 0 L1e12 0'/></svg>", r"hostile\.svg: <path>: .* 1e\+12 mm in the page"),
+        ("<svg><path d='M0 0 L1e6 0'/></svg>",
+         r"hostile\.svg: rate: 1e\+06 mm of paths at 50 mm/s.*about 4e\+06 time steps.*STEPS"),
+        ("<svg><path transform='rotate(1e400)' d='M0 0 L1 0'/></svg>",
+         r"hostile\.svg: <path>: transform 'rotate\(1e400\)': arguments must be numbers"),
+        ("<svg width='1e300mm'><path d='M0 0 L1 0'/></svg>",
+         r"hostile\.svg: <svg width='1e300mm'>: expected a positive length up to 1e\+06 mm"),
+        ("<svg viewBox='0 0 1e300 1'><path d='M0 0 L1 0'/></svg>",
+         r"hostile\.svg: page of 1e\+300 x 1 mm"),
+        ("<svg><path d='M0 0 L1e-300 0'/></svg>", r"hostile\.svg: no drawable"),
         ("<svg viewBox='0 0 nan 1'/>", r"hostile\.svg: <svg viewBox='0 0 nan 1'>: expected four"),
     ],
 )

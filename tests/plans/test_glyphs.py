@@ -167,6 +167,7 @@ def test_ga_gets_close_to_the_brute_force_optimum():
         ({"mutation_rate": 1.5}, r"mutation_rate: expected a probability in \[0, 1\]"),
         ({"generations": -1}, "generations: expected a non-negative integer"),
         ({"tournament": 0}, "tournament >= 1"),
+        ({"tournament": 41}, "at most the population, got 40 and 41"),
     ],
 )
 def test_ga_config_errors(kwargs, message):
@@ -227,6 +228,12 @@ def test_tag_accepts_a_generator_and_a_preset_name_and_centres_on_the_page():
         ({"targets": (1, 3)}, "2 <= min <= max"),
         ({"targets": (5, 3)}, "2 <= min <= max"),
         ({"size": 0.0}, "glyph size must be positive"),
+        ({"size": 1e300}, "glyph size must be positive and at most 1000 mm"),
+        ({"targets": (2, 10**9)}, "2 <= min <= max <= 1000"),
+        ({"n_glyphs": 100_000}, r"a tag of 100000 glyphs: .*INKARM_MAX_TEXT"),
+        ({"n_glyphs": 1_000}, r"ordering GA of 1000 glyphs.*INKARM_MAX_GA_INDIVIDUALS"),
+        ({"ga": GAConfig(population=10**6)}, r"about 2.55e\+08 individuals"),
+        ({"n_glyphs": 2000, "size": 1000.0}, "span 1.6e\\+06 mm"),
     ],
 )
 def test_make_tag_errors(kwargs, message):
@@ -237,3 +244,34 @@ def test_make_tag_errors(kwargs, message):
 def test_evolve_order_needs_two_points():
     with pytest.raises(InputError, match="need at least 2 points, got 1"):
         evolve_order(np.zeros((1, 2)), np.random.default_rng(0))
+
+
+def test_check_tag_bounds_the_lqt_before_the_ga_runs(monkeypatch):
+    from inkarm.core.budget import BudgetError
+    from inkarm.plans import glyphs
+
+    monkeypatch.setattr(glyphs, "evolve_order", lambda *a: pytest.fail("the GA ran"))
+    style = PRESETS["graffiti"]
+    with pytest.raises(BudgetError, match=r"LQT of 200 glyphs") as info:
+        glyphs.check_tag(style, 200, dt=1e-4)
+    assert info.value.key == "dt"
+    with pytest.raises(InputError, match=r"must lie in \[0.0001, 1\] s") as info:
+        glyphs.check_tag(style, 5, dt=1e-300)
+    assert info.value.key == "dt"
+
+
+def test_evolve_order_refuses_a_ga_over_budget():
+    from inkarm.core.budget import BudgetError
+
+    with pytest.raises(BudgetError, match="INKARM_MAX_GA_INDIVIDUALS") as info:
+        evolve_order(np.zeros((4, 2)), np.random.default_rng(0),
+                     GAConfig(population=1000, generations=10**6))
+    assert info.value.key == "population"
+
+
+def test_realising_a_tag_checks_its_time_steps():
+    from inkarm.core.budget import BudgetError
+
+    tag = make_tag(PRESETS["graffiti"], seed=0, n_glyphs=2)
+    with pytest.raises(BudgetError, match="INKARM_MAX_STEPS"):
+        tag.realise(dt=1e-9)

@@ -93,11 +93,11 @@ def test_cli_restyles_an_svg_path(tmp_path):
 
 
 def test_bad_restyle_inputs_are_refused(tmp_path, capsys):
-    with pytest.raises(InputError, match=r"restyle compression: must lie in \(0, 1\), got 1.0"):
+    with pytest.raises(InputError, match=r"compression: must lie in \(0, 1\), got 1.0"):
         RestyleConfig(compression=1.0)
-    with pytest.raises(InputError, match="restyle style: expected one of"):
+    with pytest.raises(InputError, match="style: expected one of"):
         RestyleConfig(style="gothic")
-    with pytest.raises(InputError, match="restyle across: must be positive"):
+    with pytest.raises(InputError, match="across: must be positive"):
         RestyleConfig(across=0.0)
     with pytest.raises(InputError, match="no stroke with at least 3 samples"):
         restyle(Drawing([Trajectory([0.0, 1.0], [[0.0, 0.0], [1.0, 1.0]])]))
@@ -106,3 +106,43 @@ def test_bad_restyle_inputs_are_refused(tmp_path, capsys):
     (tmp_path / "e.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg"><circle r="3"/></svg>')
     assert main(["restyle", str(tmp_path / "e.svg"), "--out", str(tmp_path)]) == 2
     assert "e.svg: no drawable <path>" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "key", "message"),
+    [
+        ({"d": 1e-300}, "d", r"must lie in \[0.001, 10000\] mm"),
+        ({"d": float("inf")}, "d", "must lie in"),
+        ({"dt": 0.0}, "dt", r"must lie in \[0.0001, 1\] s"),
+        ({"dt": 1e300}, "dt", "must lie in"),
+        ({"segment_time": 1e300}, "segment_time", "at most 10000"),
+        ({"along": 1e300}, "along", "at most 100"),
+        ({"min_std": float("nan")}, "min_std", "must be positive"),
+        ({"shear": 1e300}, "shear", "expected a number"),
+        ({"order": 8}, "order", r"expected an integer 1..7"),
+        ({"order": True}, "order", r"expected an integer 1..7"),
+    ],
+)
+def test_config_out_of_range_is_refused_with_its_key(kwargs, key, message):
+    with pytest.raises(InputError, match=message) as info:
+        RestyleConfig(**kwargs)
+    assert info.value.key == key
+
+
+def test_lqt_steps_and_dppla_are_budgeted_before_any_stroke_is_restyled(monkeypatch):
+    from inkarm.core.budget import BudgetError
+    from inkarm.models import lqt
+
+    monkeypatch.setattr(lqt, "solve", lambda *a, **k: pytest.fail("solved before the check"))
+    trace = Drawing([figure_eight(), figure_eight()])
+    with pytest.raises(BudgetError, match=r"LQT of the restyled drawing .*about 1.2e\+06 time "
+                       r"steps.*INKARM_MAX_STEPS") as info:
+        restyle(trace, RestyleConfig(segment_time=300.0))
+    assert info.value.key == "segment_time"
+    with pytest.raises(BudgetError, match=r"LQT of the restyled drawing") as info:
+        slow = figure_eight()
+        restyle(Drawing([Trajectory(slow.t * 1000, slow.pos)]), RestyleConfig(dt=1e-3))
+    assert info.value.key == "dt"
+    monkeypatch.setenv("INKARM_MAX_DPPLA_STEPS", "1000")
+    with pytest.raises(BudgetError, match=r"stroke 0: .*DPPLA of 600 samples"):
+        restyle(trace, RestyleConfig(banded=False))
