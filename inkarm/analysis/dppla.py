@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inkarm.core.budget import Limit, require, require_memory
+from inkarm.core.budget import DPPLA_STEPS, require, require_memory
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 
@@ -64,7 +64,6 @@ ERRORS = ("interpolation", "perpendicular")
 EXACT_BUDGET = 2e7
 """Largest k w^2 / 2 (inner DP steps) for which the exact DP counts as cheap: a banded result
 is then checked against it by default (and :mod:`inkarm.plans.restyle` prefers it)."""
-DPPLA_STEPS = Limit("INKARM_MAX_DPPLA_STEPS", 2e9, "DP steps")
 """Inner steps (candidate segment starts) of one DPPLA: a few seconds at 2-4 ns a step."""
 _CHUNK = 1 << 14
 """Segment errors computed per vectorised call by the banded DP (bounds its temporaries)."""

@@ -15,6 +15,8 @@ INKARM_MAX_STEPS       time steps of one trajectory    1000000
 INKARM_MAX_SAMPLES     stochastic samples per stroke   10000
 INKARM_MAX_SIM_S       simulated seconds of one run    600 s
 INKARM_MAX_TEXT        characters of text or glyphs    20000
+INKARM_MAX_DPPLA_STEPS steps of an exact DPPLA         2e9
+INKARM_MAX_GA_INDIVIDUALS  individuals a tag's GA     250000
 =====================  ==============================  =========
 """
 
@@ -59,6 +61,8 @@ STEPS = Limit("INKARM_MAX_STEPS", 1_000_000, "time steps")
 SAMPLES = Limit("INKARM_MAX_SAMPLES", 10_000, "samples")
 SIM_S = Limit("INKARM_MAX_SIM_S", 600.0, "s")
 TEXT = Limit("INKARM_MAX_TEXT", 20_000, "characters")
+DPPLA_STEPS = Limit("INKARM_MAX_DPPLA_STEPS", 2e9, "DP steps")  # the exact 2,820-sample bench
+GA_INDIVIDUALS = Limit("INKARM_MAX_GA_INDIVIDUALS", 250_000, "individuals")  # ~30 s of GA
 
 
 class BudgetError(InputError):

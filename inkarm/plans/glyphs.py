@@ -23,14 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inkarm.core.budget import STEPS, TEXT, Limit, require
+from inkarm.core.budget import GA_INDIVIDUALS, STEPS, TEXT, require
 from inkarm.core.plan import MotorPlan
 from inkarm.core.trajectory import A4_MM, MAX_COORD_MM, Drawing
 from inkarm.errors import InputError
 from inkarm.plans.handstyles import Handstyle, get_handstyle
 from inkarm.plans.text import TargetSequence, join_ligatures
 
-GA_INDIVIDUALS = Limit("INKARM_MAX_GA_INDIVIDUALS", 250_000, "individuals")
 """Individuals the ordering GA may evaluate for one tag (about 0.1 ms each: ~30 s)."""
 MAX_GLYPH_TARGETS = 1000
 """Most random targets in one glyph."""
