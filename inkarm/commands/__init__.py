@@ -8,6 +8,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_dir
 
 
 def add_trace_options(parser: argparse.ArgumentParser) -> None:
@@ -20,13 +21,11 @@ def add_trace_options(parser: argparse.ArgumentParser) -> None:
                         help=f"SVG only: sampling rate in [Hz] (default {DEFAULT_RATE:g})")
 
 
-def output_folder(path: str | Path) -> Path:
-    """The ``--out`` folder, created if missing; a path that is a file is refused up front,
-    before any work is done."""
-    out = Path(path)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
+def output_folder(path: str | Path, inputs=(), names=()) -> Path:
+    """The ``--out`` folder, checked before any work and not created (a command writes into
+    :func:`inkarm.io.outputs.staged`, which creates it when the files are complete)."""
+    out = check_out_dir(path, inputs=inputs, names=names)
+    out.mkdir(parents=True, exist_ok=True)  # TODO(plan, write): write through staged() instead
     return out
 
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options, load_trace_for, output_folder
+from inkarm.commands import add_trace_options, load_trace_for
 from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_dir, staged
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -40,6 +41,8 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < args.compression < 1:
         raise InputError(f"must lie in (0, 1), got {args.compression:g}", key="--compression",
                          value=args.compression)
+    if args.out is not None:
+        check_out_dir(args.out)
     drawing = load_trace_for(args)
     try:
         result = analyse_drawing(drawing, args.compression, banded=args.banded)
@@ -49,8 +52,7 @@ def run(args: argparse.Namespace) -> int:
         raise e.within(file=str(args.trace)) from None
     except InputError as e:
         raise e.within(file=str(args.trace)) from None
-    if args.out is not None:
-        output_folder(args.out)
+    figures = {}  # file name -> Figure, written together at the end
     strokes = [i for i in range(len(drawing.strokes)) if i not in result.skipped]
     for i, a in zip(strokes, result.strokes):
         law = (
@@ -67,18 +69,20 @@ def run(args: argparse.Namespace) -> int:
         )
         if args.out is not None:
             from inkarm.plots.density import plot_density_curvature, plot_power_law
-            from inkarm.plots.figure import save_figure
 
             stem = f"{args.trace.stem}_stroke{i}"
-            save_figure(
-                plot_density_curvature(a), args.out / f"{stem}_density_curvature.png", dpi=120
-            )
+            figures[f"{stem}_density_curvature.png"] = plot_density_curvature(a)
             if a.power_law is not None:
-                save_figure(plot_power_law(a), args.out / f"{stem}_power_law.png", dpi=120)
+                figures[f"{stem}_power_law.png"] = plot_power_law(a)
     if result.skipped:
         print(f"skipped strokes too short for 3 segments: {list(result.skipped)}")
     print(f"correlation {result.correlation:.3f}")
     print(f"gamma {result.power_law.gamma:.3f}")
     if args.out is not None:
+        from inkarm.plots.figure import save_figure
+
+        with staged(args.out) as stage:
+            for name, fig in figures.items():
+                save_figure(fig, stage / name, dpi=120)
         print(f"figures written to {args.out}")
     return 0

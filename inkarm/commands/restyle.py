@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options, load_trace_for, options_named, output_folder
+from inkarm.commands import add_trace_options, load_trace_for, options_named
 from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_dir, staged
 from inkarm.plans.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
@@ -94,17 +95,19 @@ def run(args: argparse.Namespace) -> int:
             along=args.along,
             across=args.across,
         )
+    stem = args.trace.stem
+    names = [f"{stem}_restyled.csv", f"{stem}_restyled.svg", f"{stem}_restyle.png"]
+    out = check_out_dir(args.out, inputs=[args.trace], names=names)
     trace = load_trace_for(args)
     try:
         with options_named(**_OPTIONS):
             result = restyle(trace, cfg)
     except InputError as e:
         raise e.within(file=str(args.trace)) from None
-    output_folder(args.out)
-    stem = args.trace.stem
-    result.drawing.to_csv(args.out / f"{stem}_restyled.csv")
-    result.drawing.to_svg(args.out / f"{stem}_restyled.svg")
-    save_figure(plot_restyle(trace, result), args.out / f"{stem}_restyle.png", dpi=120)
+    with staged(out) as stage:
+        result.drawing.to_csv(stage / names[0])
+        result.drawing.to_svg(stage / names[1])
+        save_figure(plot_restyle(trace, result), stage / names[2], dpi=120)
     targets = sum(r.k + 1 for r in result.targets)
     print(
         f"{len(result.drawing.strokes)} strokes, {targets} targets "

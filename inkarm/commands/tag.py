@@ -8,6 +8,7 @@ from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.commands.write import check_common
+from inkarm.io.outputs import check_out_dir, staged
 from inkarm.plans.glyphs import check_tag, make_tag
 from inkarm.plans.handstyles import get_handstyle, load_handstyles
 
@@ -41,19 +42,21 @@ def run(args) -> int:
     from inkarm.plots.tag import tag_figure
 
     check_common(args)
+    out = check_out_dir(args.out)
     extra = load_handstyles(args.styles) if args.styles else None
     style = get_handstyle(args.style, extra)
     with options_named(n_glyphs="--glyphs", size="--size", dt="--dt"):
         check_tag(style, args.glyphs, size=args.size, dt=args.dt)  # before any work
         tag = make_tag(style, seed=args.seed, n_glyphs=args.glyphs, size=args.size)
         drawing = tag.realise(dt=args.dt)
-    drawing.to_csv(args.out / "drawing.csv")
-    drawing.to_svg(args.out / "drawing.svg")
-    fig = tag_figure(tag, drawing, title=f"seed {args.seed}, style {args.style}")
-    save_figure(fig, args.out / "tag.png", dpi=200)
+    with staged(out) as stage:
+        drawing.to_csv(stage / "drawing.csv")
+        drawing.to_svg(stage / "drawing.svg")
+        fig = tag_figure(tag, drawing, title=f"seed {args.seed}, style {args.style}")
+        save_figure(fig, stage / "tag.png", dpi=200)
     n = sum(len(p) for p in tag.points)
     print(
         f"{len(tag.points)} glyphs, {n} targets, {drawing.strokes[-1].t[-1]:.2f} s; "
-        f"wrote {args.out / 'drawing.csv'}, drawing.svg, tag.png"
+        f"wrote {out / 'drawing.csv'}, drawing.svg, tag.png"
     )
     return 0

@@ -31,7 +31,7 @@ def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
         raise InputError("expected a folder name, got an empty string", key="--out", value=text)
     out = Path(text)
     if out.exists() and not out.is_dir():
-        raise InputError(f"{out} exists and is not a folder", key="--out", value=text)
+        raise InputError(f"{out} exists and is not a directory", key="--out", value=text)
     existing = next((p for p in (out, *out.parents) if p.exists()), Path("."))
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise InputError(f"cannot create or write {out}: {existing} is not a writable folder",

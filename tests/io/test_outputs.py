@@ -16,7 +16,7 @@ def test_an_empty_out_is_refused():
 
 def test_a_file_as_out_is_refused(tmp_path):
     (tmp_path / "f").write_text("x")
-    with pytest.raises(InputError, match=r"exists and is not a folder"):
+    with pytest.raises(InputError, match=r"exists and is not a directory"):
         check_out_dir(tmp_path / "f")
 
 
