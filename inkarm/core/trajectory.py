@@ -102,6 +102,27 @@ def _as_array(name: str, value, ndim: int) -> np.ndarray:
     return arr
 
 
+def _same(a, b) -> bool:
+    """Value equality that holds for NumPy arrays too: same shape and the same values element
+    by element (exactly; NaN equal to NaN, so that a value equals itself), None only equal to
+    None, and dicts, lists and tuples compared item by item with the same rule."""
+    if a is None or b is None:
+        return a is None and b is None
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        if a.shape != b.shape:
+            return False
+        try:
+            return bool(np.array_equal(a, b, equal_nan=True))
+        except TypeError:  # non-numeric arrays: NaN has no meaning there
+            return bool(np.array_equal(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+    return bool(a == b)
+
+
 def _check_increasing(t: np.ndarray) -> None:
     """Raise :class:`InputError` unless ``t`` is strictly increasing (NaN fails)."""
     if t.shape[0] > 1 and not (t[1:] > t[:-1]).all():
@@ -132,9 +153,13 @@ def time_derivative(values: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.gradient(values, t, axis=0, edge_order=2 if n >= 3 else 1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Trajectory:
     """One pen-down stroke sampled in time.
+
+    A value: ``==`` compares every field, arrays exactly element by element (a missing ``vel``
+    or ``pressure`` equals only a missing one). Not hashable: the arrays are not copied and
+    stay writable, so a hash could change under a dict's feet.
 
     Attributes:
         t: Sample times in [s], shape (N,), strictly increasing.
@@ -175,6 +200,16 @@ class Trajectory:
                     f"trajectory pressure: shape {pressure.shape} differs from t {t.shape}"
                 )
             object.__setattr__(self, "pressure", pressure)
+
+    def __eq__(self, other) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return all(
+            _same(getattr(self, name), getattr(other, name))
+            for name in ("t", "pos", "vel", "pressure")
+        )
+
+    __hash__ = None  # type: ignore[assignment]
 
     @classmethod
     def from_checked(cls, t: np.ndarray, pos: np.ndarray, vel: np.ndarray | None = None) -> Trajectory:
@@ -260,9 +295,14 @@ class Trajectory:
         return drawing.strokes[0]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Drawing:
     """An ordered list of pen-down strokes on a page; the pen is up between strokes.
+
+    A value: ``==`` compares the strokes (as :class:`Trajectory` does), the page size and the
+    meta (arrays in it element by element). Not hashable (see :class:`Trajectory`). A drawing
+    read back from its CSV equals the original when it had no velocities, pressures or meta,
+    and the page size given to :meth:`from_csv` (which the file does not hold) is its own.
 
     Attributes:
         strokes: The strokes, in drawing order, as a tuple (any sequence given is stored as
@@ -289,6 +329,17 @@ class Drawing:
             raise InputError(f"drawing page_size: expected positive (width, height) in mm, got {self.page_size}")
         object.__setattr__(self, "strokes", strokes)
         object.__setattr__(self, "page_size", (w, h))
+
+    def __eq__(self, other) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return (
+            self.page_size == other.page_size
+            and self.strokes == other.strokes
+            and _same(self.meta, other.meta)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
 
     @property
     def dim(self) -> int:

@@ -211,3 +211,98 @@ def test_speed_has_one_definition_exact_at_the_ends_of_a_quadratic():
     np.testing.assert_allclose(two.speed(), [10.0, 10.0])
     np.testing.assert_array_equal(two.speed(), kinematics.speed(two))
     assert Trajectory(t=[0.0], pos=[[1.0, 2.0]]).speed().tolist() == [0.0]
+
+
+# -- value equality ---------------------------------------------------------------------------
+
+
+def _full(**changes) -> Trajectory:
+    """A 2-D stroke with every field set; ``changes`` replaces some (fresh arrays each call)."""
+    fields = {
+        "t": np.array([0.0, 0.25, 1.0]),
+        "pos": np.array([[0.0, 1.0], [2.0, 3.5], [4.0, -1.0]]),
+        "vel": np.array([[1.0, 0.0], [2.0, 1.0], [0.0, 0.0]]),
+        "pressure": np.array([0.2, 0.5, 0.1]),
+    }
+    fields.update(changes)
+    return Trajectory(**fields)
+
+
+def test_trajectories_with_equal_values_are_equal():
+    a, b = _full(), _full()
+    assert a.pos is not b.pos
+    assert (a == b) is True and (a != b) is False
+    assert _circle(9) == _circle(9)
+    assert Trajectory(t=[0, 1], pos=[[0, 0], [1, 1]]) == Trajectory(
+        t=np.array([0.0, 1.0]), pos=np.array([[0.0, 0.0], [1.0, 1.0]])
+    )
+    assert _full(pos=np.array([[0.0, 1.0], [2.0, 3.5], [4.0, -0.0]])) == _full(
+        pos=np.array([[-0.0, 1.0], [2.0, 3.5], [4.0, 0.0]])
+    )  # -0.0 == 0.0, as for floats
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"t": np.array([0.0, 0.25, 1.0 + 1e-15])},
+        {"pos": np.array([[0.0, 1.0], [2.0, 3.5], [4.0, -1.0 + 1e-12]])},
+        {"pos": np.array([[0.0, 1.0, 0.0], [2.0, 3.5, 0.0], [4.0, -1.0, 0.0]]), "vel": None},
+        {"vel": None},
+        {"vel": np.array([[1.0, 0.0], [2.0, 1.0], [0.0, 1e-9]])},
+        {"pressure": None},
+        {"pressure": np.array([0.2, 0.5, 0.2])},
+        {"t": np.array([0.0, 1.0]), "pos": np.zeros((2, 2)), "vel": None, "pressure": None},
+    ],
+    ids=["t", "pos", "dim", "vel-None", "vel", "pressure-None", "pressure", "length"],
+)
+def test_trajectories_differing_in_one_field_are_unequal(changes):
+    a, b = _full(), _full(**changes)
+    assert (a != b) is True and (b != a) is True and (a == b) is False
+
+
+def test_trajectory_and_drawing_compare_unequal_to_other_types_and_are_unhashable():
+    a = _full()
+    assert a != "stroke" and a != 1.0 and a != [a]
+    assert Drawing([a]) != [a] and Drawing([a]) != a
+    for value in (a, Drawing([a])):
+        with pytest.raises(TypeError, match="unhashable"):
+            hash(value)
+
+
+def test_drawings_compare_strokes_page_size_and_meta():
+    def make(**kw) -> Drawing:
+        return Drawing([_circle(10), _full()], **kw)
+
+    assert make() == make()
+    assert make(page_size=(100, 50)) == make(page_size=(100.0, 50.0))
+    assert make() != make(page_size=(297.0, 210.0))
+    assert make() != Drawing([_circle(10)])
+    assert make() != Drawing([_full(), _circle(10)])  # order matters
+    assert make() != Drawing([_circle(10), _full(vel=None)])
+    assert Drawing([]) == Drawing([]) != Drawing([_circle()])
+    meta = {"style": "x", "letters": np.array([0, 1, 1])}
+    assert make(meta=meta) == make(meta={"style": "x", "letters": np.array([0, 1, 1])})
+    assert make(meta=meta) != make(meta={"style": "x", "letters": np.array([0, 1, 2])})
+    assert make(meta=meta) != make()
+
+
+def test_drawing_equals_itself_after_a_csv_and_an_npz_round_trip(tmp_path):
+    d = Drawing(
+        [_circle(10), _circle(7, r=3.0).shifted(dt=2.0, dpos=(50.123456789, 60.1))],
+        page_size=(100.0, 50.0),
+    ).sequential(0.5 + 1e-13)
+    d.to_csv(tmp_path / "d.csv")
+    assert Drawing.from_csv(tmp_path / "d.csv", page_size=(100.0, 50.0)) == d
+    assert Drawing.from_csv(tmp_path / "d.csv") != d  # the page size is not in the file
+    d.to_npz(tmp_path / "d.npz")
+    assert Drawing.from_npz(tmp_path / "d.npz") == d
+    with_vel = Drawing([_full()])
+    with_vel.to_csv(tmp_path / "v.csv")
+    assert Drawing.from_csv(tmp_path / "v.csv") != with_vel  # vel and pressure are not written
+    assert Drawing.from_csv(tmp_path / "v.csv") == Drawing([_full(vel=None, pressure=None)])
+
+
+def test_single_trajectory_equals_itself_after_a_csv_round_trip(tmp_path):
+    traj = Trajectory(t=[0.0, 0.1 + 0.2, 1.0], pos=[[0, 0, 1], [1 / 3, 2e-17, 0], [3, 4, 0]])
+    traj.to_csv(tmp_path / "t.csv")
+    assert Trajectory.from_csv(tmp_path / "t.csv") == traj

@@ -184,3 +184,145 @@ def test_errors_name_the_argument():
         mj.min_jerk_spline([[0, 0], [1, 1], [2, 0], [3, 3]], 1.0, via_times=[0.6, 0.4])
     with pytest.raises(InputError, match=r"points: expected shape \(m >= 2"):
         mj.min_jerk_spline([[0, 0]], 1.0)
+
+
+# -- several via-points: the timing search, independent of the input's digits -----------------
+
+# Six via-points on which the former Nelder-Mead search (absolute tolerances xatol 1e-8,
+# fatol 1e-12 on a cost of ~3e9 mm^2/s^5, below one ulp of it) never stopped: its simplex
+# collapsed onto one point while the round-off of the cost kept its vertices ~36 ulp apart,
+# so it ran to maxiter = 4000 (29,018 cost evaluations, 140 s) with these coordinates rounded
+# to 0, 2, 6 or 9 decimals, and stopped after ~950 evaluations with 1 or 3.
+SLOW_POINTS = np.array(
+    [
+        [57.419388311, -61.676748196],
+        [60.472832227, -61.735214789],
+        [-83.689476527, 71.045394857],
+        [72.256699236, 75.307419283],
+        [-5.618056128, -45.190322277],
+        [-98.581634279, 29.144179115],
+        [43.981876702, 67.1138433],
+        [-43.624434527, -56.956366567],
+    ]
+)
+# Nelder-Mead's via times for SLOW_POINTS rounded to 0 decimals, duration 2 s.
+SLOW_OLD_TIMES = [
+    0.10278895381646021,
+    0.48963723031616413,
+    0.8062690494399841,
+    1.0646110476976904,
+    1.3035188007713374,
+    1.6163697373049137,
+]
+
+
+def _counting(monkeypatch) -> list[int]:
+    """Count the evaluations of the jerk cost the timing search makes."""
+    count = [0]
+    real = mj._jerk_cost_and_gradient
+
+    def counted(points, times):
+        count[0] += 1
+        return real(points, times)
+
+    monkeypatch.setattr(mj, "_jerk_cost_and_gradient", counted)
+    return count
+
+
+def test_fast_cost_and_gradient_match_the_piecewise_quintic():
+    rng = np.random.default_rng(7)
+    for m, dim in ((2, 2), (3, 1), (5, 2), (8, 3)):
+        points = rng.uniform(-50, 50, (m, dim))
+        times = np.concatenate([[0.0], np.sort(rng.uniform(0.0, 1.7, m - 2)), [1.7]])
+        cost, gradient = mj._jerk_cost_and_gradient(points, times)
+        assert cost == pytest.approx(mj._spline_through(points, times).jerk_cost(), rel=1e-10)
+        for k in range(m - 1):  # dJ/dh_k: lengthen interval k, the later knots move with it
+            eps = 1e-6 * (times[k + 1] - times[k])
+            up, down = times.copy(), times.copy()
+            up[k + 1 :] += eps
+            down[k + 1 :] -= eps
+            numeric = (mj._jerk_cost_and_gradient(points, up)[0]
+                       - mj._jerk_cost_and_gradient(points, down)[0]) / (2 * eps)
+            assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-6 * cost)
+
+
+@pytest.mark.parametrize("decimals", [0, 1, 2, 3, 6, 9])
+def test_via_time_search_work_does_not_depend_on_the_digits(monkeypatch, decimals):
+    count = _counting(monkeypatch)
+    spline = mj.min_jerk_spline(np.round(SLOW_POINTS, decimals), 2.0)
+    assert count[0] <= 150  # ~110 here; Nelder-Mead took 29,018 with 0, 2, 6 or 9 decimals
+    assert np.all(np.diff(spline.times) > 0) and spline.times[-1] == 2.0
+
+
+def test_via_time_search_finds_the_former_optimum_or_better():
+    points = np.round(SLOW_POINTS, 0)
+    spline = mj.min_jerk_spline(points, 2.0)
+    old = mj._spline_through(points, np.concatenate([[0.0], SLOW_OLD_TIMES, [2.0]]))
+    assert spline.jerk_cost() <= old.jerk_cost() * (1 + 1e-12)
+    np.testing.assert_allclose(spline.times[1:-1], SLOW_OLD_TIMES, atol=1e-7)
+    # a stationary point: the gradient over the intervals (at a fixed total) vanishes
+    _, gradient = mj._jerk_cost_and_gradient(points, spline.times)
+    assert np.max(np.abs(gradient - gradient.mean())) <= 1e-9 * spline.jerk_cost()
+
+
+def test_via_time_search_beats_dense_scans_of_each_via_time():
+    points = np.round(SLOW_POINTS, 3)
+    times = mj.min_jerk_spline(points, 2.0).times
+    best = mj._jerk_cost_and_gradient(points, times)[0]
+    for k in range(1, len(times) - 1):  # move one via time across the whole gap it may use
+        for t in np.linspace(times[k - 1], times[k + 1], 402)[1:-1]:
+            trial = times.copy()
+            trial[k] = t
+            assert mj._jerk_cost_and_gradient(points, trial)[0] >= best * (1 - 1e-12)
+
+
+def test_two_via_times_match_a_brute_force_grid():
+    points = np.array([[0.0, 0.0], [12.5, 31.25], [47.0, 29.0], [60.0, -4.0]])
+    tf = 1.3
+    times = mj.min_jerk_spline(points, tf).times
+    best = mj._jerk_cost_and_gradient(points, times)[0]
+    grid = np.linspace(0.0, tf, 161)[1:-1]
+    costs = np.full((grid.size, grid.size), np.inf)
+    for i, t1 in enumerate(grid):
+        for j in range(i + 1, grid.size):
+            costs[i, j] = mj._jerk_cost_and_gradient(points, np.array([0, t1, grid[j], tf]))[0]
+    i, j = np.unravel_index(np.argmin(costs), costs.shape)
+    assert costs[i, j] >= best * (1 - 1e-12)
+    step = grid[1] - grid[0]
+    assert abs(grid[i] - times[1]) <= step and abs(grid[j] - times[2]) <= step
+
+
+def test_via_times_do_not_change_with_the_scale_or_place_of_the_points():
+    points = np.round(SLOW_POINTS, 2)
+    ref = mj.min_jerk_spline(points, 1.0).times
+    for scale, offset in ((1e-3, 0.0), (1e6, 0.0), (1.0, 1e4), (1e200, 0.0), (1e-200, 0.0)):
+        times = mj.min_jerk_spline(points * scale + offset, 3.0).times / 3.0
+        np.testing.assert_allclose(times, ref, atol=1e-7)
+
+
+def test_via_time_search_stops_at_its_evaluation_budget(monkeypatch):
+    monkeypatch.setattr(mj, "_TIME_SEARCH_MAX_EVALUATIONS", 12)
+    count = _counting(monkeypatch)
+    spline = mj.min_jerk_spline(np.round(SLOW_POINTS, 2), 2.0)
+    assert count[0] == 12
+    assert np.all(np.diff(spline.times) > 0)  # the best times seen: ordered, if not optimal
+
+
+def test_consecutive_coincident_points_need_given_via_times():
+    points = [[0.0, 0.0], [10.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
+    with pytest.raises(InputError, match="points: points 1 and 2 coincide") as info:
+        mj.min_jerk_spline(points, 1.0)
+    assert info.value.key == "points"
+    spline = mj.min_jerk_spline(points, 1.0, via_times=[0.4, 0.5])
+    np.testing.assert_allclose(spline.evaluate(spline.times), points, atol=1e-9)
+    # coincident but not consecutive is fine: back to the start
+    loop = mj.min_jerk_spline([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 0.0]], 1.0)
+    assert np.all(np.diff(loop.times) > 0)
+
+
+def test_single_via_time_is_scale_free_even_near_overflow():
+    start, via, end = np.array([0.0, 0.0]), np.array([30.0, 50.0]), np.array([100.0, 0.0])
+    ref = mj.optimal_via_time(start, via, end, 1.0)
+    for scale in (1e-200, 1e-3, 1e6, 1e200):
+        t = mj.optimal_via_time(start * scale, via * scale, end * scale, 1.0)
+        assert t == pytest.approx(ref, abs=1e-12)
