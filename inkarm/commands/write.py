@@ -13,7 +13,7 @@ from inkarm.plans.text import (
     DEFAULT_FONT,
     DEFAULT_HEIGHT,
     PageLayout,
-    outline_deviation,
+    text_fidelity,
     write_text,
 )
 
@@ -72,17 +72,15 @@ def run(args) -> int:
     )
     drawing.to_csv(args.out / "drawing.csv")
     drawing.to_svg(args.out / "drawing.svg")
-    deviation = max(outline_deviation(tp, drawing).values())
+    fidelity = text_fidelity(tp, drawing)
     fig = plot_text(
-        tp,
-        drawing,
-        title=f"{args.style}: {len(drawing.strokes)} strokes, max {deviation:.2f} mm from the font",
+        tp, drawing, title=f"{args.style}: {len(drawing.strokes)} strokes", fidelity=fidelity
     )
     save_figure(fig, args.out / "write.png", dpi=200)
     letters = sum(1 for c in text if not c.isspace())
     print(
         f"{letters} letters in {len(drawing.strokes)} strokes, "
-        f"{drawing.strokes[-1].t[-1]:.2f} s, at most {deviation:.2f} mm from the font outline; "
+        f"{drawing.strokes[-1].t[-1]:.2f} s; from the font: {fidelity.summary()}; "
         f"wrote {args.out / 'drawing.csv'}, drawing.svg, write.png"
     )
     return 0

@@ -20,7 +20,9 @@ chain's time constant is about T_s / (2 pi) * (sigma / d)^(1/n).
 
 A :class:`Handstyle` also carries the few planning choices that belong to a hand: time per
 target, how sparsely a font polyline is turned into targets (``thin_angle``,
-``max_spacing``) and when a ligature drops a sharp junction target (``ligature_angle``).
+``max_spacing``), and how letters are joined: no junction target of a ligature turns by more
+than ``ligature_angle``, the connector bending or looping (``eyelet``) so that the letters
+keep their targets (:func:`inkarm.plans.text.join_ligatures`).
 
 The presets (:data:`PRESETS`) live in ``inkarm/data/handstyles.toml`` and are read by the
 same checked reader as a user's ``--styles`` file (:func:`load_handstyles`).
@@ -73,8 +75,13 @@ class Handstyle:
         max_spacing: Longest distance between consecutive letter targets, as a fraction of the
             letter height; longer edges get evenly spaced extra targets. None keeps the
             font's own (sparse) vertices.
-        ligature_angle: A junction target whose turning angle exceeds this [deg] is dropped
-            when two letters are joined (seed 000 sec. 4.1); 180 keeps all.
+        ligature_angle: Where two letters are joined, no junction target (the end of the
+            one, connector targets, the start of the other) turns by more than this [deg]
+            (seed 000 sec. 4.1); 180 accepts any junction.
+        eyelet: Size of the connector's bends and of the loop by which it turns back into a
+            letter (a cursive retrace written as an eyelet), as a fraction of the letter
+            height; 0 = seed 000's rule instead, which drops sharp junction targets, letter
+            targets included.
         description: One line for ``--help`` and listings.
     """
 
@@ -88,6 +95,7 @@ class Handstyle:
     thin_angle: float = 0.0
     max_spacing: float | None = None
     ligature_angle: float = 100.0
+    eyelet: float = 0.1
     description: str = ""
 
     def __post_init__(self) -> None:
@@ -113,6 +121,9 @@ class Handstyle:
         object.__setattr__(self, "order", int(self.order))
         if self.max_spacing is not None:
             self._check_positive("max_spacing")
+        if not (np.isfinite(self.eyelet) and 0.0 <= self.eyelet <= 1.0):
+            self._fail(f"eyelet must be in [0, 1] (a fraction of the letter height), got "
+                       f"{self.eyelet}", self.eyelet)
         for key in ("thin_angle", "ligature_angle"):
             value = getattr(self, key)
             if not (np.isfinite(value) and 0.0 <= value <= 180.0):
@@ -182,7 +193,9 @@ PRESETS_FILE = Path(__file__).parents[1] / "data" / "handstyles.toml"
 """The preset handstyles, read with :func:`load_handstyles` like a user's file."""
 
 _KEYS = {f.name for f in fields(Handstyle)} - {"name"}
-_NUMBERS = ("h", "rho", "d", "segment_time", "thin_angle", "max_spacing", "ligature_angle")
+_NUMBERS = (
+    "h", "rho", "d", "segment_time", "thin_angle", "max_spacing", "ligature_angle", "eyelet"
+)
 
 
 def handstyle_from_mapping(

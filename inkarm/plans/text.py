@@ -2,10 +2,10 @@
 
 The glyph outlines come from the Hershey vector fonts (``hershey-fonts`` package); the
 single-line script font ``scripts`` (the default) joins its lower-case letters like connected
-handwriting (``scriptc`` is its doubled-line cut, drawn with several passes per letter). A glyph stroke is a
-sparse polyline already, so its vertices are the target loci (seed 000 sec. 4: targets near
-curvature extrema), optionally thinned by turning angle. Letters whose pen-up gap is small
-are joined into one stroke (a ligature).
+handwriting (``scriptc`` is its doubled-line cut, drawn with several passes per letter). A
+glyph stroke is a sparse polyline already, so its vertices are the target loci (seed 000
+sec. 4: targets near curvature extrema), optionally thinned by turning angle. Letters whose
+pen-up gap is small are joined into one stroke (a ligature).
 
 Angle convention: the *turning angle* at vertex p_i is the angle between the incoming
 direction p_i - p_{i-1} and the outgoing one p_{i+1} - p_i, in [0, 180] deg: 0 = straight on,
@@ -13,15 +13,27 @@ direction p_i - p_{i-1} and the outgoing one p_{i+1} - p_i, in [0, 180] deg: 0 =
 with the previous target and the next is larger than a user-defined threshold" (100 deg in
 its Fig. 10); read as the interior angle (180 = straight) that rule would delete the harmless
 straight-through targets and keep the hooks, the opposite of a smooth ligature, so we read it
-as the turning angle. It is computed by :func:`inkarm.analysis.density.turning_angles` (in
-radians, converted here), and the rule is applied until no junction exceeds the threshold.
-How far the written text is from the font is measured by :mod:`inkarm.plans.fidelity`.
+as the turning angle, computed by :func:`inkarm.analysis.density.turning_angles` (in radians,
+converted here).
+
+Ligatures keep the letters. Dropping targets until no junction is sharp (seed 000's rule,
+still used for asemic tags) cuts off what they outlined: Hershey's script a, c, d, g, o, q
+and w start on the far side of their bowl and turn back over it, so the rule ate the top of
+the bowl (font -> drawing 3 mm on "inkarm"). Here no junction target turns by more than the
+threshold either, but the *connector* gives way: it swings back over the bowl and loops into
+the letter's first target (a cursive retrace written as an eyelet), or leaves the exit's last
+point, which lies on the next letter, for that letter to draw, or bends
+(:func:`join_ligatures`). How far the written text is from the font, both ways, is measured
+by :mod:`inkarm.plans.fidelity`.
+
+Control characters other than newline and tab are refused by name (:func:`check_characters`).
 
 Coordinates: page frame in [mm], x right, y up, origin at the page's lower-left corner.
 """
 
 from __future__ import annotations
 
+import unicodedata
 from dataclasses import dataclass
 from functools import lru_cache
 from itertools import pairwise
@@ -169,9 +181,11 @@ def layout_text(
     """Place ``text`` on the page, line by line, wrapping words at the right margin.
 
     Newlines start a new line; runs of spaces and tabs separate words. A word wider than the
-    line is broken between letters. Raises InputError for empty text, a character the font
-    lacks, or text that runs past the bottom margin.
+    line is broken between letters. Raises InputError for any other control character (a
+    carriage return included: new lines are ``\\n``), empty text, a character the font lacks,
+    or text that runs past the bottom margin.
     """
+    check_characters(text)
     if not text.strip():
         raise InputError("text is empty: nothing to write")
     for ch in text:
@@ -220,6 +234,40 @@ def layout_text(
             f"edge but the bottom margin is {bottom} mm; shorten it or lower the letter height"
         )
     return placed
+
+
+_C0_NAMES = (
+    "null", "start of heading", "start of text", "end of text", "end of transmission",
+    "enquiry", "acknowledge", "bell", "backspace", "character tabulation", "line feed",
+    "line tabulation", "form feed", "carriage return", "shift out", "shift in",
+    "data link escape", "device control one", "device control two", "device control three",
+    "device control four", "negative acknowledge", "synchronous idle",
+    "end of transmission block", "cancel", "end of medium", "substitute", "escape",
+    "information separator four", "information separator three",
+    "information separator two", "information separator one",
+)
+"""The Unicode names (aliases) of the C0 control characters U+0000 to U+001F."""
+
+
+def control_character_name(ch: str) -> str:
+    """The name of a control character (Unicode category Cc), e.g. "carriage return"."""
+    code = ord(ch)
+    if code < len(_C0_NAMES):
+        return _C0_NAMES[code]
+    return {0x7F: "delete", 0x85: "next line"}.get(code, "C1 control")
+
+
+def check_characters(text: str) -> None:
+    """Refuse control characters other than newline and tab, naming the first one, its code
+    point and its index in ``text``: InputError, e.g. ``text: control character U+000D
+    (carriage return) at index 5``."""
+    for i, ch in enumerate(text):
+        if ch not in "\n\t" and unicodedata.category(ch) == "Cc":
+            hint = "; new lines are \\n" if ch in "\r\x0b\x0c\x85" else ""
+            raise InputError(
+                f"text: control character U+{ord(ch):04X} ({control_character_name(ch)}) "
+                f"at index {i}{hint}"
+            )
 
 
 def _words(line: str) -> list[tuple[str, int]]:
@@ -302,45 +350,266 @@ class TargetSequence:
 
 
 def join_ligatures(
-    pieces: list[TargetSequence], max_gap: float, max_turn: float
+    pieces: list[TargetSequence], max_gap: float, max_turn: float, eyelet: float | None = None
 ) -> list[TargetSequence]:
     """Join consecutive target sequences into ligatures (seed 000 sec. 4.1).
 
     Two sequences are joined when both are joinable, the pen-up gap between them is at most
     ``max_gap`` [mm], and they belong to the same letter or to neighbouring letters of the
     text (so never across a space). Pieces of the same letter are joined as they are (a
-    Hershey letter breaks its strokes at retraced cusps, which belong to the letter's form).
-    Where two *letters* meet, the last target of the first and then the first of the second
-    are dropped if their turning angle exceeds ``max_turn`` [deg], so the ligature is smooth;
-    an end point shared by both (zero gap) counts once.
+    Hershey letter breaks its strokes at retraced cusps, which belong to the letter's form);
+    an end point shared by two pieces (zero gap) counts once.
+
+    Where two *letters* meet, no *junction target* (the last target of the first letter, the
+    connector targets, the first target of the second) may turn by more than ``max_turn``
+    [deg]. How that is reached depends on ``eyelet``:
+
+    * None: seed 000's rule, for asemic tags. Junction targets that turn more than
+      ``max_turn`` are dropped, repeatedly, until none does (:func:`_drop_sharp`); the last
+      target a letter has left is never dropped.
+    * A size in [mm]: letters keep their targets and the connector bends instead
+      (:func:`_join_letters`), seed 000's rule being only the last resort.
+
+    Each junction sees only the two letters it joins, so the time is linear in the number of
+    targets.
     """
-    if not pieces:
-        return []
-    out = [_copy(pieces[0])]
-    for piece in pieces[1:]:
-        prev = out[-1]
-        gap = float(np.linalg.norm(piece.means[0] - prev.means[-1]))
-        same_letter = prev.letters[-1] == piece.letters[0]
-        neighbours = prev.letters[-1] + 1 == piece.letters[0]
-        if not (
-            prev.joinable and piece.joinable and gap <= max_gap and (same_letter or neighbours)
-        ):
-            out.append(_copy(piece))
+    out: list[TargetSequence] = []
+    ligature: _Ligature | None = None
+    for piece in pieces:
+        if not len(piece):
             continue
-        start = 1 if gap <= _SAME_POINT else 0
-        connectors = piece.connectors[start:].copy()
-        if start == 0:
-            connectors[0] = True
-        joint = len(prev)
-        merged = TargetSequence(
-            np.vstack([prev.means, piece.means[start:]]),
-            np.concatenate([prev.letters, piece.letters[start:]]),
-            np.concatenate([prev.connectors, connectors]),
-        )
-        if not same_letter:
-            merged = _drop_sharp(merged, [joint - 1, joint], max_turn)
-        out[-1] = merged
+        if ligature is not None and ligature.takes(piece, max_gap):
+            ligature.add(piece, max_turn, eyelet)
+        else:
+            if ligature is not None:
+                out.append(ligature.sequence())
+            ligature = _Ligature(piece)
+    if ligature is not None:
+        out.append(ligature.sequence())
     return out
+
+
+class _Ligature:
+    """A ligature being built: the letters already joined (never changed again), the last
+    targets before the current letter (the context its turning angles need), and the current
+    letter's targets, the only ones the next junction may change."""
+
+    CONTEXT = 2
+
+    def __init__(self, piece: TargetSequence) -> None:
+        self.done: list[TargetSequence] = []
+        self.context = _slice(piece, 0, 0)
+        self.tail = _slice(piece, 0, len(piece))
+
+    def takes(self, piece: TargetSequence, max_gap: float) -> bool:
+        last = int(self.tail.letters[-1])
+        return bool(
+            self.tail.joinable
+            and piece.joinable
+            and np.linalg.norm(piece.means[0] - self.tail.means[-1]) <= max_gap
+            and int(piece.letters[0]) in (last, last + 1)
+        )
+
+    def add(self, piece: TargetSequence, max_turn: float, eyelet: float | None) -> None:
+        shared = _same(piece.means[0], self.tail.means[-1])
+        following = _slice(piece, 1 if shared else 0, len(piece))
+        if not len(following):
+            return  # a single target on the end of the path: nothing to add
+        if not shared:
+            following.connectors[0] = True
+        if piece.letters[0] == self.tail.letters[-1]:
+            self.tail = _concat([self.tail, following])
+            return
+        first, second = _join_letters(
+            self.context, self.tail, following, piece.means, shared, max_turn, eyelet
+        )
+        self.done.append(first)
+        context = _concat([self.context, first])
+        self.context = _slice(context, max(0, len(context) - self.CONTEXT), len(context))
+        self.tail = second
+
+    def sequence(self) -> TargetSequence:
+        return _concat([*self.done, self.tail])
+
+
+_SWING = 1.6
+"""The longest connector that swings back along the next letter's outline, as a multiple of
+the gap it bridges (pi / 2: half round a bowl, from one side to the other)."""
+
+
+def _join_letters(
+    context: TargetSequence,
+    first: TargetSequence,
+    second: TargetSequence,
+    outline: np.ndarray,
+    shared: bool,
+    max_turn: float,
+    eyelet: float | None,
+) -> tuple[TargetSequence, TargetSequence]:
+    """Join the targets of one letter, ``second`` (without a start point it shares with
+    ``first``), to those of the letter before, ``first``, which follows the ``context``
+    targets (read for turning angles, never changed). ``outline`` (k, 2) [mm] is the second
+    letter's first piece, its start point included even when ``shared`` with ``first``.
+    Returns the targets of both letters, connector targets included, so that no junction
+    target turns by more than ``max_turn`` [deg].
+
+    With an ``eyelet`` size [mm], the first of these junctions whose targets all turn by at
+    most ``max_turn`` is taken, so every letter target is kept while one is:
+
+    1. the straight connector;
+    2. the *swing*: where the first letter's exit ends on the second letter's outline (the
+       Hershey script's exit strokes end on the side of a following a, c, d, g, o, q or w,
+       whose pen starts on the far side of the bowl and turns back over it), the connector
+       swings back along that outline, up to ``eyelet`` outside it, and turns into the first
+       target through a loop of diameter ``eyelet``: a cursive hand's retrace at the top of
+       the bowl, written as an eyelet rather than a cusp (:func:`_swing_connector`);
+    3. the last target of the first letter left out when it lies on the second letter's
+       outline (the exit overshooting into the next letter, whose pen draws that point);
+    4. a *bend*: one connector target after the first letter and/or before the second, at
+       ``eyelet`` or a third of the gap, that turns the pen part of the way
+       (:func:`_bends`), with or without 3.
+
+    Otherwise (and without an ``eyelet``, or where the letters share the junction point)
+    seed 000's rule: :func:`_drop_sharp`.
+    """
+    b_letter = int(second.letters[0])
+
+    def attempt(head: TargetSequence, links: list[tuple[np.ndarray, int]]):
+        joined = _with_links(context, head, links, second)
+        lo = len(context) + len(head) - 1
+        hi = lo + len(links) + (0 if shared else 1)
+        for i in range(lo, hi + 1):
+            turn = _turn_at(joined.means, i)
+            if turn is not None and turn > max_turn:
+                return None
+        return joined
+
+    joined = attempt(first, [])
+    if joined is None and eyelet is not None and eyelet > 0 and not shared:
+        joined = _shape_keeping_join(context, first, second, outline, max_turn, eyelet, attempt)
+    if joined is None:
+        joined = _with_links(context, first, [], second)
+        joint = len(context) + len(first)
+        joined = _drop_sharp(joined, [joint - 1, joint], max_turn)
+    return _split(joined, len(context), b_letter)
+
+
+def _shape_keeping_join(context, first, second, outline, max_turn, eyelet, attempt):
+    """Steps 2 to 4 of :func:`_join_letters`: the first smooth join, or None."""
+    a_letter, b_letter = int(first.letters[-1]), int(second.letters[0])
+    p = first.means[-1]
+    on_next = len(outline) > 1 and _distance_to_path(p, outline) <= 0.5 * eyelet
+    if on_next:
+        swing = _swing_connector(p, outline, eyelet, max_turn)
+        if swing is not None and (joined := attempt(first, [(x, b_letter) for x in swing])):
+            return joined
+    heads = [first]
+    if on_next and len(first) > 1:
+        heads.insert(0, _slice(first, 0, len(first) - 1))
+        if joined := attempt(heads[0], []):
+            return joined
+    after = _distinct_after(second.means, 0)
+    for head in reversed(heads):  # the whole first letter first
+        before = _distinct_before(np.vstack([context.means, head.means]))
+        for bend in _bends(before, head.means[-1], second.means[0], after, eyelet, max_turn):
+            links = [(x, a_letter if own else b_letter) for x, own in bend]
+            if joined := attempt(head, links):
+                return joined
+    return None
+
+
+def _swing_connector(
+    p: np.ndarray, outline: np.ndarray, eyelet: float, max_turn: float
+) -> np.ndarray | None:
+    """Connector targets (k, 2) [mm] from ``p``, a point on the polyline ``outline`` (the next
+    letter's first piece), back along the outline to its start S and into S through an
+    eyelet: a half circle of diameter ``eyelet`` outside the outline, so the pen arrives at S
+    heading where the letter goes on. The connector runs outside the outline, its offset
+    growing from 0 at ``p`` to ``eyelet`` at S. None when ``p`` is at S or the way back is
+    longer than :data:`_SWING` times the gap, or the eyelet would need more than 12 targets
+    to turn by at most ``max_turn`` [deg] at each."""
+    s = outline[0]
+    a, ab = outline[:-1], np.diff(outline, axis=0)
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    u = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(length2, 1e-300), 0.0, 1.0)
+    k = int(np.argmin(np.linalg.norm(a + u[:, None] * ab - p, axis=1)))
+    index = np.arange(k if u[k] > 0 else k - 1, 0, -1)  # outline vertices between p and S
+    index = index[np.linalg.norm(outline[index] - p, axis=1) > _SAME_POINT]
+    path = np.vstack([p, outline[index], s])
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    gap = float(np.linalg.norm(s - p))
+    if gap <= _SAME_POINT or steps.sum() > _SWING * gap:
+        return None
+    n_loop = max(3, int(np.ceil(180.0 / (0.9 * max_turn)))) if max_turn > 0 else 99
+    if n_loop > 12:
+        return None
+    edges = ab / np.maximum(np.sqrt(length2), 1e-300)[:, None]  # the outline's way, from S
+    normals = _outward_side(outline) * np.column_stack([edges[:, 1], -edges[:, 0]])
+    at_vertex = np.vstack([normals[:1], normals[:-1] + normals[1:], normals[-1:]])
+    at_vertex /= np.maximum(np.linalg.norm(at_vertex, axis=1, keepdims=True), 1e-300)
+    along = np.cumsum(steps)  # from p to each vertex of the way back, and to S
+    lifted = outline[index] + (eyelet * along[:-1] / along[-1])[:, None] * at_vertex[index]
+    v, n = edges[0], normals[0]
+    phi = np.pi * np.arange(n_loop) / n_loop  # from S + eyelet n round to (not including) S
+    loop = s + 0.5 * eyelet * ((1.0 + np.cos(phi))[:, None] * n - np.sin(phi)[:, None] * v)
+    return np.vstack([lifted, loop])
+
+
+def _outward_side(outline: np.ndarray) -> float:
+    """+1 if the polyline's outside is to the right of its direction (it turns left, as a
+    bowl written anticlockwise), -1 if to the left: from its signed turning over its first
+    half turn."""
+    d = np.diff(outline, axis=0)
+    total = 0.0
+    for a, b in pairwise(d):
+        total += float(np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b))
+        if abs(total) >= np.pi / 2:
+            break
+    return 1.0 if total >= 0 else -1.0
+
+
+def _bends(
+    before: np.ndarray | None,
+    p: np.ndarray,
+    s: np.ndarray,
+    after: np.ndarray | None,
+    eyelet: float,
+    max_turn: float,
+):
+    """Candidate connectors from ``p`` to ``s`` [mm] (lists of (point, belongs to the first
+    letter)): a target after ``p`` turning the pen from its way into ``p`` (from ``before``)
+    towards ``s``, and/or one before ``s`` from which it reaches ``s`` heading within 0.8 x
+    ``max_turn`` of where it goes next (to ``after``), each ``eyelet`` or a third of the gap
+    away from its end."""
+    chord = s - p
+    gap = float(np.linalg.norm(chord))
+    if gap <= _SAME_POINT:
+        return
+    step = np.radians(0.8 * max_turn)
+    for length in (eyelet, gap / 3):
+        bend = []
+        if before is not None:
+            heading = _rotate_towards(p - before, chord, step)
+            if heading is not None:
+                bend.append((p + length * heading, True))
+        if after is not None:
+            heading = _rotate_towards(after - s, chord, step)
+            if heading is not None:
+                bend.append((s - length * heading, False))
+        if bend:
+            yield bend
+
+
+def _rotate_towards(d: np.ndarray, target: np.ndarray, step: float) -> np.ndarray | None:
+    """The unit direction ``d`` turned towards ``target`` by ``step`` [rad]; None when the two
+    are within ``step`` already (no bend needed at that end)."""
+    angle = float(np.arctan2(d[0] * target[1] - d[1] * target[0], d @ target))
+    if abs(angle) <= step:
+        return None
+    a = np.sign(angle) * step
+    c, s = np.cos(a), np.sin(a)
+    d = d / np.linalg.norm(d)
+    return np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
 
 
 def _drop_sharp(seq: TargetSequence, candidates: list[int], max_turn: float) -> TargetSequence:
@@ -357,7 +626,7 @@ def _drop_sharp(seq: TargetSequence, candidates: list[int], max_turn: float) -> 
         same_letter = keep & (seq.letters == seq.letters[i])
         if not keep[i] or int(seq.letters[i]) not in joined or same_letter.sum() == 1:
             continue
-        turn = _turn_at(seq.means, keep, i)
+        turn = _turn_at(seq.means, i, keep)
         if turn is not None and turn > max_turn:
             keep[i] = False
             a = np.flatnonzero(keep[:i])[-1]
@@ -367,24 +636,108 @@ def _drop_sharp(seq: TargetSequence, candidates: list[int], max_turn: float) -> 
     return TargetSequence(seq.means[keep], seq.letters[keep], connectors[keep], seq.joinable)
 
 
-def _turn_at(means: np.ndarray, keep: np.ndarray, i: int) -> float | None:
-    """Turning angle in [deg] at kept target ``i``, between the nearest kept targets before and
-    after it at another point (a target repeated in place turns where the path turns); None at
-    an end of the path."""
-    def distinct(indices) -> int | None:
-        return next(
-            (j for j in indices if np.linalg.norm(means[j] - means[i]) > _SAME_POINT), None
-        )
-
-    a = distinct(np.flatnonzero(keep[:i])[::-1])
-    b = distinct(i + 1 + np.flatnonzero(keep[i + 1 :]))
+def _turn_at(means: np.ndarray, i: int, keep: np.ndarray | None = None) -> float | None:
+    """Turning angle in [deg] at target ``i``, between the nearest (kept) targets before and
+    after it at another point (a target repeated in place turns where the path turns); None
+    at an end of the path."""
+    a = _distinct_index(means, i, -1, keep)
+    b = _distinct_index(means, i, +1, keep)
     if a is None or b is None:
         return None
     return float(np.degrees(turning_angles(means[[a, i, b]])[1]))
 
 
-def _copy(seq: TargetSequence) -> TargetSequence:
-    return TargetSequence(seq.means.copy(), seq.letters.copy(), seq.connectors.copy(), seq.joinable)
+def _distinct_index(means: np.ndarray, i: int, step: int, keep=None) -> int | None:
+    """The nearest (kept) target from ``i`` in direction ``step`` at another point."""
+    j = i + step
+    while 0 <= j < len(means):
+        if (keep is None or keep[j]) and not _same(means[j], means[i]):
+            return j
+        j += step
+    return None
+
+
+def _distinct_before(means: np.ndarray) -> np.ndarray | None:
+    """The last point of ``means`` before its end point at another point, or None."""
+    j = _distinct_index(means, len(means) - 1, -1)
+    return None if j is None else means[j]
+
+
+def _distinct_after(means: np.ndarray, i: int) -> np.ndarray | None:
+    j = _distinct_index(means, i, +1)
+    return None if j is None else means[j]
+
+
+def _distance_to_path(p: np.ndarray, polyline: np.ndarray) -> float:
+    """Distance in [mm] from the point ``p`` to the polyline (k >= 2, 2)."""
+    a, ab = polyline[:-1], np.diff(polyline, axis=0)
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    u = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(length2, 1e-300), 0.0, 1.0)
+    return float(np.min(np.linalg.norm(a + u[:, None] * ab - p, axis=1)))
+
+
+def junction_turns(
+    means: np.ndarray, letters, connectors
+) -> list[tuple[int, int, float]]:
+    """(letter before, letter after, largest turning angle [deg]) of every junction between
+    two letters along a target path: the targets from the last one of a letter's outline
+    through the connector targets to the first one of the next letter (a start point shared
+    by both letters alone)."""
+    means = np.asarray(means, dtype=float)
+    letters, connectors = np.asarray(letters), np.asarray(connectors, dtype=bool)
+    out = []
+    for j in np.flatnonzero(letters[1:] != letters[:-1]) + 1:
+        lo = j - 1
+        while lo > 0 and connectors[lo] and letters[lo - 1] == letters[lo]:
+            lo -= 1  # connector targets of the first letter
+        hi = j - 1
+        while hi + 1 < len(means) and connectors[hi + 1] and letters[hi + 1] == letters[j]:
+            hi += 1  # connector targets of the second letter, and its first target
+        turns = [t for i in range(lo, hi + 1) if (t := _turn_at(means, i)) is not None]
+        out.append((int(letters[j - 1]), int(letters[j]), max(turns, default=0.0)))
+    return out
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return bool(np.linalg.norm(a - b) <= _SAME_POINT)
+
+
+def _slice(seq: TargetSequence, lo: int, hi: int) -> TargetSequence:
+    return TargetSequence(
+        seq.means[lo:hi].copy(), seq.letters[lo:hi].copy(), seq.connectors[lo:hi].copy(),
+        seq.joinable,
+    )
+
+
+def _concat(seqs: list[TargetSequence]) -> TargetSequence:
+    return TargetSequence(
+        np.concatenate([s.means for s in seqs]),
+        np.concatenate([s.letters for s in seqs]),
+        np.concatenate([s.connectors for s in seqs]),
+        seqs[-1].joinable,
+    )
+
+
+def _with_links(
+    context: TargetSequence,
+    head: TargetSequence,
+    links: list[tuple[np.ndarray, int]],
+    second: TargetSequence,
+) -> TargetSequence:
+    """``context`` + ``head`` + connector targets (point, letter) + ``second``."""
+    middle = TargetSequence(
+        np.array([x for x, _ in links], dtype=float).reshape(-1, 2),
+        np.array([letter for _, letter in links], dtype=head.letters.dtype),
+        np.ones(len(links), bool),
+    )
+    return _concat([context, head, middle, second])
+
+
+def _split(joined: TargetSequence, n_context: int, second: int) -> tuple[TargetSequence, ...]:
+    """The joined targets after the context: those before the second letter's, and its own."""
+    body = _slice(joined, n_context, len(joined))
+    k = int(np.argmax(body.letters == second)) if np.any(body.letters == second) else len(body)
+    return _slice(body, 0, k), _slice(body, k, len(body))
 
 
 def glyph_targets(
@@ -450,9 +803,9 @@ def plan_text(
     """Text -> ligatured Gaussian targets with the covariances of ``style`` (a Handstyle).
 
     Args:
-        text: What to write (newlines allowed).
+        text: What to write (newlines and tabs allowed, no other control character).
         style: The :class:`inkarm.plans.handstyles.Handstyle` (covariances, thinning,
-            ligature angle, time per target), or a preset's name.
+            ligature angle and eyelet, time per target), or a preset's name.
         height: Cap height of the letters in [mm].
         font: Hershey font name (script fonts: ``scripts``, ``scriptc``).
         layout: Page, margins and line height.
@@ -466,7 +819,8 @@ def plan_text(
     gap = 0.45 * f.height if ligature_gap is None else float(ligature_gap)
     spacing = None if style.max_spacing is None else style.max_spacing * f.height
     pieces = glyph_targets(placed, style.thin_angle, spacing, mark_size=0.2 * f.height)
-    pieces = join_ligatures(pieces, gap, style.ligature_angle)
+    eyelet = style.eyelet * f.height if style.eyelet > 0 else None
+    pieces = join_ligatures(pieces, gap, style.ligature_angle, eyelet)
     rng = np.random.default_rng(seed)
     return TextPlan(text, style.motor_plan(pieces, rng, "letters"), tuple(placed), f)
 

@@ -1,39 +1,60 @@
 """The ``inkarm write`` figure (:mod:`inkarm.plans.text`): the font's strokes in light grey,
-the Gaussian targets as dots, and the handstyle's ink on top, in page [mm]."""
+the Gaussian targets as dots, and the handstyle's ink on top, in page [mm].
+
+The axes limits are set before anything is drawn, so adding the ink (one collection per
+stroke) does not rescale the axes over all the artists already there each time: the figure
+is built in time linear in the text's length (thousands of strokes for a page of text)."""
 
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.collections import LineCollection
 
 from inkarm.core.trajectory import Drawing
+from inkarm.plans.fidelity import TextFidelity
 from inkarm.plans.text import TextPlan
 from inkarm.plots.drawing import plot_ink
 from inkarm.plots.figure import Figure, figure_of, new_axes
 
 
-def plot_text(tp: TextPlan, drawing: Drawing, ax=None, *, title: str = "") -> Figure:
+def plot_text(
+    tp: TextPlan,
+    drawing: Drawing,
+    ax=None,
+    *,
+    title: str = "",
+    fidelity: TextFidelity | None = None,
+) -> Figure:
     """Font strokes in light grey, the Gaussian targets as dots, the stylised ink on top, on
     ``ax`` (a new figure's, 10 in wide and as tall as the text, when None); returns the
-    figure."""
+    figure. The title is ``title`` followed, when ``fidelity`` is given
+    (:func:`inkarm.plans.fidelity.text_fidelity`), by both directions of the distance
+    between ink and font and the larger of the two."""
     lo, hi = drawing.bounds()
     pad = 0.3 * tp.font.height
     w, h = hi[0] - lo[0] + 2 * pad, hi[1] - lo[1] + 2 * pad
     fig_w = 10.0
     ax = new_axes(ax, (fig_w, max(1.5, fig_w * h / w + 0.4)))
-    for g in tp.glyphs:
-        for s in g.strokes:
-            ax.plot(*s.T, color="#d4d4d4", lw=4.0, solid_capstyle="round", zorder=1)
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)  # fixed limits: no autoscaling as artists are added
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    font = [s for g in tp.glyphs for s in g.strokes]
+    ax.add_collection(
+        LineCollection(
+            font, colors="#d4d4d4", linewidths=4.0, capstyle="round", joinstyle="round", zorder=1
+        ),
+        autolim=False,
+    )
     means = [stroke.means for stroke in tp.plan.strokes]
     gaps = np.concatenate([np.linalg.norm(np.diff(m, axis=0), axis=1) for m in means] + [[]])
     spacing = float(np.median(gaps)) if gaps.size else tp.font.height
     dot = float(np.clip(10.0 * spacing / tp.font.height, 0.6, 2.2))  # dense targets, small dots
-    for m in means:
-        ax.plot(*m.T, "o", color="#e74c3c", ms=dot, mew=0, alpha=0.8, zorder=2)
+    if means:
+        ax.plot(*np.vstack(means).T, "o", color="#e74c3c", ms=dot, mew=0, alpha=0.8, zorder=2)
     plot_ink(drawing, ax)
-    ax.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax.set_ylim(lo[1] - pad, hi[1] + pad)
     ax.set_aspect("equal")
     ax.axis("off")
+    if fidelity is not None:
+        title = "; ".join(t for t in (title, f"from the font: {fidelity.summary()}") if t)
     if title:
         ax.set_title(title, fontsize=9, loc="left", color="#555555")
     return figure_of(ax)

@@ -19,14 +19,32 @@ def test_write_inkarm_in_a_script_style_gives_ligatured_strokes(tmp_path, capsys
     assert len(drawing.strokes) < len("inkarm")
     assert (out / "drawing.svg").read_text().count("<polyline") == len(drawing.strokes)
     assert (out / "write.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "6 letters in 2 strokes" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "6 letters in 2 strokes" in out
+    fidelity = _fidelity(out)
+    assert fidelity["symmetric"] == max(fidelity["drawing->font"], fidelity["font->drawing"])
 
 
-def test_write_faithful_reports_under_1mm_from_the_font(tmp_path, capsys):
+def _fidelity(out: str) -> dict[str, float]:
+    """The figures ``inkarm write`` prints: drawing->font, font->drawing, symmetric [mm]."""
+    found = re.search(
+        r"from the font: drawing->font ([\d.]+) mm, font->drawing ([\d.]+) mm, "
+        r"symmetric ([\d.]+) mm",
+        out,
+    )
+    assert found, out
+    return dict(zip(("drawing->font", "font->drawing", "symmetric"), map(float, found.groups())))
+
+
+def test_write_faithful_reports_both_ways_from_the_font(tmp_path, capsys):
     args = ["write", "inkarm", "--style", "faithful", "--out", str(tmp_path), "--height", "10"]
     assert main(args) == 0
-    deviation = float(re.search(r"at most ([\d.]+) mm from the font", capsys.readouterr().out)[1])
-    assert deviation <= 1.0
+    fidelity = _fidelity(capsys.readouterr().out)
+    assert fidelity["drawing->font"] < 1.0  # no ink more than 1 mm off the font (0.11 mm)
+    # every letter target kept by the ligatures: the font is missed by 0.11 mm at most (seed 0;
+    # seed 000's drop rule, applied until no junction was sharp, missed the top of the a by 3)
+    assert fidelity["font->drawing"] <= 0.2
+    assert fidelity["symmetric"] <= 0.2
 
 
 def test_write_with_a_user_style_file(tmp_path, capsys):
@@ -44,6 +62,9 @@ def test_write_with_a_user_style_file(tmp_path, capsys):
     [
         (["write", ""], "text is empty"),
         (["write", "café"], r"font 'scripts' has no glyph for 'é' \(U\+00E9\)"),
+        (["write", "inkar\rm"], r"text: control character U\+000D \(carriage return\) at index 5"),
+        (["write", "ab\x1b[31m"], r"text: control character U\+001B \(escape\) at index 2"),
+        (["write", "a\x00"], r"text: control character U\+0000 \(null\) at index 1"),
         (["write", "ab", "--style", "fancy"], r"unknown handstyle 'fancy'; available: .*faithful"),
         (["write", "ab", "--height", "0"], "letter height must be a positive number of mm"),
         (["write", "ab", "--font", "comic"], "unknown font 'comic'"),
@@ -90,3 +111,9 @@ def test_tag_writes_files_and_a_seed_reproduces_it(tmp_path, capsys):
     assert (a / "drawing.csv").read_bytes() == (b / "drawing.csv").read_bytes()
     assert (a / "drawing.csv").read_bytes() != (c / "drawing.csv").read_bytes()
     assert "5 glyphs" in capsys.readouterr().out
+
+
+def test_write_takes_new_lines_and_tabs(tmp_path, capsys):
+    assert main(["write", "an\\nmu\tno", "--out", str(tmp_path)]) == 0  # \\n as typed in a shell
+    assert "6 letters in" in capsys.readouterr().out
+    assert len(Drawing.from_csv(tmp_path / "drawing.csv").strokes) == 3  # three words

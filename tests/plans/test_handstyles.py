@@ -111,6 +111,9 @@ def test_user_style_from_mapping_starts_from_a_base_preset():
         ({"basis": [[1, 0], [0, 1]], "slant": 10.0}, "either basis or slant"),
         ({"base": "nope"}, "unknown handstyle 'nope'"),
         ({"max_spacing": 0.0}, "max_spacing must be a positive number"),
+        ({"eyelet": -0.1}, r"eyelet must be in \[0, 1\]"),
+        ({"eyelet": 2.0}, r"eyelet must be in \[0, 1\] \(a fraction of the letter height\)"),
+        ({"eyelet": "big"}, "eyelet must be a number"),
     ],
 )
 def test_user_style_errors_name_the_key(table, message):
@@ -220,3 +223,9 @@ targets = [{{ mean = [0.0, 0.0] }}, {{ mean = [5.0, 5.0] }}, {{ mean = [9.0, 0.0
     covs = style.covariances(3, np.random.default_rng(0))
     np.testing.assert_allclose(covs, plan.strokes[0].plan.covs)
     np.testing.assert_allclose(covs[0], 4.0 * np.array(H) @ np.array(H).T)  # Sigma = h H H^T
+
+
+def test_eyelet_is_a_style_setting_and_0_selects_the_papers_drop_rule():
+    assert all(style.eyelet == 0.1 for style in PRESETS.values())
+    mine = handstyle_from_mapping({"base": "cursive", "eyelet": 0.0}, name="dropper")
+    assert mine.eyelet == 0.0 and mine.ligature_angle == PRESETS["cursive"].ligature_angle

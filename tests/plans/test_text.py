@@ -132,6 +132,30 @@ def test_layout_errors(text, layout, message):
         layout_text(text, HersheyFont("scripts", 10.0), layout)
 
 
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("inkar\rm", r"^text: control character U\+000D \(carriage return\) at index 5; .*\\n$"),
+        ("\r\n", r"U\+000D \(carriage return\) at index 0"),  # named, not "text is empty"
+        ("a\x00b", r"^text: control character U\+0000 \(null\) at index 1$"),
+        ("\x1b[1mab", r"U\+001B \(escape\) at index 0"),
+        ("ab\x08c", r"U\+0008 \(backspace\) at index 2"),
+        ("ab\x7f", r"U\+007F \(delete\) at index 2"),
+        ("a\x85b", r"U\+0085 \(next line\) at index 1; new lines are"),
+        ("a\x9bb", r"U\+009B \(C1 control\) at index 1"),
+    ],
+)
+def test_control_characters_are_refused_by_name(text, message):
+    with pytest.raises(InputError, match=message):
+        layout_text(text, HersheyFont("scripts", 10.0))
+
+
+def test_new_lines_and_tabs_are_layout_not_control_characters():
+    placed = layout_text("a\tb\nc", HersheyFont("scripts", 10.0))
+    assert [(g.char, g.index) for g in placed] == [("a", 0), ("b", 2), ("c", 4)]
+    assert placed[0].origin[1] == placed[1].origin[1] > placed[2].origin[1]
+
+
 def test_page_layout_errors():
     with pytest.raises(InputError, match="leave no room"):
         PageLayout(page_size=(50.0, 50.0), margins=(30.0, 30.0, 5.0, 5.0))
@@ -238,28 +262,6 @@ def test_a_target_repeated_in_place_turns_where_the_path_turns():
     assert len(joined) < 7
 
 
-def _ligature_turns(tp) -> list[tuple[str, float]]:
-    """(letter, turning angle [deg]) at every target next to a connector between letters."""
-    out = []
-    for stroke in tp.plan.strokes:
-        letters = np.asarray(stroke.meta["letters"])
-        connectors = np.asarray(stroke.meta["connectors"])
-        turns = np.degrees(turning_angles(stroke.means))
-        for j in np.flatnonzero(connectors):
-            if letters[j - 1] != letters[j]:
-                ends = (k for k in (j - 1, j) if 0 < k < len(turns) - 1)
-                out += [(tp.text[letters[k]], turns[k]) for k in ends]
-    return out
-
-
-@pytest.mark.parametrize("style", ["cursive", "faithful", "loose"])
-def test_no_ligature_junction_of_inkarm_exceeds_the_style_threshold(style):
-    tp = plan_text("inkarm", PRESETS[style])
-    turns = _ligature_turns(tp)
-    assert {letter for letter, _ in turns} >= {"k", "a"}  # the k -> a junction is there
-    assert max(t for _, t in turns) <= PRESETS[style].ligature_angle, turns
-
-
 def test_shared_end_point_counts_once():
     a = _seq([[0, 0], [1, 0]], 0)
     b = _seq([[1, 0], [2, 0.5]], 1)
@@ -349,6 +351,13 @@ def test_fidelity_oracle_on_drawings_along_the_targets():
     cut = text_fidelity(tp, _held_targets(tp, keep=0.5))  # half of each letter left out
     assert cut.drawing_to_font < 1e-9 and cut.font_to_drawing > 2.0
     assert cut.symmetric == cut.font_to_drawing
+
+
+def test_fidelity_summary_gives_both_directions_and_the_larger():
+    fidelity = TextFidelity(drawing_to_font=0.114, font_to_drawing=0.447)
+    assert fidelity.summary() == (
+        "drawing->font 0.11 mm, font->drawing 0.45 mm, symmetric 0.45 mm"
+    )
 
 
 def test_font_deviation_names_every_letter():
