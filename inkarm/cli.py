@@ -25,14 +25,22 @@ def _command_modules():
             yield importlib.import_module(f"inkarm.commands.{info.name}")
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """Usage errors in one line (``inkarm CMD: error: ...``, exit 2), like every other error;
+    ``--help`` shows the usage."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="inkarm",
         description="Human-like pen trajectories, drawn by a simulated or real robot arm. "
         "Units: millimetres and seconds.",
     )
     parser.add_argument("--version", action="version", version=f"inkarm {inkarm.__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     for module in _command_modules():
         p = module.add_parser(sub)
         p.set_defaults(_run=module.run)

@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import output_folder
 from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_dir, staged
 from inkarm.plans.handstyles import PRESETS, get_handstyle, load_handstyles
 from inkarm.plans.text import (
     DEFAULT_FONT,
@@ -54,8 +54,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def check_common(args) -> None:
     """Refuse a negative seed and an output path that is a file (shared with ``tag``)."""
     if args.seed < 0:
-        raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
-    output_folder(args.out)
+        raise InputError(f"expected an integer >= 0, got {args.seed}", key="--seed",
+                         value=args.seed)
+    check_out_dir(args.out)
 
 
 def run(args) -> int:
@@ -70,13 +71,14 @@ def run(args) -> int:
     tp, drawing = write_text(
         text, style, dt=args.dt, height=args.height, font=args.font, layout=layout, seed=args.seed
     )
-    drawing.to_csv(args.out / "drawing.csv")
-    drawing.to_svg(args.out / "drawing.svg")
     fidelity = text_fidelity(tp, drawing)
     fig = plot_text(
         tp, drawing, title=f"{args.style}: {len(drawing.strokes)} strokes", fidelity=fidelity
     )
-    save_figure(fig, args.out / "write.png", dpi=200)
+    with staged(args.out) as stage:
+        drawing.to_csv(stage / "drawing.csv")
+        drawing.to_svg(stage / "drawing.svg")
+        save_figure(fig, stage / "write.png", dpi=200)
     letters = sum(1 for c in text if not c.isspace())
     print(
         f"{letters} letters in {len(drawing.strokes)} strokes, "
