@@ -10,7 +10,7 @@ can raise them without touching code::
 =====================  ==============================  =========
 variable               what it bounds                  default
 =====================  ==============================  =========
-INKARM_MAX_MEMORY_MB   the arrays one job allocates    2048 MB
+INKARM_MAX_MEMORY_MB   the arrays one job allocates    1024 MB
 INKARM_MAX_STEPS       time steps of one trajectory    1000000
 INKARM_MAX_SAMPLES     stochastic samples per stroke   10000
 INKARM_MAX_SIM_S       simulated seconds of one run    600 s
@@ -56,7 +56,7 @@ class Limit:
         return value
 
 
-MEMORY_MB = Limit("INKARM_MAX_MEMORY_MB", 2048.0, "MB")
+MEMORY_MB = Limit("INKARM_MAX_MEMORY_MB", 1024.0, "MB")
 STEPS = Limit("INKARM_MAX_STEPS", 1_000_000, "time steps")
 SAMPLES = Limit("INKARM_MAX_SAMPLES", 10_000, "samples")
 SIM_S = Limit("INKARM_MAX_SIM_S", 600.0, "s")

@@ -138,7 +138,7 @@ def test_exact_dppla_over_the_memory_budget_is_refused(tmp_path, capsys):
     # Once: "Unable to allocate 12.4 GiB" for 100,000 samples, with or without --banded.
     path = write_csv(tmp_path / "big.csv", 100_000)
     refused(capsys, ["analyse", path], "big.csv: stroke 0: exact DPPLA of 100000 samples",
-            "GB, more than the limit of 2 GB", "INKARM_MAX_MEMORY_MB", "or use --banded")
+            "GB, more than the limit of 1 GB", "INKARM_MAX_MEMORY_MB", "or use --banded")
 
 
 def test_banded_dppla_fits_a_small_memory_budget(tmp_path, capsys, monkeypatch):

@@ -470,7 +470,7 @@ def test_raster_budget_refuses_a_huge_page_at_once_naming_estimate_and_variable(
     assert time.perf_counter() - start < 1.0  # refused before allocating anything
     error = caught.value
     assert error.key == "ink.px_per_mm" and error.value == 10.0
-    assert error.variable == "INKARM_MAX_MEMORY_MB" and error.limit == 2048.0
+    assert error.variable == "INKARM_MAX_MEMORY_MB" and error.limit == 1024.0
     pixels = 1_000_000 * 1_000_000
     assert error.estimate == pytest.approx(RASTER_BYTES_PER_PX * pixels / 2**20)
     message = str(error)
@@ -485,9 +485,11 @@ def test_raster_budget_refuses_a_huge_page_at_once_naming_estimate_and_variable(
 def test_raster_budget_accepts_a_page_within_it_and_a_raised_limit(monkeypatch):
     monkeypatch.delenv("INKARM_MAX_MEMORY_MB", raising=False)
     assert raster_bytes((210.0, 297.0), 10.0) == RASTER_BYTES_PER_PX * 2970 * 2100
-    require_raster_memory((210.0, 297.0), 40.0)  # A4 at the finest resolution a scenario allows
+    require_raster_memory((210.0, 297.0), 30.0)  # A4 at 30 px/mm fits the default 1 GB
+    with pytest.raises(BudgetError, match=r"INKARM_MAX_MEMORY_MB"):  # 40 px/mm: 1.3 GB
+        require_raster_memory((210.0, 297.0), 40.0)
     assert Canvas(size_mm=(210.0, 297.0), px_per_mm=10.0).shape == (2970, 2100)
-    big = ((1000.0, 1000.0), 15.0)  # 225 M pixels: over the default 2048 MB
+    big = ((1000.0, 1000.0), 15.0)  # 225 M pixels: over the default 1024 MB
     with pytest.raises(BudgetError, match=r"INKARM_MAX_MEMORY_MB"):
         require_raster_memory(*big)
     monkeypatch.setenv("INKARM_MAX_MEMORY_MB", str(raster_bytes(*big) / 2**20 + 1.0))
