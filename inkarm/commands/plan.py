@@ -11,7 +11,10 @@ Writes into DIR:
 - ``plan.png`` and ``plan.svg``: targets (1 and 2 sigma ellipses), mean path, samples in
   grey, speed profile beneath.
 
-The schema of FILE is documented in :mod:`inkarm.io.planfile`.
+The schema of FILE is documented in :mod:`inkarm.io.planfile`. Out-of-range numbers and
+jobs beyond the budgets (samples, time steps, memory; :mod:`inkarm.core.budget`) are refused
+before any work with one line naming the file, the key and the setting that raises the limit
+(exit status 2).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.commands import output_folder
+from inkarm.core import budget
 from inkarm.errors import InputError
 
 
@@ -39,7 +43,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         type=int,
         default=None,
         metavar="K",
-        help="samples per stroke (default: the file's 'samples', else 0)",
+        help="samples per stroke, at most INKARM_MAX_SAMPLES (10000) (default: the file's "
+        "'samples', else 0)",
     )
     p.add_argument(
         "--seed",
@@ -58,6 +63,9 @@ def run(args) -> int:
 
     if args.samples is not None and args.samples < 0:
         raise InputError(f"--samples: expected an integer >= 0, got {args.samples}")
+    if args.samples is not None:  # before reading anything (the plan is checked again)
+        budget.require(args.samples, budget.SAMPLES, "samples per stroke", key="--samples",
+                       value=args.samples)
     if args.seed is not None and args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
     plan = load_plan(args.file, seed=args.seed)

@@ -10,8 +10,8 @@ Schema (every key optional unless marked required)::
 
     title   = "Letter A"     # free text
     seed    = 0              # integer >= 0: seeds sampling, semi-tied spreads, human lines
-    samples = 0              # integer >= 0: trajectories to sample per stroke
-    pause   = 0.5            # pen-up time between strokes [s]
+    samples = 0              # integer 0..10000: trajectories to sample per stroke
+    pause   = 0.5            # pen-up time between strokes [s], 0..3600
     cov     = 25.0           # default target covariance (forms below); not with [semi_tied]
 
     [model]                  # LQT settings of every stroke (seed 000; inkarm.models.lqt)
@@ -55,6 +55,14 @@ Schema (every key optional unless marked required)::
     human_line = { squiggle = 3.0 }
     minjerk = { duration = 0.8 }
 
+Ranges (the models' safe arithmetic, see :mod:`inkarm.io.plansections`): coordinates within
++-1e6 mm, std in [1e-6, 1e6] mm, covariance variances (eigenvalues) in [1e-12, 1e12] mm^2 with
+condition number <= 1e12, dt in [1e-4, 1] s, d in [1e-6, 1e6] mm, r in [1e-40, 1e40],
+segment_time, durations, via times and pause up to 3600 s. Budgets (:mod:`inkarm.core.budget`):
+``samples`` at most INKARM_MAX_SAMPLES (10000); when realised, each stroke's time steps at most
+INKARM_MAX_STEPS and the plan's memory at most INKARM_MAX_MEMORY_MB
+(:func:`inkarm.plans.realise.realise_plan`).
+
 Covariance forms: a number (variance, spherical), a list of D variances (diagonal) or a D x D
 symmetric positive definite matrix; or ``std``: a standard deviation [mm] or a list of D of
 them, rotated by ``angle`` [deg, counter-clockwise] in 2-D, Sigma = R diag(std^2) R^T.
@@ -80,11 +88,14 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core import budget
 from inkarm.core.plan import StrokePlan
 from inkarm.io.plansections import (
     HUMAN_LINE_DEFAULTS,
+    MAX_TIME,
     MINJERK_DEFAULTS,
     MODEL_DEFAULTS,
+    in_range,
     read_model,
     read_options,
     read_points,
@@ -246,7 +257,10 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
     file_seed = rd.integer(data.get("seed", 0), "seed", 0)
     seed = file_seed if seed is None else int(seed)
     samples = rd.integer(data.get("samples", 0), "samples", 0)
-    pause = rd.number(data.get("pause", 0.5), "pause", 0.0)
+    budget.require(samples, budget.SAMPLES, "samples per stroke", key="samples", value=samples,
+                   file=source)
+    pause = in_range(rd, rd.number(data.get("pause", 0.5), "pause", 0.0), "pause", 0.0,
+                     MAX_TIME, "s")
     model = read_model(rd, rd.table(data.get("model", {}), "model"), "model", MODEL_DEFAULTS)
     semi_tied = None
     if "semi_tied" in data:

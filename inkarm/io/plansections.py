@@ -2,6 +2,15 @@
 documented there): ``[model]``, ``[semi_tied]``, ``[human_line]``/``[minjerk]``, stroke points,
 and targets with their covariances. Each reader takes the :class:`TomlReader` of the file, the
 raw value and its key, and raises :class:`ScenarioError` naming the file and the key at fault.
+
+Numbers must lie in the ranges where the models' arithmetic is safe, the LQT's
+(:mod:`inkarm.models.lqt.config`): coordinates within +-1e6 mm, standard deviations in
+[1e-6, 1e6] mm, covariances with variances (eigenvalues) in [1e-12, 1e12] mm^2 and condition
+number <= 1e12, dt in [1e-4, 1] s, d in [1e-6, 1e6] mm, r in [1e-40, 1e40], times (segment
+and movement durations, via times) up to 3600 s; semi-tied h in [1e-12, 1e12] mm^2, rho up to
+1e24 mm^4, H entries within +-1e6; human-line squiggle up to 1e6 px and px_mm in [1e-6, 1] mm.
+Each refusal names the key, the range and the value, e.g. ``strokes[0].targets[1].std:
+expected numbers in [1e-06, 1e+06] mm, got 1e+300``.
 """
 
 from __future__ import annotations
@@ -13,6 +22,21 @@ import numpy as np
 from inkarm.core.plan import GaussianTarget, StrokePlan, check_covariance
 from inkarm.errors import InkarmError, PlanError, ScenarioError
 from inkarm.io.toml import TomlReader, describe
+from inkarm.models.covariances import MAX_BASIS
+from inkarm.models.human_line import MAX_SQUIGGLE_PX, PX_MM_RANGE
+from inkarm.models.lqt.config import (
+    D_RANGE,
+    DT_RANGE,
+    MAX_COORDINATE,
+    MAX_TIME,
+    R_RANGE,
+    STD_RANGE,
+    VARIANCE_RANGE,
+    coordinate_error,
+    covariance_error,
+    expected_in,
+    outside,
+)
 
 TARGET_KEYS = ("mean", "cov", "std", "angle")
 MODEL_DEFAULTS = {
@@ -29,6 +53,25 @@ MODEL_DEFAULTS = {
 SEMI_TIED_DEFAULTS = {"H": None, "h": None, "rho": 0.0}
 HUMAN_LINE_DEFAULTS = {"squiggle": 5.0, "px_mm": 25.4 / 300.0, "duration": 2.0}
 MINJERK_DEFAULTS = {"duration": 1.0, "via_times": None}
+MAX_RHO = VARIANCE_RANGE[1] ** 2  # [mm^4]: rho is the variance of h
+
+
+def in_range(rd: TomlReader, value, key: str, low: float, high: float, unit: str) -> float:
+    """A finite number in [low, high], else an error naming the range (``value`` already
+    read by ``rd.number`` or ``rd.array`` for its type)."""
+    bad = outside(value, low, high)
+    if bad is not None:
+        what = "numbers" if np.ndim(value) else "a number"
+        raise rd.error(key, f"{expected_in(low, high, unit, what)}, got {bad:g}", value=bad)
+    return value
+
+
+def coordinates(rd: TomlReader, arr: np.ndarray, key: str) -> np.ndarray:
+    """``arr`` [mm] unless a coordinate is beyond +-MAX_COORDINATE."""
+    message = coordinate_error(arr)
+    if message:
+        raise rd.error(key, message, value=float(outside(arr, -MAX_COORDINATE, MAX_COORDINATE)))
+    return arr
 
 
 def read_model(rd: TomlReader, table: dict, key: str, inherited: dict) -> dict:
@@ -37,14 +80,17 @@ def read_model(rd: TomlReader, table: dict, key: str, inherited: dict) -> dict:
     if "d" in table and "r" in table:
         raise rd.error(key, "give one of d (maximum displacement) and r (control weight), not both")
     if "d" in table:
-        out["d"], out["r"] = rd.number(table["d"], f"{key}.d", 0.0, strict=True), None
+        d = rd.number(table["d"], f"{key}.d", 0.0, strict=True)
+        out["d"], out["r"] = in_range(rd, d, f"{key}.d", *D_RANGE, "mm"), None
     if "r" in table:
-        out["r"], out["d"] = rd.number(table["r"], f"{key}.r", 0.0, strict=True), None
+        r = rd.number(table["r"], f"{key}.r", 0.0, strict=True)
+        out["r"], out["d"] = in_range(rd, r, f"{key}.r", *R_RANGE, "(mm/s^n)^-2"), None
     if "order" in table:
         out["order"] = rd.integer(table["order"], f"{key}.order", 1, 7)
-    for name in ("dt", "segment_time"):
+    for name, (low, high) in (("dt", DT_RANGE), ("segment_time", (0.0, MAX_TIME))):
         if name in table:
-            out[name] = rd.number(table[name], f"{key}.{name}", 0.0, strict=True)
+            value = rd.number(table[name], f"{key}.{name}", 0.0, strict=True)
+            out[name] = in_range(rd, value, f"{key}.{name}", low, high, "s")
     if "discretisation" in table:
         out["discretisation"] = rd.choice(
             table["discretisation"], f"{key}.discretisation", ("euler", "zoh")
@@ -73,12 +119,15 @@ def read_semi_tied(rd: TomlReader, table: dict, key: str, inherited: dict | None
         h = out["H"]
         if h.ndim != 2 or h.shape[0] != h.shape[1] or h.shape[0] not in (2, 3):
             raise rd.error(f"{key}.H", f"expected a 2 x 2 or 3 x 3 matrix, got shape {h.shape}")
+        in_range(rd, h, f"{key}.H", -MAX_BASIS, MAX_BASIS, "")
         if abs(np.linalg.det(h)) <= 1e-12 * max(np.max(np.abs(h)), 1e-300) ** h.shape[0]:
             raise rd.error(f"{key}.H", "the basis is singular (its columns are not independent)")
     if "h" in table:
-        out["h"] = rd.number(table["h"], f"{key}.h", 0.0, strict=True)
+        h = rd.number(table["h"], f"{key}.h", 0.0, strict=True)
+        out["h"] = in_range(rd, h, f"{key}.h", *VARIANCE_RANGE, "mm^2")
     if "rho" in table:
-        out["rho"] = rd.number(table["rho"], f"{key}.rho", 0.0)
+        rho = rd.number(table["rho"], f"{key}.rho", 0.0)
+        out["rho"] = in_range(rd, rho, f"{key}.rho", 0.0, MAX_RHO, "mm^4")
     if out["h"] is None:
         raise rd.error(f"{key}.h", "required: the covariance magnitude in mm^2")
     return out
@@ -90,15 +139,17 @@ def read_options(rd: TomlReader, kind: str, table: dict, key: str, inherited: di
     out = dict(inherited)
     if kind == "human_line":
         if "squiggle" in table:
-            out["squiggle"] = rd.number(table["squiggle"], f"{key}.squiggle", 0.0)
-        for name in ("px_mm", "duration"):
-            if name in table:
-                out[name] = rd.number(table[name], f"{key}.{name}", 0.0, strict=True)
-    else:
-        if "duration" in table:
-            out["duration"] = rd.number(table["duration"], f"{key}.duration", 0.0, strict=True)
-        if "via_times" in table:
-            out["via_times"] = rd.array(table["via_times"], f"{key}.via_times", 1)
+            squiggle = rd.number(table["squiggle"], f"{key}.squiggle", 0.0)
+            out["squiggle"] = in_range(rd, squiggle, f"{key}.squiggle", 0.0, MAX_SQUIGGLE_PX, "px")
+        if "px_mm" in table:
+            px_mm = rd.number(table["px_mm"], f"{key}.px_mm", 0.0, strict=True)
+            out["px_mm"] = in_range(rd, px_mm, f"{key}.px_mm", *PX_MM_RANGE, "mm")
+    if "duration" in table:
+        duration = rd.number(table["duration"], f"{key}.duration", 0.0, strict=True)
+        out["duration"] = in_range(rd, duration, f"{key}.duration", 0.0, MAX_TIME, "s")
+    if kind == "minjerk" and "via_times" in table:
+        via = rd.array(table["via_times"], f"{key}.via_times", 1)
+        out["via_times"] = in_range(rd, via, f"{key}.via_times", 0.0, MAX_TIME, "s")
     return out
 
 
@@ -109,10 +160,22 @@ def _covariance(rd: TomlReader, value, dim: int, key: str) -> np.ndarray:
         arr = rd.array(value, key, 1)
     else:
         arr = np.asarray(rd.number(value, key))
+    big = outside(arr, -VARIANCE_RANGE[1], VARIANCE_RANGE[1])
+    if big is not None:  # before any arithmetic on it
+        raise rd.error(key, f"{expected_in(*VARIANCE_RANGE, 'mm^2', 'variances')} (std "
+                       f"{STD_RANGE[0]:g} to {STD_RANGE[1]:g} mm), got {big:g}", value=big)
     try:
-        return check_covariance(arr, dim, f"{rd.source}: {key}")
+        cov = check_covariance(arr, dim, f"{rd.source}: {key}")
     except PlanError as e:
         raise ScenarioError(str(e)) from None
+    return _in_covariance_range(rd, cov, key)
+
+
+def _in_covariance_range(rd: TomlReader, cov: np.ndarray, key: str) -> np.ndarray:
+    message = covariance_error(cov)
+    if message:
+        raise rd.error(key, message, value=cov)
+    return cov
 
 
 def _std_covariance(rd: TomlReader, target: dict, dim: int, key: str) -> np.ndarray:
@@ -125,6 +188,7 @@ def _std_covariance(rd: TomlReader, target: dict, dim: int, key: str) -> np.ndar
         std = np.full(dim, rd.number(std_value, f"{key}.std"))
     if np.any(std <= 0):
         raise rd.error(f"{key}.std", f"standard deviations must be positive, got {std.tolist()}")
+    in_range(rd, std, f"{key}.std", *STD_RANGE, "mm")
     cov = np.diag(std**2)
     if "angle" in target:
         if dim != 2:
@@ -132,7 +196,8 @@ def _std_covariance(rd: TomlReader, target: dict, dim: int, key: str) -> np.ndar
         a = math.radians(rd.number(target["angle"], f"{key}.angle"))
         rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
         cov = rot @ cov @ rot.T  # seed 000 eq. 8
-    return cov
+        cov = 0.5 * (cov + cov.T)
+    return _in_covariance_range(rd, cov, f"{key}.std")
 
 
 def read_points(rd: TomlReader, value, key: str) -> np.ndarray:
@@ -143,7 +208,7 @@ def read_points(rd: TomlReader, value, key: str) -> np.ndarray:
         raise rd.error(key, f"expected at least 2 points, got {pts.shape[0]}")
     if pts.shape[1] not in (2, 3):
         raise rd.error(key, f"points must have 2 or 3 coordinates, got {pts.shape[1]}")
-    return pts
+    return coordinates(rd, pts, key)
 
 
 def _generated_covariances(
@@ -162,6 +227,8 @@ def _generated_covariances(
         )
     except InkarmError as e:
         raise rd.error(key, str(e)) from None
+    for cov in covs:
+        _in_covariance_range(rd, cov, key)
     return np.asarray(covs, dtype=float)
 
 
@@ -192,6 +259,7 @@ def read_targets(
         mean = rd.array(target["mean"], f"{tkey}.mean", 1)
         if mean.shape[0] not in (2, 3):
             raise rd.error(f"{tkey}.mean", f"expected 2 or 3 coordinates, got {mean.shape[0]}")
+        coordinates(rd, mean, f"{tkey}.mean")
         if means and mean.shape[0] != means[0].shape[0]:
             raise rd.error(
                 f"{tkey}.mean",

@@ -25,20 +25,31 @@ Choices where the thesis is loose, stated here once:
   in the speed, because a cubic spline through samples of a quintic is not that quintic.)
 
 Units: positions in [mm], times in [s]; squiggle in pixels of size ``px_mm``.
+
+Ranges: points within +-1e6 mm (as the LQT's means, :mod:`inkarm.models.lqt.config`),
+duration up to 3600 s, squiggle up to 1e6 px, px_mm in [1e-6, 1] mm. A line has
+ceil(duration / dt) + 1 samples, a polyline of m points (m - 1) ceil(duration / dt) + 1
+(:func:`step_count`); its work, those plus 641 arc-length samples per line
+(:func:`sample_count`), is checked against INKARM_MAX_STEPS (:mod:`inkarm.core.budget`)
+before anything is computed.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from inkarm.core import budget
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
+from inkarm.models.lqt.config import MAX_TIME, coordinate_error, expected_in
 from inkarm.models.minjerk import minimum_jerk_profile
 
 THESIS_CLOCK = 2.0  # seed 002 sec. 3.2: t in [0, 2]
 DEFAULT_PX_MM = 25.4 / 300.0  # one pixel of a 300 dpi scan, in [mm]
 DEFAULT_SQUIGGLE_PX = 5.0  # seed 002 sec. 3.2.1: D in [-5, 5]
 ARC_SAMPLES_PER_SEGMENT = 64  # resolution of the arc-length table of the spline
+MAX_SQUIGGLE_PX = 1e6
+PX_MM_RANGE = (1e-6, 1.0)  # [mm]: 25400 dpi .. 25.4 dpi
 
 # seed 002 Table 3.1: (upper bound of the line length in px, time step Delta t)
 TIME_STEP_TABLE = ((200.0, 0.5), (400.0, 0.3), (np.inf, 0.2))
@@ -59,16 +70,59 @@ def _rng(rng) -> np.random.Generator:
 
 
 def _check_params(squiggle: float, px_mm: float, duration: float, dt: float) -> None:
-    for name, value, low_ok in (
-        ("squiggle", squiggle, True),
-        ("px_mm", px_mm, False),
-        ("duration", duration, False),
-        ("dt", dt, False),
+    for name, value, low_ok, high, unit in (
+        ("squiggle", squiggle, True, MAX_SQUIGGLE_PX, "px"),
+        ("px_mm", px_mm, False, PX_MM_RANGE[1], "mm"),
+        ("duration", duration, False, MAX_TIME, "s"),
+        ("dt", dt, False, MAX_TIME, "s"),
     ):
-        v = float(value)
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            v = np.nan
         if not np.isfinite(v) or v < 0 or (v == 0 and not low_ok):
             kind = "non-negative" if low_ok else "positive"
             raise InputError(f"must be a {kind} number, got {value}", key=name, value=value)
+        low = PX_MM_RANGE[0] if name == "px_mm" else 0.0
+        if not low <= v <= high:
+            raise InputError(f"{expected_in(low, high, unit, 'a number')}, got {v:g}", key=name,
+                             value=value)
+
+
+def step_count(lines: int, duration: float, dt: float) -> int:
+    """Samples of a polyline of ``lines`` lines of ``duration`` [s] sampled every ``dt`` [s]:
+    lines ceil(duration / dt) + 1 (consecutive lines share their joint)."""
+    return int(lines) * max(int(np.ceil(duration / dt - 1e-9)), 1) + 1
+
+
+ARC_TABLE = ARC_SAMPLES_PER_SEGMENT * round(THESIS_CLOCK / TIME_STEP_TABLE[-1][1]) + 1
+
+
+def sample_count(lines: int, duration: float, dt: float) -> int:
+    """Spline evaluations of a polyline, the measure of its work that is checked against
+    INKARM_MAX_STEPS: per line its ceil(duration / dt) + 1 time steps plus at most
+    :data:`ARC_TABLE` (641) samples of its arc-length table. (About 1 ms per line of a few
+    hundred steps, so that the budget also bounds polylines of many short lines.)"""
+    return int(lines) * (max(int(np.ceil(duration / dt - 1e-9)), 1) + 1 + ARC_TABLE)
+
+
+def check_polyline(lines: int, squiggle: float, px_mm: float, duration: float,
+                   dt: float) -> None:
+    """Check the settings of a polyline of ``lines`` lines against their ranges and its work
+    (:func:`sample_count`) against INKARM_MAX_STEPS, before anything is computed."""
+    _check_params(squiggle, px_mm, duration, dt)
+    _require_steps(lines, duration, dt)
+
+
+def _require_steps(lines: int, duration: float, dt: float) -> None:
+    budget.require(
+        sample_count(lines, duration, dt),
+        budget.STEPS,
+        f"time steps of the human line ({lines} line{'' if lines == 1 else 's'} x (duration "
+        f"{duration:g} s / dt {dt:g} s + {ARC_TABLE} arc-length samples))",
+        key="dt",
+        value=dt,
+    )
 
 
 def _normal(direction: np.ndarray) -> np.ndarray:
@@ -104,6 +158,9 @@ def control_points(
     for name, p, value in (("start", p0, start), ("end", p1, end)):
         if not np.all(np.isfinite(p)):
             raise InputError(f"NaN or inf in {p.tolist()}", key=name, value=value)
+        message = coordinate_error(p)
+        if message:
+            raise InputError(message, key=name, value=value)
     _check_params(squiggle, px_mm, 1.0, 1.0)
     length_px = float(np.linalg.norm(p1 - p0)) / px_mm
     n = round(THESIS_CLOCK / time_step_for_length(length_px))
@@ -153,7 +210,7 @@ def human_line(
     ``rng`` is a numpy Generator or a seed: the same seed gives the same line. Sampled every
     ``dt`` [s] (the last step may be shorter) with the spline's exact velocity.
     """
-    _check_params(squiggle, px_mm, duration, dt)
+    check_polyline(1, squiggle, px_mm, duration, dt)
     _, points = control_points(start, end, rng, squiggle, px_mm)
     steps = max(int(np.ceil(duration / dt - 1e-9)), 1)
     t = np.minimum(np.arange(steps + 1) * dt, duration)
@@ -190,6 +247,7 @@ def human_polyline(
         raise InputError(
             f"expected points of shape (m >= 2, D), got {p.shape}", key="points", value=points
         )
+    check_polyline(p.shape[0] - 1, squiggle, px_mm, duration, dt)
     gen = _rng(rng)
     ts, poss, vels = [], [], []
     for k in range(p.shape[0] - 1):

@@ -16,14 +16,17 @@ give the same samples.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
+from inkarm.core import budget
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InkarmError, ScenarioError
 from inkarm.io.planfile import PlanFile, PlannedStroke, stroke_seeds
-from inkarm.models.human_line import human_polyline
+from inkarm.io.plansections import MODEL_DEFAULTS
+from inkarm.models.human_line import check_polyline, human_polyline, step_count
 from inkarm.models.minjerk import via_points
 
 
@@ -61,6 +64,41 @@ class PlanResult:
         }
 
 
+def stroke_size(stroke: PlannedStroke, samples: int) -> tuple[int, float]:
+    """(N, peak bytes) of realising ``stroke`` with K = ``samples`` samples, without doing it:
+    N its time steps, checked against INKARM_MAX_STEPS, and the memory its model needs while
+    it runs, its results included (see :func:`plan_bytes` for the formulas)."""
+    dt, dim = stroke.model["dt"], stroke.dim
+    if stroke.kind in ("gaussian", "keypoints"):
+        from inkarm.models.lqt import cost
+        from inkarm.models.lqt.problem import sizing
+
+        size = sizing(stroke.plan, stroke.lqt_config())
+        n = size.n_steps
+        model = size.solve_bytes + cost.sample_bytes(
+            samples, n, dim, size.method, stroke.model["sampling"]
+        )
+        return n, model + _kept(n, samples, dim)
+    opts = stroke.options
+    lines = stroke.points.shape[0] - 1
+    if stroke.kind == "human_line":
+        check_polyline(lines, opts["squiggle"], opts["px_mm"], opts["duration"], dt)
+        n = step_count(lines, opts["duration"], dt)
+        return n, 8.0 * (samples + 1) * n * (1 + 2 * dim) + 8.0 * samples * n * dim
+    n = step_count(1, opts["duration"], dt)
+    budget.require(
+        n, budget.STEPS,
+        f"time steps of the minimum-jerk stroke (duration {opts['duration']:g} s / dt {dt:g} s)",
+        key="dt", value=dt,
+    )
+    return n, 8.0 * 3 * (6 * lines) ** 2 + 8.0 * 3 * n * (1 + 2 * dim) + 8.0 * samples * n * dim
+
+
+def _kept(n: int, samples: int, dim: int) -> float:
+    """Bytes of a realised stroke: mean (t, pos, vel) and K sampled paths."""
+    return 8.0 * n * (1 + 2 * dim + samples * dim)
+
+
 def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResult:
     """Turn one stroke into its mean trajectory and ``samples`` sampled trajectories, drawn
     from the stroke's ``samples`` stream of the plan ``seed`` (:func:`stroke_seeds`)."""
@@ -69,16 +107,12 @@ def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResu
     if stroke.kind in ("gaussian", "keypoints"):
         from inkarm.models import lqt
 
-        cfg = stroke.lqt_config()
-        mean = lqt.solve(stroke.plan, cfg)
+        model = lqt.LQT(stroke.plan, stroke.lqt_config())  # factorised once, for both
+        mean = model.mean()
         if samples > 0:
             pos = np.asarray(
-                lqt.sample(
-                    stroke.plan,
-                    cfg,
-                    k=samples,
-                    seed=np.random.default_rng(stream),
-                    method=stroke.model["sampling"],
+                model.sample(
+                    samples, seed=np.random.default_rng(stream), method=stroke.model["sampling"]
                 ),
                 dtype=float,
             )
@@ -100,16 +134,78 @@ def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResu
     return StrokeResult(stroke=stroke, mean=mean, samples=pos)
 
 
+def plan_bytes(sizes: list[tuple[int, float]], samples: int, dim: int) -> float:
+    """Estimated peak memory of realising a plan whose strokes have ``sizes`` (N_i, peak_i)
+    (:func:`stroke_size`) with K = ``samples``, then stacking its samples: the larger of
+
+        max_i (kept_1 + ... + kept_(i-1) + peak_i)    while stroke i is realised
+        kept_1 + ... + kept_m + 8 K D sum_i N_i       the results and the stacked samples
+
+    with kept_i = 8 N_i (1 + 2 D + K D), a realised stroke's mean (t, pos, vel) and samples.
+    The peak of a stroke, its results included: LQT :func:`inkarm.models.lqt.cost.solve_bytes`
+    + :func:`~inkarm.models.lqt.cost.sample_bytes` + kept_i; human line
+    8 (K + 1) N (1 + 2 D) + 8 K N D (K + 1 polylines, then their stacked positions); minimum
+    jerk 24 (6 (m - 1))^2 (its dense linear system) + 24 N (1 + 2 D) + 8 K N D. Within 0.85x
+    to 1.6x of the peaks measured with tracemalloc for plans of each kind (test_realise.py).
+    """
+    kept = [_kept(n, samples, dim) for n, _ in sizes]
+    during = max(sum(kept[:i]) + peak for i, (_, peak) in enumerate(sizes))
+    after = sum(kept) + 8.0 * samples * dim * sum(n for n, _ in sizes)
+    return max(during, after)
+
+
 def realise_plan(plan: PlanFile, samples: int | None = None) -> PlanResult:
-    """Realise every stroke of ``plan`` with ``samples`` samples each (default: the file's)."""
+    """Realise every stroke of ``plan`` with ``samples`` samples each (default: the file's).
+
+    Before any work: K against INKARM_MAX_SAMPLES, every stroke's time steps against
+    INKARM_MAX_STEPS and the memory of the whole (:func:`plan_bytes`) against
+    INKARM_MAX_MEMORY_MB (:mod:`inkarm.core.budget`); errors name the file and the stroke.
+    """
     k = plan.samples if samples is None else int(samples)
+    key = "samples"
     if k < 0:
-        raise ScenarioError(f"{plan.source}: samples must be >= 0, got {k}")
+        raise ScenarioError(f"expected an integer >= 0, got {k}", file=plan.source, key=key,
+                            value=k)
+    budget.require(k, budget.SAMPLES, "samples per stroke", key=key, value=k, file=plan.source)
+    sizes, bare = [], []  # with K samples, and with none
+    for stroke in plan.strokes:
+        with _naming(plan, stroke):
+            sizes.append(stroke_size(stroke, k))
+            bare.append(stroke_size(stroke, 0))
+    total = plan_bytes(sizes, k, plan.dim)
+    if plan_bytes(bare, 0, plan.dim) <= budget.MEMORY_MB.value * budget.MB:  # the samples
+        where = {"key": key, "value": k}
+    else:  # the strokes themselves: the biggest one
+        where = {"key": f"strokes[{int(np.argmax([peak for _, peak in bare]))}]"}
+    budget.require_memory(
+        total,
+        f"memory of realising the plan ({_count(len(sizes), 'stroke')}, "
+        f"{_count(sum(n for n, _ in sizes), 'time step')}, {_count(k, 'sample')} each)",
+        file=plan.source, **where,
+    )
     results = []
     for stroke in plan.strokes:
-        try:
+        with _naming(plan, stroke):
             results.append(realise_stroke(stroke, k, plan.seed))
-        except InkarmError as e:
-            raise type(e)(f"{plan.source}: strokes[{stroke.index}]: {e}") from None
     drawing = Drawing([r.mean for r in results]).sequential(pause=plan.pause)
     return PlanResult(plan=plan, strokes=tuple(results), drawing=drawing)
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+@contextmanager
+def _naming(plan: PlanFile, stroke: PlannedStroke):
+    """Errors of a stroke's model name the plan file and ``strokes[i]``, with the settings as
+    the file spells them: ``strokes[i].model.dt``, ``strokes[i].human_line.duration``."""
+    try:
+        yield
+    except InkarmError as e:
+        where = f"strokes[{stroke.index}]"
+        name = e.key.split(".")[0] if e.key else None
+        if name in MODEL_DEFAULTS:
+            where += ".model"
+        elif name in stroke.options:  # human_line or minjerk settings
+            where += f".{stroke.kind}"
+        raise e.within(file=plan.source, key=where) from None

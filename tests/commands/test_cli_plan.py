@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -105,6 +106,65 @@ def test_bad_input_exits_2_with_the_message(tmp_path, capsys, content, args, mes
     assert err.startswith("inkarm plan: error: ")
     assert re.search(message, err)
     assert "Traceback" not in err
+
+
+THREE_TARGETS = """
+[[strokes]]
+targets = [{ mean = [0.0, 0.0] }, { mean = [10.0, 20.0] }, { mean = [20.0, 0.0] }]
+"""
+HOSTILE = [
+    # (plan, args, message): each refused with one line naming the file and key, exit 2
+    (TWO_STROKES, ["--samples", "1000000"],
+     (r"--samples: samples per stroke: about 1e\+06 samples, more than the limit of 1e\+04 "
+     r"samples \(raise it with the environment variable INKARM_MAX_SAMPLES\)")),
+    ("samples = 1000000\n" + TWO_STROKES, [], r"plan.toml: samples: .*INKARM_MAX_SAMPLES"),
+    ("cov = 4.0\n[model]\ndt = 0.0001\nsegment_time = 3600.0\n" + THREE_TARGETS, [],
+     (r"plan.toml: strokes\[0\]\.model\.dt: time steps of the stroke \(3 x segment_time 3600 s / "
+     r"dt 0.0001 s\): about 1\.08e\+08 time steps, .*INKARM_MAX_STEPS")),
+    ("cov = 4.0\n[model]\ndt = 1e-9\n" + THREE_TARGETS, [],
+     r"plan.toml: model.dt: expected a number in \[0.0001, 1\] s, got 1e-09"),
+    (("[[strokes]]\ntargets = [{ mean = [1e300, 0.0], cov = 1.0 }, "
+     "{ mean = [-1e300, 0.0], cov = 1.0 }]\n"),
+     [], (r"plan.toml: strokes\[0\].targets\[0\].mean: expected coordinates in \[-1e\+06, "
+     r"1e\+06\] mm, got 1e\+300")),
+    ("[model]\nd = 1e-300\n[[strokes]]\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }]\n", [],
+     r"plan.toml: model.d: expected a number in \[1e-06, 1e\+06\] mm, got 1e-300"),
+    ("[[strokes]]\ntargets = [{ mean = [0.0, 0.0], std = 1e300 }]\n", [],
+     (r"plan.toml: strokes\[0\].targets\[0\].std: expected numbers in \[1e-06, 1e\+06\] mm, "
+     r"got 1e\+300")),
+    ("[[strokes]]\ntargets = [{ mean = [0.0, 0.0], cov = [[1e200, 0.0], [0.0, 1e-200]] }]\n", [],
+     r"plan.toml: strokes\[0\].targets\[0\].cov: expected variances .*got 1e\+200"),
+    ("[semi_tied]\nh = 1e300\n[[strokes]]\ntargets = [{ mean = [0.0, 0.0] }]\n", [],
+     r"plan.toml: semi_tied.h: expected a number in \[1e-12, 1e\+12\] mm\^2, got 1e\+300"),
+    (("[[strokes]]\nkind = 'human_line'\npoints = [[0.0, 0.0], [1.0, 0.0]]\n"
+     "human_line = { duration = 1e300 }\n"), [],
+     r"plan.toml: strokes\[0\].human_line.duration: expected a number in \[0, 3600\] s"),
+    (("samples = 10000\n[model]\ndt = 0.001\n[[strokes]]\nkind = 'minjerk'\n"
+     "points = [[0.0, 0.0], [1.0, 0.0]]\nminjerk = { duration = 100.0 }\n"), [],
+     r"plan.toml: samples: memory of realising the plan .*INKARM_MAX_MEMORY_MB"),
+]
+
+
+@pytest.mark.parametrize(("content", "args", "message"), HOSTILE)
+def test_hostile_input_exits_2_with_one_line_quickly(tmp_path, capsys, content, args, message):
+    path = tmp_path / "plan.toml"
+    path.write_text(content)
+    start = time.perf_counter()
+    assert main(["plan", str(path), "--out", str(tmp_path / "out"), *args]) == 2
+    assert time.perf_counter() - start < 2.0
+    err = capsys.readouterr().err
+    assert err.startswith("inkarm plan: error: ") and err.count("\n") == 1
+    assert re.search(message, err), err
+    assert "Traceback" not in err and not (tmp_path / "out").exists()
+
+
+def test_raising_the_sample_limit_lets_samples_through(plan_file, tmp_path, monkeypatch):
+    monkeypatch.setenv("INKARM_MAX_SAMPLES", "3")
+    assert main(["plan", str(plan_file), "--out", str(tmp_path / "a"), "--samples", "4",
+                 "--no-figure"]) == 2
+    monkeypatch.setenv("INKARM_MAX_SAMPLES", "4")
+    assert main(["plan", str(plan_file), "--out", str(tmp_path / "b"), "--samples", "4",
+                 "--no-figure"]) == 0
 
 
 def test_out_must_be_a_directory(plan_file, tmp_path, capsys):

@@ -300,6 +300,104 @@ BAD_CASES = [
         ),
         r"strokes\[0\].semi_tied.H: is 3 x 3 but the targets are 2-D",
     ),
+    # numbers out of range: each names the key, the range and the value
+    (
+        with_target("std = 1e300"),
+        (r"plan.toml: strokes\[0\].targets\[1\].std: expected numbers in \[1e-06, 1e\+06\] mm, "
+        r"got 1e\+300$"),
+    ),
+    (with_target("std = [2.0, 1e-300]"), r"targets\[1\].std: expected numbers .*got 1e-300$"),
+    (
+        with_target("std = [1e-6, 1e5]"),
+        r"targets\[1\].std: condition number 1e\+22 .*more than 1e\+12: nearly singular",
+    ),
+    (
+        with_target("cov = 1e300"),
+        (r"targets\[1\].cov: expected variances in \[1e-12, 1e\+12\] mm\^2 \(std 1e-06 to "
+        r"1e\+06 mm\), got 1e\+300$"),
+    ),
+    (
+        with_target("cov = [[1e200, 0.0], [0.0, 1e-200]]"),
+        r"targets\[1\].cov: expected variances .*got 1e\+200$",
+    ),
+    (
+        with_target("cov = 1e-300"),
+        (r"targets\[1\].cov: expected variances \(eigenvalues\) in \[1e-12, 1e\+12\] mm\^2 .*"
+        r"got 1e-300$"),
+    ),
+    (
+        with_target("cov = [[1e6, 999999.9999999], [999999.9999999, 1e6]]"),
+        r"targets\[1\].cov: condition number .*nearly singular",
+    ),
+    (
+        "[[strokes]]\ntargets = [{ mean = [1e300, 0.0], cov = 1.0 }]\n",
+        (r"strokes\[0\].targets\[0\].mean: expected coordinates in \[-1e\+06, 1e\+06\] mm, "
+        r"got 1e\+300$"),
+    ),
+    (
+        "[[strokes]]\nkind = 'human_line'\npoints = [[0.0, 0.0], [0.0, -1e7]]\n",
+        r"strokes\[0\].points: expected coordinates .*got -1e\+07$",
+    ),
+    (
+        "[model]\ndt = 1e-6\n" + with_target("cov = 1.0"),
+        r"model.dt: expected a number in \[0.0001, 1\] s, got 1e-06$",
+    ),
+    ("[model]\ndt = 2.0\n" + with_target("cov = 1.0"), r"model.dt: .*\[0.0001, 1\] s, got 2$"),
+    (
+        "[model]\nd = 1e-300\n" + with_target("cov = 1.0"),
+        r"model.d: expected a number in \[1e-06, 1e\+06\] mm, got 1e-300$",
+    ),
+    (
+        "[[strokes]]\nmodel = { d = 1e300 }\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }]\n",
+        r"strokes\[0\].model.d: expected a number in \[1e-06, 1e\+06\] mm, got 1e\+300$",
+    ),
+    (
+        "[model]\nr = 1e-300\n" + with_target("cov = 1.0"),
+        r"model.r: expected a number in \[1e-40, 1e\+40\] \(mm/s\^n\)\^-2, got 1e-300$",
+    ),
+    (
+        "[model]\nsegment_time = 1e5\n" + with_target("cov = 1.0"),
+        r"model.segment_time: expected a number in \[0, 3600\] s, got 100000$",
+    ),
+    ("pause = 1e300\n" + with_target("cov = 1.0"), r"pause: expected a number in \[0, 3600\] s"),
+    (
+        "[human_line]\nduration = 1e300\n" + with_target("cov = 1.0"),
+        r"human_line.duration: expected a number in \[0, 3600\] s, got 1e\+300$",
+    ),
+    (
+        "[human_line]\nsquiggle = 1e300\n" + with_target("cov = 1.0"),
+        r"human_line.squiggle: expected a number in \[0, 1e\+06\] px",
+    ),
+    (
+        "[human_line]\npx_mm = 10.0\n" + with_target("cov = 1.0"),
+        r"human_line.px_mm: expected a number in \[1e-06, 1\] mm, got 10$",
+    ),
+    (
+        "[minjerk]\nvia_times = [1e300]\n" + with_target("cov = 1.0"),
+        r"minjerk.via_times: expected numbers in \[0, 3600\] s, got 1e\+300$",
+    ),
+    (
+        ("[[strokes]]\nkind = 'minjerk'\npoints = [[0.0, 0.0], [1.0, 1.0]]\n"
+        "minjerk = { duration = 1e4 }\n"),
+        r"strokes\[0\].minjerk.duration: expected a number in \[0, 3600\] s, got 10000$",
+    ),
+    (
+        "[semi_tied]\nh = 1e300\n" + with_target("cov = 1.0"),
+        r"semi_tied.h: expected a number in \[1e-12, 1e\+12\] mm\^2, got 1e\+300$",
+    ),
+    (
+        "[semi_tied]\nh = 1.0\nrho = 1e300\n" + with_target("cov = 1.0"),
+        r"semi_tied.rho: expected a number in \[0, 1e\+24\] mm\^4",
+    ),
+    (
+        "[semi_tied]\nh = 1.0\nH = [[1e300, 0.0], [0.0, 1.0]]\n" + with_target("cov = 1.0"),
+        r"semi_tied.H: expected numbers in \[-1e\+06, 1e\+06\], got 1e\+300$",
+    ),
+    (
+        ("[[strokes]]\nsemi_tied = { h = 1e12, H = [[1e3, 0.0], [0.0, 1.0]] }\n"
+        "targets = [{ mean = [0.0, 0.0] }]\n"),
+        r"strokes\[0\].semi_tied: expected variances \(eigenvalues\) .*got 1e\+18$",
+    ),
     # mixed dimensions across strokes
     (
         (
@@ -323,3 +421,33 @@ def test_nan_in_toml_is_refused_everywhere():
         ScenarioError, match=r"strokes\[0\].targets\[0\].mean\[0\]: expected a finite number"
     ):
         parse("[[strokes]]\ntargets = [{ mean = [nan, 0.0], cov = 1.0 }]\n")
+
+
+def test_an_overflowing_std_names_the_std_not_a_missing_covariance():
+    """std = 1e300 was reported as if no covariance had been given."""
+    with pytest.raises(ScenarioError) as info:
+        parse("[[strokes]]\ntargets = [{ mean = [0.0, 0.0], std = 1e300 }]\n")
+    assert info.value.key == "strokes[0].targets[0].std"
+    assert info.value.file == "plan.toml" and info.value.value == 1e300
+    assert "no covariance" not in str(info.value)
+
+
+def test_samples_beyond_the_budget_are_refused_naming_the_setting(monkeypatch):
+    from inkarm.core.budget import BudgetError
+
+    text = "samples = 1000000\n" + with_target("cov = 1.0")
+    with pytest.raises(BudgetError, match=r"plan.toml: samples: samples per stroke: about 1e\+06 "
+                       r"samples, more than the limit of 1e\+04 samples \(raise it with the "
+                       r"environment variable INKARM_MAX_SAMPLES\)"):
+        parse(text)
+    monkeypatch.setenv("INKARM_MAX_SAMPLES", "2e6")
+    assert parse(text).samples == 1_000_000  # read; nothing sampled
+
+
+def test_numbers_at_the_ends_of_the_ranges_are_accepted():
+    plan = parse(
+        "pause = 3600.0\n[model]\ndt = 0.0001\nd = 1e-6\nsegment_time = 0.001\n"
+        "[[strokes]]\ntargets = [{ mean = [-1e6, 1e6], std = [1e-6, 1e-6] }, "
+        "{ mean = [0.0, 0.0], cov = 1e12 }]\n"
+    )
+    assert plan.strokes[0].model["d"] == 1e-6 and plan.pause == 3600.0

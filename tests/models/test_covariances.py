@@ -37,6 +37,12 @@ def test_still_exported_by_lqt():
         ((3, np.eye(2), 1.0), {"rho": -1.0}, "rho", "rho: must be >= 0, got -1.0"),
         ((3, np.eye(2), 1.0), {"rho": "x"}, "rho", "rho: expected a number"),
         ((0, np.eye(2), 1.0), {}, "m", "m: expected a positive integer"),
+        # out of range: refused before h H H^T could overflow
+        ((3, np.eye(2), 1e300), {}, "h", (r"h: expected a number in \[1e-12, 1e\+12\] mm\^2, "
+         r"got 1e\+300")),
+        ((3, np.eye(2), 1.0), {"rho": 1e300}, "rho", r"rho: expected a number in \[0, 1e\+24\]"),
+        ((3, [[1e300, 0.0], [0.0, 1.0]], 1.0), {}, "H",
+         r"H: expected entries in \[-1e\+06, 1e\+06\], got 1e\+300"),
     ],
 )
 def test_errors_name_the_argument(args, kwargs, key, match):

@@ -142,3 +142,41 @@ def test_errors_name_the_argument():
         hl.catmull_rom([1.0, 2.0], [0.0])
     with pytest.raises(InputError, match="length_px: expected a finite number of pixels"):
         hl.time_step_for_length(np.nan)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "key", "match"),
+    [
+        ({"start": [1e300, 0.0]}, "start",
+         r"start: expected coordinates in \[-1e\+06, 1e\+06\] mm, got 1e\+300"),
+        ({"end": [0.0, -2e6]}, "end", r"end: expected coordinates .*got -2e\+06"),
+        ({"duration": 1e5}, "duration",
+         r"duration: expected a number in \[0, 3600\] s, got 100000"),
+        ({"squiggle": 1e300}, "squiggle", r"squiggle: expected a number in \[0, 1e\+06\] px"),
+        ({"px_mm": 1e-300}, "px_mm", r"px_mm: expected a number in \[1e-06, 1\] mm, got 1e-300"),
+    ],
+)
+def test_numbers_out_of_range_are_refused(kwargs, key, match):
+    args = {"start": [0.0, 0.0], "end": [10.0, 0.0], **kwargs}
+    with pytest.raises(InputError, match=match) as info:
+        hl.human_line(args.pop("start"), args.pop("end"), **args)
+    assert info.value.key == key
+
+
+def test_step_budget_is_checked_before_any_work(monkeypatch):
+    import time
+
+    from inkarm.core.budget import BudgetError
+
+    start = time.perf_counter()
+    with pytest.raises(BudgetError, match=r"dt: time steps of the human line \(1 line x "
+                       r"\(duration 3600 s / dt 1e-06 s \+ 641 arc-length samples\)\): about "
+                       r"3\.6e\+09 time steps, .*INKARM_MAX_STEPS"):
+        hl.human_line([0, 0], [10, 0], duration=3600.0, dt=1e-6)
+    # many short lines: each costs its arc-length table (about 1 ms), so they count too
+    with pytest.raises(BudgetError, match=r"\(2000 lines x .*INKARM_MAX_STEPS"):
+        hl.human_polyline(np.cumsum(np.ones((2001, 2)), axis=0), duration=0.01, dt=0.01)
+    assert time.perf_counter() - start < 2.0
+    assert hl.sample_count(2000, 0.01, 0.01) == 2000 * (1 + 1 + 641)
+    monkeypatch.setenv("INKARM_MAX_STEPS", "1e10")
+    hl.check_polyline(1, 5.0, hl.DEFAULT_PX_MM, 3600.0, 1e-6)  # passes; the job is not run

@@ -3,14 +3,17 @@ that name the stroke, independent and reproducible random streams."""
 
 from __future__ import annotations
 
+import time
 import tomllib
+import tracemalloc
 
 import numpy as np
 import pytest
 
+from inkarm.core.budget import BudgetError
 from inkarm.errors import InkarmError
 from inkarm.io.planfile import STREAMS, parse_plan, stroke_seeds
-from inkarm.plans.realise import realise_plan
+from inkarm.plans.realise import plan_bytes, realise_plan, stroke_size
 
 BASIC = """
 title = "two strokes"
@@ -77,7 +80,10 @@ def test_solver_errors_name_the_stroke():
         "[model]\norder = 6\ndt = 0.1\nsegment_time = 0.1\n"
         "[[strokes]]\ntargets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [1.0, 0.0], cov = 1.0 }]\n"
     )
-    with pytest.raises(InkarmError, match=r"plan.toml: strokes\[0\]: .*order 6 needs at least 7"):
+    with pytest.raises(
+        InkarmError,
+        match=r"plan.toml: strokes\[0\]\.model\.segment_time: .*order 6 needs at least 7",
+    ):
         realise_plan(plan)
 
 
@@ -105,7 +111,7 @@ def test_covariance_draws_and_samples_use_independent_streams(monkeypatch):
         return wrapped
 
     monkeypatch.setattr(lqt, "semi_tied_covariances", spy("covariances", lqt.semi_tied_covariances))
-    monkeypatch.setattr(lqt, "sample", spy("samples", lqt.sample))
+    monkeypatch.setattr(lqt.LQT, "sample", spy("samples", lqt.LQT.sample))
     realise_plan(parse(SPREAD))
     assert set(seen) == set(STREAMS)
     assert seen["covariances"] != seen["samples"]  # the same seed gave both the same stream
@@ -126,3 +132,87 @@ def test_plans_and_samples_are_reproducible_per_seed():
     np.testing.assert_array_equal(first.plan.strokes[0].plan.covs, again.plan.strokes[0].plan.covs)
     other = realise_plan(parse(SPREAD, seed=8))
     assert not np.allclose(other.strokes[0].samples, first.strokes[0].samples)
+
+
+# -- budgets: refused before any work, naming the file, the stroke and the setting ---------------
+
+HUGE = {
+    "gaussian": "cov = 4.0\n[model]\ndt = 0.0001\nsegment_time = 3600.0\n[[strokes]]\n"
+    "targets = [{ mean = [0.0, 0.0] }, { mean = [1.0, 0.0] }]\n",
+    "human_line": "[model]\ndt = 0.0001\n[[strokes]]\nkind = 'human_line'\n"
+    "points = [[0.0, 0.0], [10.0, 0.0]]\nhuman_line = { duration = 3600.0 }\n",
+    "minjerk": "[model]\ndt = 0.0001\n[[strokes]]\nkind = 'minjerk'\n"
+    "points = [[0.0, 0.0], [10.0, 0.0]]\nminjerk = { duration = 3600.0 }\n",
+}
+
+
+@pytest.mark.parametrize("kind", sorted(HUGE))
+def test_huge_step_counts_are_refused_before_any_work(kind, monkeypatch):
+    plan = parse(HUGE[kind])
+    start = time.perf_counter()
+    with pytest.raises(BudgetError, match=r"^plan.toml: strokes\[0\]\.model\.dt: time steps of "
+                       r".*about [\d.]+e\+07 time steps, more than the limit of 1e\+06 time steps "
+                       r"\(raise it with the environment variable INKARM_MAX_STEPS\)") as info:
+        realise_plan(plan)
+    assert time.perf_counter() - start < 2.0
+    assert info.value.key == "strokes[0].model.dt" and info.value.file == "plan.toml"
+    monkeypatch.setenv("INKARM_MAX_STEPS", "1e8")
+    n, _ = stroke_size(plan.strokes[0], 0)  # passes the step check; the job is not run
+    assert n >= 36_000_000
+
+
+def test_memory_of_the_samples_is_refused_naming_the_samples():
+    plan = parse("samples = 10000\ncov = 4.0\n[model]\ndt = 0.001\nsegment_time = 20.0\n"
+                 "[[strokes]]\ntargets = [{ mean = [0.0, 0.0] }, { mean = [1.0, 0.0] }]\n")
+    with pytest.raises(BudgetError, match=r"plan.toml: samples: memory of realising the plan "
+                       r"\(1 stroke, 40000 time steps, 10000 samples each\): about [\d.]+ GB, "
+                       r".*INKARM_MAX_MEMORY_MB"):
+        realise_plan(plan)
+    with pytest.raises(BudgetError, match=r"plan.toml: samples: samples per stroke: about "
+                       r"2e\+04 samples, .*INKARM_MAX_SAMPLES"):
+        realise_plan(plan, samples=20_000)
+
+
+def test_memory_of_a_stroke_is_refused_naming_the_stroke():
+    plan = parse("cov = 4.0\n[model]\norder = 7\ndt = 0.001\nsegment_time = 400.0\n"
+                 "[[strokes]]\ntargets = [{ mean = [0.0, 0.0] }, { mean = [1.0, 0.0] }]\n")
+    with pytest.raises(BudgetError, match=r"plan.toml: strokes\[0\]: memory of realising"):
+        realise_plan(plan)
+
+
+MIXED = """
+samples = 30
+cov = 4.0
+[model]
+dt = 0.002
+segment_time = 0.5
+[[strokes]]
+targets = [{ mean = [0.0, 0.0] }, { mean = [10.0, 20.0] }, { mean = [20.0, 0.0] }]
+[[strokes]]
+kind = "human_line"
+points = [[0.0, 0.0], [30.0, 0.0], [30.0, 30.0]]
+[[strokes]]
+kind = "minjerk"
+points = [[0.0, 0.0], [10.0, 10.0], [20.0, 0.0]]
+minjerk = { duration = 2.0 }
+"""
+
+
+def test_the_memory_estimate_of_a_plan_is_within_2x_of_the_measured_peak():
+    plan = parse(MIXED)
+    estimate = plan_bytes([stroke_size(s, plan.samples) for s in plan.strokes], plan.samples,
+                          plan.dim)
+    tracemalloc.start()
+    try:
+        realise_plan(plan).stacked_samples()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert 0.5 <= estimate / peak <= 2.0
+
+
+def test_model_errors_name_the_key_as_the_file_spells_it():
+    plan = parse("[[strokes]]\nkind = 'minjerk'\npoints = [[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]\n"
+                 "minjerk = { duration = 1.0, via_times = [2.0] }\n")
+    with pytest.raises(InkarmError, match=r"^plan.toml: strokes\[0\]\.minjerk\.via_times: "):
+        realise_plan(plan)

@@ -2,6 +2,31 @@
 (:class:`Reference`) and the checks shared by the banded solver and the dense oracle.
 
 Units: [mm] and [s]; ``d`` in [mm], ``r`` in [(mm/s^n)^-2].
+
+Valid ranges (refused outside them, naming the key, the range and the value; the plan-file
+reader :mod:`inkarm.io.plansections` applies the same ones):
+
+==================  =======================  ==========================================
+quantity            range                    why
+==================  =======================  ==========================================
+coordinates         abs(x) <= 1e6 mm         a kilometre; P mu stays far from overflow
+std                 1e-6 .. 1e6 mm           variances (eigenvalues) 1e-12 .. 1e12 mm^2
+covariance          condition number <= 1e12 nearly singular beyond (its inverse is used)
+dt                  1e-4 .. 1 s
+d                   1e-6 .. 1e6 mm           see below
+r                   1e-40 .. 1e40            control^2 = r / dt^(2n) <= 1e96
+segment_time        dt .. 3600 s
+velocities          abs(v) <= 1e10 mm/s      1e6 mm in dt = 1e-4 s
+==================  =======================  ==========================================
+
+With order n <= 7, dt in [1e-4, 1] s and segment_time in [dt, 3600] s, omega = 2 pi /
+segment_time lies in [1.7e-3, 6.3e4] rad/s, so d in [1e-6, 1e6] mm gives r = 1 / (omega^n d)^2
+in [6.7e-80, 4.1e50] and control^2 = r / dt^(2n) (the entries of the normal matrix) at most
+4.1e106: no overflow or underflow to 0 in float64 anywhere in the solvers.
+
+Budgets (:mod:`inkarm.core.budget`): the number of time steps N of a stroke is checked against
+INKARM_MAX_STEPS by :func:`time_grid`, before anything is allocated; the memory of the solve,
+the samples and the covariance against INKARM_MAX_MEMORY_MB (:mod:`.cost`).
 """
 
 from __future__ import annotations
@@ -10,12 +35,91 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inkarm.core import budget
 from inkarm.core.plan import StrokePlan
 from inkarm.errors import InputError, PlanError
 
 MAX_ORDER = 7
+MAX_COORDINATE = 1e6  # |x| of a mean or point [mm]
+STD_RANGE = (1e-6, 1e6)  # a standard deviation [mm]
+VARIANCE_RANGE = (1e-12, 1e12)  # an eigenvalue of a covariance [mm^2]: STD_RANGE squared
+MAX_CONDITION = 1e12  # largest / smallest variance of one covariance
+DT_RANGE = (1e-4, 1.0)  # [s]
+D_RANGE = (1e-6, 1e6)  # [mm]
+R_RANGE = (1e-40, 1e40)  # [(mm/s^n)^-2]
+MAX_TIME = 3600.0  # segment_time, durations, pauses [s]
+MAX_VELOCITY = 1e10  # [mm/s]
 SOLVERS = ("auto", "cholesky", "augmented", "batch")
 DISCRETISATIONS = ("euler", "zoh")
+
+
+def outside(values, low: float, high: float) -> float | None:
+    """The first of ``values`` outside [low, high] (NaN counts as outside), else None."""
+    arr = np.asarray(values, dtype=float).ravel()
+    bad = ~((arr >= low) & (arr <= high))
+    return float(arr[np.argmax(bad)]) if bad.any() else None
+
+
+def expected_in(low: float, high: float, unit: str, what: str = "numbers") -> str:
+    """``expected numbers in [1e-06, 1e+06] mm`` (the start of a range message)."""
+    return f"expected {what} in [{low:g}, {high:g}]{' ' + unit if unit else ''}"
+
+
+def coordinate_error(values) -> str | None:
+    """The message for coordinates [mm] beyond +-:data:`MAX_COORDINATE`, else None."""
+    bad = outside(values, -MAX_COORDINATE, MAX_COORDINATE)
+    if bad is None:
+        return None
+    return f"{expected_in(-MAX_COORDINATE, MAX_COORDINATE, 'mm', 'coordinates')}, got {bad:g}"
+
+
+def covariance_error(cov) -> str | None:
+    """The message for a symmetric positive definite covariance (D, D) [mm^2] whose variances
+    (eigenvalues) leave :data:`VARIANCE_RANGE` or whose condition number exceeds
+    :data:`MAX_CONDITION`, else None."""
+    return _covariance_errors(np.asarray(cov, dtype=float)[None])[1]
+
+
+def _covariance_errors(covs: np.ndarray) -> tuple[int, str | None]:
+    """(index, message) of the first of the covariances (m, D, D) out of range, else (-1, None)."""
+    eig = np.linalg.eigvalsh(covs)  # ascending, per covariance
+    low, high = VARIANCE_RANGE
+    bad = ~((eig >= low) & (eig <= high))
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        return int(i), (f"{expected_in(low, high, 'mm^2', 'variances (eigenvalues)')} (std "
+                        f"{STD_RANGE[0]:g} to {STD_RANGE[1]:g} mm), got {eig[i, j]:g}")
+    ill = eig[:, -1] > MAX_CONDITION * eig[:, 0]
+    if ill.any():
+        i = int(np.argmax(ill))
+        return i, (f"condition number {eig[i, -1] / eig[i, 0]:.3g} (variances {eig[i, 0]:g} to "
+                   f"{eig[i, -1]:g} mm^2), more than {MAX_CONDITION:g}: nearly singular")
+    return -1, None
+
+
+def check_stroke_ranges(stroke: StrokePlan) -> None:
+    """Refuse means, covariances and velocities of ``stroke`` outside the valid ranges (see
+    the module docstring); errors name ``targets[i].mean``, ``targets[i].cov``,
+    ``velocities``."""
+    means = stroke.means
+    far = ~(np.abs(means) <= MAX_COORDINATE)
+    if far.any():
+        i = int(np.argwhere(far)[0, 0])
+        raise PlanError(coordinate_error(means[i]), key=f"targets[{i}].mean", value=means[i])
+    i, message = _covariance_errors(stroke.covs)
+    if message:
+        raise PlanError(message, key=f"targets[{i}].cov", value=stroke.covs[i])
+    if stroke.velocities is not None:
+        vel = stroke.velocities[np.all(np.isfinite(stroke.velocities), axis=1)]
+        bad = outside(vel, -MAX_VELOCITY, MAX_VELOCITY)
+        if bad is not None:
+            raise PlanError(f"{expected_in(-MAX_VELOCITY, MAX_VELOCITY, 'mm/s')}, got {bad:g}",
+                            key="velocities", value=stroke.velocities)
+        bad = outside(stroke.velocity_var, *VARIANCE_RANGE)
+        if bad is not None:
+            raise PlanError(f"{expected_in(*VARIANCE_RANGE, '(mm/s)^2', 'a number')}, got "
+                            f"{bad:g}",
+                            key="velocity_var", value=stroke.velocity_var)
 
 
 def positive_number(value) -> bool:
@@ -73,6 +177,9 @@ class LQTConfig:
             raise InputError(
                 f"must be a positive number of seconds, got {self.dt}", key="dt", value=self.dt
             )
+        if outside(self.dt, *DT_RANGE) is not None:
+            raise InputError(f"{expected_in(*DT_RANGE, 's', 'a number')}, got {self.dt:g}",
+                             key="dt", value=self.dt)
         if (self.d is None) == (self.r is None):
             raise InputError(
                 f"give exactly one of d (max displacement in mm) and r (raw control weight), "
@@ -84,6 +191,11 @@ class LQTConfig:
             raise InputError(f"must be a positive number of mm, got {self.d}", key="d", value=self.d)
         if self.r is not None and not positive_number(self.r):
             raise InputError(f"must be a positive number, got {self.r}", key="r", value=self.r)
+        for name, value, bounds, unit in (("d", self.d, D_RANGE, "mm"),
+                                          ("r", self.r, R_RANGE, "(mm/s^n)^-2")):
+            if value is not None and outside(value, *bounds) is not None:
+                raise InputError(f"{expected_in(*bounds, unit, 'a number')}, got {float(value):g}",
+                                 key=name, value=value)
         if self.discretisation not in DISCRETISATIONS:
             raise InputError(
                 f"expected 'euler' or 'zoh', got {self.discretisation!r}",
@@ -230,8 +342,17 @@ def time_grid(stroke: StrokePlan, cfg: LQTConfig) -> tuple[int, int]:
     """(steps per segment, N): each target held segment_time / dt steps, a whole number.
 
     N = m segment_time / dt for held targets (seed 000 sec. 3.3), (m - 1) segment_time / dt + 1
-    for key-points (one every segment_time, GI eq. 6-7).
+    for key-points (one every segment_time, GI eq. 6-7). segment_time is at most
+    :data:`MAX_TIME`, and N is checked against the budget INKARM_MAX_STEPS
+    (:mod:`inkarm.core.budget`) before anything is allocated.
     """
+    if stroke.segment_time > MAX_TIME:
+        raise PlanError(
+            f"{expected_in(cfg.dt, MAX_TIME, 's', 'a number')} (dt .. {MAX_TIME:g} s), got "
+            f"{stroke.segment_time:g}",
+            key="segment_time",
+            value=stroke.segment_time,
+        )
     ratio = stroke.segment_time / cfg.dt
     per = round(ratio)
     if per >= 1 and abs(ratio - per) > 1e-6 * ratio:
@@ -248,6 +369,15 @@ def time_grid(stroke: StrokePlan, cfg: LQTConfig) -> tuple[int, int]:
             value=stroke.segment_time,
         )
     m = len(stroke.targets)
+    held = m - 1 if stroke.keypoints else m
+    budget.require(
+        held * per + (1 if stroke.keypoints else 0),
+        budget.STEPS,
+        f"time steps of the stroke ({held} x segment_time {stroke.segment_time:g} s / "
+        f"dt {cfg.dt:g} s)",
+        key="dt",
+        value=cfg.dt,
+    )
     if stroke.keypoints:
         if m < 2:
             raise PlanError(

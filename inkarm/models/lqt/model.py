@@ -9,7 +9,7 @@ import numpy as np
 from inkarm.core.plan import StrokePlan
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError, SolverError
-from inkarm.models.lqt import oracle
+from inkarm.models.lqt import cost, oracle
 from inkarm.models.lqt.config import DEFAULT_CONFIG, LQTConfig
 from inkarm.models.lqt.problem import Problem, build_problem, extend, positions
 from inkarm.models.lqt.solvers import Factor, eigen_draws
@@ -20,7 +20,8 @@ SAMPLING = ("exact", "eigen")
 class LQT:
     """The trajectory distribution of one stroke (seed 000 eq. 13-15), solved once.
 
-    The banded problem is built (and every input checked) at construction; it is factorised
+    The banded problem is built (and every input checked, the time steps and the memory of
+    the solve against their budgets, :mod:`.cost`) at construction; it is factorised
     at most once, on first use, and the mean, every call to :meth:`sample` and
     :meth:`covariance` reuse that factorisation. With ``config.solver == "batch"`` the mean
     and covariance come from the dense oracle (:mod:`.oracle`) and draws from the ``"auto"``
@@ -39,6 +40,22 @@ class LQT:
         self.config = config
         self.references = tuple(references)
         self.problem: Problem = build_problem(stroke, config, self.references)
+        if config.solver == "batch":
+            prob = self.problem
+            cost.require(
+                cost.batch_bytes(prob.n_steps, prob.dim, prob.n),
+                f"memory of the dense LQT oracle ({prob.n_steps} steps x {prob.dim}-D, "
+                f"order {prob.n}; O(N^2), use another solver)",
+            )
+
+    @property
+    def method(self) -> str:
+        """``"cholesky"`` or ``"augmented"``: the factorisation used (or that will be)."""
+        if "factor" in self.__dict__:
+            return self.factor.method
+        prob = self.problem
+        solver = "auto" if self.config.solver == "batch" else self.config.solver
+        return cost.expected_method(solver, prob.n, prob.control, prob.floor, prob.ceiling)
 
     @cached_property
     def factor(self) -> Factor:
@@ -96,7 +113,9 @@ class LQT:
         5 to 9, and fewer components under-represent the variance.
 
         Args:
-            k: Number of draws.
+            k: Number of draws; their memory (:mod:`.cost`:
+                about 8 k N D (4 or 7) bytes exact, plus 8 (N D)^2 for eigen) is checked
+                against INKARM_MAX_MEMORY_MB before drawing.
             seed: None, an int or a numpy Generator.
         """
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
@@ -120,6 +139,12 @@ class LQT:
                 key="components",
                 value=components,
             )
+        prob = self.problem
+        cost.require(
+            cost.sample_bytes(int(k), prob.n_steps, prob.dim, self.method, method),
+            f"memory of {int(k)} {method} draws of the LQT ({prob.n_steps} steps x "
+            f"{prob.dim}-D)",
+        )
         rng = np.random.default_rng(seed)
         if method == "exact":
             c = self.factor.samples(int(k), rng, self._coefficients)
@@ -133,11 +158,18 @@ class LQT:
         """Dense position covariance (N, D, N, D) in [mm^2] (seed 000 eq. 15).
 
         From the factorisation: Sigma_x = M H^-1 M^T, H^-1 the posterior covariance of the
-        free coefficients and M their linear map to positions; O(N^2) memory.
+        free coefficients and M their linear map to positions; O(N^2) memory, about
+        8 (N D)^2 (4 or 6) bytes (:mod:`.cost`), checked against INKARM_MAX_MEMORY_MB first.
         """
         prob = self.problem
         n, d = prob.n_steps, prob.dim
-        if self.config.solver == "batch":
+        batch = self.config.solver == "batch"
+        cost.require(
+            cost.batch_bytes(n, d, prob.n, with_cov=True) if batch
+            else cost.covariance_bytes(n, d, self.method),
+            f"memory of the dense LQT covariance ({n} steps x {d}-D: ({n * d})^2 entries)",
+        )
+        if batch:
             cov = oracle.batch(self.stroke, self.config, self.references, with_cov=True)[1]
             return cov.reshape(n, d, n, d)
         inv = self.factor.inverse()  # H^-1, (K, K)

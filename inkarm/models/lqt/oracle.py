@@ -19,9 +19,11 @@ import numpy as np
 from scipy.linalg import expm, lstsq, null_space, solve_triangular
 
 from inkarm.core.plan import StrokePlan
+from inkarm.models.lqt import cost
 from inkarm.models.lqt.config import (
     LQTConfig,
     check_reference,
+    check_stroke_ranges,
     rests_at_end,
     time_grid,
     velocity_steps,
@@ -118,8 +120,13 @@ def _psd_root(p: np.ndarray) -> np.ndarray:
 def batch(stroke: StrokePlan, cfg: LQTConfig, references=(), with_cov: bool = False):
     """States xi (N, nD) in [mm], [mm/s], ... (absolute) of the optimum (eq. 10, 13) and, with
     ``with_cov``, the position covariance (N D, N D) in [mm^2] (eq. 15), else None."""
+    check_stroke_ranges(stroke)
     per, n_steps = time_grid(stroke, cfg)
     n, dim = cfg.order, stroke.dim
+    cost.require(
+        cost.batch_bytes(n_steps, dim, n, with_cov),
+        f"memory of the dense LQT oracle ({n_steps} steps x {dim}-D, order {n}; O(N^2))",
+    )
     nd = n * dim
     a, b = system_matrices(n, dim, cfg.dt, cfg.discretisation)
     s_xi, s_u = transfer_matrices(a, b, n_steps)

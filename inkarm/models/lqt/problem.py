@@ -28,9 +28,11 @@ from scipy.interpolate import BSpline
 
 from inkarm.core.plan import StrokePlan
 from inkarm.errors import InputError, PlanError
+from inkarm.models.lqt import cost
 from inkarm.models.lqt.config import (
     LQTConfig,
     check_reference,
+    check_stroke_ranges,
     rests_at_end,
     time_grid,
     velocity_steps,
@@ -160,8 +162,47 @@ def _ones(count: int) -> np.ndarray:
     return ones
 
 
+@dataclass(frozen=True)
+class Sizing:
+    """The size of the problem of a stroke, known before anything is allocated."""
+
+    per: int  # steps per segment
+    n_steps: int  # N
+    dim: int
+    order: int
+    method: str  # the factorisation "auto" will pick (or the one asked for)
+    control: float  # sqrt(r) / dt^n
+    floor: float
+    ceiling: float
+
+    @property
+    def solve_bytes(self) -> float:
+        """Estimated memory of building, factorising and solving (:mod:`.cost`)."""
+        return cost.solve_bytes(self.n_steps, self.dim, self.order, self.method)
+
+    def describe(self, what: str) -> str:
+        return f"{what} ({self.n_steps} steps x {self.dim}-D, order {self.order}, {self.method})"
+
+
+def sizing(stroke: StrokePlan, cfg: LQTConfig, references=()) -> Sizing:
+    """Check the ranges of ``stroke`` and its time steps against INKARM_MAX_STEPS
+    (:func:`.config.time_grid`), and size its problem, without allocating it."""
+    check_stroke_ranges(stroke)
+    n = cfg.order
+    per, n_steps = time_grid(stroke, cfg)
+    control = np.sqrt(cfg.control_weight(stroke.segment_time)) / cfg.dt**n  # R = r I, eq. 9
+    everywhere = not stroke.keypoints and cfg.discretisation == "euler"
+    floor = 1.0 / np.max(stroke.covs.trace(axis1=1, axis2=2)) if everywhere else 0.0
+    single = not references and not velocity_steps(stroke, per)[0].size
+    ceiling = np.abs(stroke.precisions).sum(axis=1).max() if single else np.nan
+    method = cost.expected_method(cfg.solver, n, control, floor, ceiling)
+    return Sizing(per, n_steps, stroke.dim, n, method, float(control), float(floor),
+                  float(ceiling))
+
+
 def build_problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> Problem:
-    """Validate the inputs and assemble the banded problem of ``stroke``."""
+    """Validate the inputs and assemble the banded problem of ``stroke``; its time steps and
+    the memory of the solve are checked against their budgets first (:func:`sizing`)."""
     if not isinstance(stroke, StrokePlan):
         raise InputError(
             f"expected a StrokePlan, got {type(stroke).__name__}", key="stroke", value=stroke
@@ -169,7 +210,10 @@ def build_problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> Problem:
     if not isinstance(cfg, LQTConfig):
         raise InputError(f"expected an LQTConfig, got {type(cfg).__name__}", key="cfg", value=cfg)
     n, dim, dt = cfg.order, stroke.dim, cfg.dt
-    per, n_steps = time_grid(stroke, cfg)
+    size = sizing(stroke, cfg, references)
+    cost.require(size.solve_bytes, size.describe("memory of the LQT solve"))
+    per, n_steps, control, floor, ceiling = (size.per, size.n_steps, size.control, size.floor,
+                                             size.ceiling)
     at_rest = rests_at_end(stroke, cfg, per, n_steps)
     n_coef = n_steps if at_rest else n_steps + n - 1
     stencils = state_stencils(n, cfg.discretisation)
@@ -188,7 +232,6 @@ def build_problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> Problem:
     for i, ref in enumerate(references):
         blocks.append(_reference_block(check_reference(i, ref, n, dim, n_steps), origin, dt,
                                        n_coef, stencils))
-    control = np.sqrt(cfg.control_weight(stroke.segment_time)) / dt**n  # R = r I, eq. 9
     start = _start_coefficients(stroke, n, dim, dt, stencils)
     control_target = None
     if start.any():  # the fixed coefficients move to the right-hand sides
@@ -196,9 +239,6 @@ def build_problem(stroke: StrokePlan, cfg: LQTConfig, references=()) -> Problem:
         rows = Block(n, np.arange(n), merged(np.arange(n), difference(n), n_coef), None, None)
         control_target = np.zeros((n_steps - 1, dim))
         control_target[:n] = -control * apply_fixed(rows, start, n)
-    everywhere = not stroke.keypoints and cfg.discretisation == "euler"
-    floor = 1.0 / np.max(stroke.covs.trace(axis1=1, axis2=2)) if everywhere else 0.0
-    ceiling = np.abs(precisions).sum(axis=1).max() if len(blocks) == 1 else np.nan
     return Problem(n, dim, n_steps, n_coef, dt, origin, control, tuple(blocks),
                    cfg.discretisation, at_rest, floor, ceiling, start, control_target)
 
