@@ -268,3 +268,25 @@ def test_three_dimensional_sources_are_refused(tmp_path):
     path = _scenario(tmp_path, "[source]\nkind = 'trajectory'\nfile = 'p.csv'\n")
     with pytest.raises(InputError, match=r"job.toml: source: the drawing has 3-D positions"):
         run(load_scenario(path))
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_every_shipped_scenario_draws_and_writes_strict_json(path, tmp_path):
+    import json
+
+    from inkarm.jobs.outputs import write_run
+    from inkarm.jobs.run import run
+
+    result = run(load_scenario(path))
+    assert result.ok, result.reason
+    write_run(result, tmp_path, report=False)
+
+    def refuse(constant):
+        raise AssertionError(f"bare {constant} in JSON")
+
+    metrics = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=refuse)
+    status = json.loads((tmp_path / "status.json").read_text(), parse_constant=refuse)
+    assert status["status"] == "ok" and metrics["ink_chamfer_mm"] is not None
+    assert metrics["tracking_rms_mm"] < 0.5 and metrics["ink_chamfer_mm"] < 0.5
