@@ -6,6 +6,7 @@ is lifted between strokes. Means in [mm], covariances in [mm^2], times in [s].
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -31,20 +32,95 @@ def check_covariance(cov, dim: int, where: str) -> np.ndarray:
         c = np.diag(c)
     if c.shape != (dim, dim):
         raise PlanError(f"{where}: covariance has shape {c.shape}, expected ({dim}, {dim})")
-    if not np.all(np.isfinite(c)):
+    # Python floats: the checks of one small matrix cost microseconds, not array operations
+    rows = c.tolist()
+    flat = [v for row in rows for v in row]
+    if not all(map(math.isfinite, flat)):
         raise PlanError(f"{where}: covariance contains NaN or inf")
-    scale = max(float(np.max(np.abs(c))), np.finfo(float).tiny)
-    if np.max(np.abs(c - c.T)) > 1e-9 * scale:
-        raise PlanError(f"{where}: covariance is not symmetric: {c.tolist()}")
-    c = 0.5 * (c + c.T)
-    try:
-        np.linalg.cholesky(c)
-    except np.linalg.LinAlgError:
-        eig = np.linalg.eigvalsh(c)
-        raise PlanError(
-            f"{where}: covariance is not positive definite (eigenvalues {eig.tolist()})"
-        ) from None
+    scale = max(max(map(abs, flat)), _TINY)
+    if max(abs(rows[i][j] - rows[j][i]) for i in range(dim) for j in range(dim)) > 1e-9 * scale:
+        raise PlanError(f"{where}: covariance is not symmetric: {rows}")
+    sym = [[0.5 * (rows[i][j] + rows[j][i]) for j in range(dim)] for i in range(dim)]
+    c = np.array(sym)  # 0.5 (C + C^T), the same operations element by element
+    if not _clearly_positive_definite(sym):
+        try:
+            np.linalg.cholesky(c)
+        except np.linalg.LinAlgError:
+            eig = np.linalg.eigvalsh(c)
+            raise PlanError(
+                f"{where}: covariance is not positive definite (eigenvalues {eig.tolist()})"
+            ) from None
     return c
+
+
+def check_covariances(covs, dim: int, where) -> np.ndarray:
+    """:func:`check_covariance` of every matrix of ``covs`` (m, dim, dim) at once: the checked,
+    symmetrised (m, dim, dim) float array, equal element for element to the matrices
+    :func:`check_covariance` returns one by one. Raises the error :func:`check_covariance`
+    raises for the first bad matrix i, named ``where(i)`` (a function of the index)."""
+    c = np.asarray(covs, dtype=float)
+    if c.ndim != 3 or c.shape[1:] != (dim, dim):
+        raise PlanError(f"{where(0)}: covariances have shape {c.shape}, expected (m, {dim}, {dim})")
+    checked = _checked_covariances(c)
+    if checked is None:  # the first bad matrix raises its own error
+        checked = np.array([check_covariance(c[i], dim, where(i)) for i in range(len(c))])
+    return checked
+
+
+def _checked_covariances(c: np.ndarray) -> np.ndarray | None:
+    """(m, D, D) ``c`` symmetrised as :func:`check_covariance` does, or None if any matrix
+    is not finite, not symmetric or not positive definite by its rules."""
+    ct = np.swapaxes(c, 1, 2)
+    with np.errstate(invalid="ignore", over="ignore"):
+        scale = np.maximum(np.abs(c).max(axis=(1, 2), initial=0.0), _TINY)
+        good = np.isfinite(c).all(axis=(1, 2)) & (
+            np.abs(c - ct).max(axis=(1, 2), initial=0.0) <= 1e-9 * scale
+        )
+    if not good.all():
+        return None
+    sym = 0.5 * (c + ct)
+    try:
+        np.linalg.cholesky(sym)  # LAPACK on each matrix, as check_covariance asks it
+    except np.linalg.LinAlgError:
+        return None
+    return sym
+
+
+_TINY = np.finfo(float).tiny
+_PD_MARGIN = 1e-4
+"""Smallest Cholesky pivot, relative to its diagonal entry, that
+:func:`_clearly_positive_definite` accepts. The product of these ratios is the determinant
+of the matrix scaled to a unit diagonal, so every eigenvalue of that scaled matrix is then
+above 1e-12 / 9 (D <= 3): far above the rounding error of LAPACK's factorisation (Demmel's
+condition, about D^2 ulp), which therefore succeeds too."""
+
+
+def _clearly_positive_definite(rows: list[list[float]]) -> bool:
+    """True if the symmetric matrix ``rows`` (Python floats) is positive definite with every
+    Cholesky pivot above ``_PD_MARGIN`` of its diagonal entry, its entries well inside the
+    floating range: then :func:`numpy.linalg.cholesky` succeeds on it as well. False means "not
+    clearly", and the caller asks LAPACK."""
+    n = len(rows)
+    if n == 2:  # the common case, unrolled
+        a, b, d = rows[0][0], rows[1][0], rows[1][1]
+        if not (1e-150 < a < 1e150 and 1e-150 < d < 1e150 and abs(b) < 1e150):
+            return False
+        l21 = b / math.sqrt(a)
+        return d - l21 * l21 > _PD_MARGIN * d
+    low = [[0.0] * n for _ in range(n)]
+    for j in range(n):
+        a = rows[j][j]
+        if not 1e-150 < a < 1e150:
+            return False
+        s = a - sum(low[j][k] * low[j][k] for k in range(j))
+        if not s > _PD_MARGIN * a:
+            return False
+        low[j][j] = d = math.sqrt(s)
+        for i in range(j + 1, n):
+            if not abs(rows[i][j]) < 1e150:
+                return False
+            low[i][j] = (rows[i][j] - sum(low[i][k] * low[j][k] for k in range(j))) / d
+    return True
 
 
 def _same(a, b) -> bool:
@@ -129,13 +205,15 @@ class StrokePlan:
         targets = tuple(self.targets)
         if not targets:
             raise PlanError("stroke: no targets")
-        for i, tg in enumerate(targets):
-            if not isinstance(tg, GaussianTarget):
-                raise PlanError(
-                    f"stroke target {i}: expected a GaussianTarget, got {type(tg).__name__}"
-                )
-        dims = [tg.dim for tg in targets]
-        if len(set(dims)) > 1:
+        if not all(isinstance(tg, GaussianTarget) for tg in targets):
+            i, tg = next(
+                (i, tg) for i, tg in enumerate(targets) if not isinstance(tg, GaussianTarget)
+            )
+            raise PlanError(
+                f"stroke target {i}: expected a GaussianTarget, got {type(tg).__name__}"
+            )
+        dims = [len(tg.mean) for tg in targets]
+        if dims.count(dims[0]) != len(dims):
             i = next(i for i, d in enumerate(dims) if d != dims[0])
             raise PlanError(
                 f"stroke target {i}: has {dims[i]} dimensions but target 0 has {dims[0]} (mixed dimensions)"
@@ -203,8 +281,17 @@ class StrokePlan:
         return _frozen(0.5 * (p + np.swapaxes(p, 1, 2)))
 
     @staticmethod
-    def from_arrays(means, covs, segment_time: float = 0.5, keypoints: bool = False) -> StrokePlan:
-        """Build from (m, D) means and covariances given per target as scalars, diagonals or matrices."""
+    def from_arrays(
+        means,
+        covs,
+        segment_time: float = 0.5,
+        keypoints: bool = False,
+        meta: dict | None = None,
+    ) -> StrokePlan:
+        """Build from (m, D) means and covariances given per target as scalars, diagonals or
+        matrices (or one scalar for all). Arrays of one form are checked in bulk
+        (:func:`stroke_from_arrays`); the plan, and the error for bad input, are those of
+        building each :class:`GaussianTarget` in turn."""
         means = np.asarray(means, dtype=float)
         if means.ndim != 2:
             raise PlanError(f"stroke means: expected shape (m, D), got {means.shape}")
@@ -214,6 +301,9 @@ class StrokePlan:
             covs = [covs] * len(means)
         if len(covs) != len(means):
             raise PlanError(f"stroke: {len(means)} means but {len(covs)} covariances")
+        plan = stroke_from_arrays(means, covs, segment_time, keypoints, meta)
+        if plan is not None:
+            return plan
         targets = []
         for i, (m, c) in enumerate(zip(means, covs)):
             try:
@@ -222,7 +312,56 @@ class StrokePlan:
                 raise PlanError(
                     f"stroke target {i}: {str(e).removeprefix('target: ').removeprefix('target ')}"
                 ) from None
-        return StrokePlan(tuple(targets), segment_time, keypoints)
+        return StrokePlan(tuple(targets), segment_time, keypoints, meta=dict(meta or {}))
+
+
+def stroke_from_arrays(
+    means, covs, segment_time: float = 0.5, keypoints: bool = False, meta: dict | None = None
+) -> StrokePlan | None:
+    """The stroke through ``means`` (m, D) with covariances ``covs``: m scalars, m diagonals
+    (m, D) or m matrices (m, D, D), all checked at once (a few array operations per stroke,
+    not a dozen per target). The plan equals the one built from a :class:`GaussianTarget`
+    per target, element for element. None when the arrays are not all of one form or some
+    target is bad: then build the targets one by one, which raises the target's own error.
+    ``segment_time``, ``keypoints`` and ``meta`` go to :class:`StrokePlan` (which checks
+    them)."""
+    try:
+        means = np.asarray(means, dtype=float)
+        c = np.asarray(covs, dtype=float)
+    except (TypeError, ValueError):  # ragged: scalars, diagonals and matrices mixed
+        return None
+    if means.ndim != 2 or not 1 <= means.shape[1] <= 3 or not len(means):
+        return None
+    m, dim = means.shape
+    if not np.isfinite(means).all():
+        return None
+    if c.shape == (m,):
+        c = c[:, None, None] * np.eye(dim)[None]  # as np.eye(dim) * c, target by target
+    elif c.shape == (m, dim):
+        diag = c
+        c = np.zeros((m, dim, dim))  # as np.diag(c)
+        c[:, np.arange(dim), np.arange(dim)] = diag
+    if c.shape != (m, dim, dim):
+        return None
+    checked = _checked_covariances(c)
+    if checked is None:
+        return None
+    means = _frozen(np.array(means))  # a copy: the caller's array stays writable and theirs
+    checked = _frozen(checked)
+    plan = StrokePlan(
+        tuple(map(_target, means, checked)), segment_time, keypoints, meta=dict(meta or {})
+    )
+    plan.__dict__["means"] = means  # the cached properties, at hand already
+    plan.__dict__["covs"] = checked
+    return plan
+
+
+def _target(mean: np.ndarray, cov: np.ndarray) -> GaussianTarget:
+    """A GaussianTarget of a checked, read-only mean (D,) and covariance (D, D)."""
+    tg = object.__new__(GaussianTarget)
+    object.__setattr__(tg, "mean", mean)
+    object.__setattr__(tg, "cov", cov)
+    return tg
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -32,12 +32,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
+from functools import lru_cache
 from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 
-from inkarm.core.plan import GaussianTarget, MotorPlan, StrokePlan
+from inkarm.core.plan import GaussianTarget, MotorPlan, StrokePlan, stroke_from_arrays
 from inkarm.core.trajectory import A4_MM, Drawing
 from inkarm.errors import ScenarioError
 from inkarm.io.toml import load_toml
@@ -142,7 +143,13 @@ class Handstyle:
         return LQTConfig(order=self.order, dt=dt, d=self.d)
 
     def covariances(self, m: int, rng: np.random.Generator) -> np.ndarray:
-        """(m, 2, 2) semi-tied covariances in [mm^2], seed 000 eq. 22."""
+        """(m, 2, 2) semi-tied covariances in [mm^2], seed 000 eq. 22.
+
+        With rho = 0 every target's is h H H^T and ``rng`` is not drawn from: the one
+        covariance is worked out (and checked) once per style and repeated."""
+        if self.rho == 0 and isinstance(m, int) and not isinstance(m, bool) and m >= 1:
+            one = _unperturbed_covariance(tuple(self.basis.ravel().tolist()), self.h)
+            return np.repeat(one, m, axis=0)
         return np.asarray(semi_tied_covariances(m, self.basis, self.h, rho=self.rho, seed=rng))
 
     def stroke_plan(
@@ -150,7 +157,10 @@ class Handstyle:
     ) -> StrokePlan:
         """A stroke through ``means`` (m, 2) [mm] with this style's covariances and timing."""
         covs = self.covariances(len(means), rng)
-        targets = tuple(GaussianTarget(mu, c) for mu, c in zip(means, covs))
+        plan = stroke_from_arrays(means, covs, self.segment_time, meta=meta)  # checked in bulk
+        if plan is not None:
+            return plan
+        targets = tuple(GaussianTarget(mu, c) for mu, c in zip(means, covs))  # raises the error
         return StrokePlan(targets, self.segment_time, meta=dict(meta or {}))
 
     def motor_plan(self, sequences, rng: np.random.Generator, unit: str) -> MotorPlan:
@@ -160,9 +170,9 @@ class Handstyle:
             self.stroke_plan(
                 seq.means,
                 rng,
-                meta={
-                    unit: tuple(int(i) for i in seq.letters),
-                    "connectors": tuple(bool(c) for c in seq.connectors),
+                meta={  # Python ints and bools, as int(i) and bool(c) of each
+                    unit: tuple(np.asarray(seq.letters).astype(np.int64).tolist()),
+                    "connectors": tuple(np.asarray(seq.connectors).astype(bool).tolist()),
                 },
             )
             for seq in sequences
@@ -187,6 +197,15 @@ class Handstyle:
         strokes = [solve(stroke, cfg) for stroke in plan.strokes]
         meta = {"style": self.name, "strokes": [dict(s.meta) for s in plan.strokes]}
         return Drawing(strokes, page_size=page_size, meta=meta).sequential(pause=pen_up_time)
+
+
+@lru_cache(maxsize=64)
+def _unperturbed_covariance(basis: tuple[float, ...], h: float) -> np.ndarray:
+    """semi_tied_covariances(1, H, h), rho = 0: (1, 2, 2), read-only (shared); equal, element
+    for element, to every matrix that ``semi_tied_covariances(m, H, h)`` returns."""
+    one = np.asarray(semi_tied_covariances(1, np.reshape(basis, (2, 2)), h, rho=0.0))
+    one.flags.writeable = False
+    return one
 
 
 PRESETS_FILE = Path(__file__).parents[1] / "data" / "handstyles.toml"

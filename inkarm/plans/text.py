@@ -33,6 +33,7 @@ Coordinates: page frame in [mm], x right, y up, origin at the page's lower-left 
 
 from __future__ import annotations
 
+import math
 import unicodedata
 from dataclasses import dataclass
 from functools import lru_cache
@@ -41,7 +42,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from inkarm.analysis.density import turning_angles
 from inkarm.core.plan import MotorPlan
 from inkarm.core.trajectory import A4_MM, Drawing
 from inkarm.errors import InputError
@@ -293,17 +293,24 @@ def thin_polyline(points: np.ndarray, min_turn: float) -> np.ndarray:
     The heading change is measured from the chord (last kept vertex -> vertex) to the next
     edge, so a gentle arc keeps one target every ``min_turn`` degrees of turning.
     """
-    pts = _dedupe(np.asarray(points, dtype=float))
+    return _thin(_dedupe(np.asarray(points, dtype=float)), min_turn)
+
+
+def _thin(pts: np.ndarray, min_turn: float) -> np.ndarray:
+    """:func:`thin_polyline` of a polyline without consecutive duplicates."""
     if min_turn <= 0 or len(pts) <= 2:
         return pts
+    xy = pts.tolist()  # Python floats: the same IEEE operations, without array overhead
     kept = [0]
-    for i in range(1, len(pts) - 1):
-        chord = pts[i] - pts[kept[-1]]
-        edge = pts[i + 1] - pts[i]
-        turn = np.degrees(np.abs(np.arctan2(chord[0] * edge[1] - chord[1] * edge[0], chord @ edge)))
-        if turn >= min_turn:
+    kx, ky = xy[0]
+    for i in range(1, len(xy) - 1):
+        (x, y), (nx, ny) = xy[i], xy[i + 1]
+        cx, cy = x - kx, y - ky  # the chord from the last kept vertex
+        ex, ey = nx - x, ny - y  # the next edge
+        if math.degrees(abs(math.atan2(cx * ey - cy * ex, cx * ex + cy * ey))) >= min_turn:
             kept.append(i)
-    kept.append(len(pts) - 1)
+            kx, ky = x, y
+    kept.append(len(xy) - 1)
     return pts[kept]
 
 
@@ -315,17 +322,59 @@ def subdivide(points: np.ndarray, max_spacing: float | None) -> np.ndarray:
     """
     if max_spacing is None or len(points) < 2:
         return points
-    out = [points[:1]]
-    for a, b in pairwise(points):
-        k = max(1, int(np.ceil(np.linalg.norm(b - a) / max_spacing)))
-        out.append(a + np.outer(np.arange(1, k + 1) / k, b - a))
-    return np.vstack(out)
+    return _subdivide_all([points], max_spacing)[0]
+
+
+def _subdivide_all(polylines: list[np.ndarray], max_spacing: float | None) -> list[np.ndarray]:
+    """:func:`subdivide` of every polyline (n_j, 2), in a few array operations for all: the
+    first vertex, then for each edge from a to b of length l, k = max(1, ceil(l /
+    max_spacing)) vertices a + (j / k) (b - a), j = 1 .. k."""
+    if max_spacing is None:
+        return polylines
+    n = np.array([len(p) for p in polylines], dtype=np.int64)
+    if not len(n) or not n.sum():
+        return polylines
+    points = np.vstack(polylines)
+    starts = (np.cumsum(n) - n)[n > 0]  # each polyline's first vertex
+    # vertex i brings the edge into it, from i - 1 (a first vertex brings itself)
+    step = np.zeros_like(points)
+    step[1:] = np.diff(points, axis=0)
+    step[starts] = 0.0
+    k = np.maximum(1, np.ceil(np.linalg.norm(step, axis=1) / max_spacing)).astype(np.int64)
+    k[starts] = 1
+    src = np.arange(len(points)) - 1
+    src[starts] += 1
+    block = np.repeat(np.arange(len(points)), k)
+    j = np.arange(len(block)) - np.repeat(np.cumsum(k) - k, k) + 1
+    out = points[src[block]] + (j / k[block])[:, None] * step[block]
+    at = np.cumsum(k) - k  # where each vertex's block starts
+    out[at[starts]] = points[starts]  # first vertices exactly as they are
+    total = np.concatenate([[0], np.cumsum(k)])
+    ends = np.cumsum(n)
+    return [
+        p if len(p) < 2 else out[total[e - len(p)]:total[e]]
+        for p, e in zip(polylines, ends.tolist())
+    ]
 
 
 def _dedupe(points: np.ndarray) -> np.ndarray:
     keep = np.ones(len(points), bool)
     keep[1:] = np.linalg.norm(np.diff(points, axis=0), axis=1) > _SAME_POINT
     return points[keep]
+
+
+def _dedupe_all(polylines: list[np.ndarray]) -> list[np.ndarray]:
+    """:func:`_dedupe` of every polyline (n_j, 2), in a few array operations for all."""
+    n = np.array([len(p) for p in polylines], dtype=np.int64)
+    if not len(n) or not n.sum():
+        return [p[:0] for p in polylines]
+    points = np.vstack(polylines)
+    keep = np.ones(len(points), bool)
+    keep[1:] = np.linalg.norm(np.diff(points, axis=0), axis=1) > _SAME_POINT
+    keep[(np.cumsum(n) - n)[n > 0]] = True  # each polyline's first point
+    total = np.concatenate([[0], np.cumsum(keep)])  # points kept before each point
+    kept = total[np.cumsum(n)] - total[np.cumsum(n) - n]  # per polyline
+    return [p.copy() for p in np.split(points[keep], np.cumsum(kept)[:-1])]
 
 
 @dataclass
@@ -478,8 +527,9 @@ def _join_letters(
         joined = _with_links(context, head, links, second)
         lo = len(context) + len(head) - 1
         hi = lo + len(links) + (0 if shared else 1)
+        pts = joined.means.tolist()
         for i in range(lo, hi + 1):
-            turn = _turn_at(joined.means, i)
+            turn = _turn_at(pts, i)
             if turn is not None and turn > max_turn:
                 return None
         return joined
@@ -636,22 +686,44 @@ def _drop_sharp(seq: TargetSequence, candidates: list[int], max_turn: float) -> 
     return TargetSequence(seq.means[keep], seq.letters[keep], connectors[keep], seq.joinable)
 
 
-def _turn_at(means: np.ndarray, i: int, keep: np.ndarray | None = None) -> float | None:
+def _turn_at(means, i: int, keep: np.ndarray | None = None) -> float | None:
     """Turning angle in [deg] at target ``i``, between the nearest (kept) targets before and
     after it at another point (a target repeated in place turns where the path turns); None
-    at an end of the path."""
-    a = _distinct_index(means, i, -1, keep)
-    b = _distinct_index(means, i, +1, keep)
+    at an end of the path. ``means``: (m, D) array, or its ``tolist()`` (faster when asked
+    at several targets)."""
+    pts = means.tolist() if isinstance(means, np.ndarray) else means
+    a = _distinct_index(pts, i, -1, keep)
+    b = _distinct_index(pts, i, +1, keep)
     if a is None or b is None:
         return None
-    return float(np.degrees(turning_angles(means[[a, i, b]])[1]))
+    return _turn_angle(pts[a], pts[i], pts[b])
 
 
-def _distinct_index(means: np.ndarray, i: int, step: int, keep=None) -> int | None:
-    """The nearest (kept) target from ``i`` in direction ``step`` at another point."""
+def _turn_angle(p: list[float], q: list[float], r: list[float]) -> float:
+    """Turning angle in [deg] at q of the path p, q, r (three points apart): the value of
+    :func:`inkarm.analysis.density.turning_angles` (Kahan's angle between the steps) at q,
+    in the same floating-point operations, on Python floats."""
+    u = [b - a for a, b in zip(p, q)]
+    v = [b - a for a, b in zip(q, r)]
+    nu = math.sqrt(sum(c * c for c in u))
+    nv = math.sqrt(sum(c * c for c in v))
+    a = [c * nv for c in u]
+    b = [c * nu for c in v]
+    minus = math.sqrt(sum((x - y) * (x - y) for x, y in zip(a, b)))
+    plus = math.sqrt(sum((x + y) * (x + y) for x, y in zip(a, b)))
+    return math.degrees(2.0 * math.atan2(minus, plus))
+
+
+def _distinct_index(means, i: int, step: int, keep=None) -> int | None:
+    """The nearest (kept) target from ``i`` in direction ``step`` at another point (more than
+    ``_SAME_POINT`` away); ``means`` an (m, D) array or its ``tolist()``."""
+    pts = means.tolist() if isinstance(means, np.ndarray) else means
+    here = pts[i]
     j = i + step
-    while 0 <= j < len(means):
-        if (keep is None or keep[j]) and not _same(means[j], means[i]):
+    while 0 <= j < len(pts):
+        if (keep is None or keep[j]) and math.sqrt(
+            sum((a - b) * (a - b) for a, b in zip(pts[j], here))
+        ) > _SAME_POINT:
             return j
         j += step
     return None
@@ -754,9 +826,11 @@ def glyph_targets(
     """
     out: list[TargetSequence] = []
     marks: list[TargetSequence] = []
+    deduped = _dedupe_all([np.asarray(s, dtype=float) for pg in placed for s in pg.strokes])
+    targets = iter(_subdivide_all([_thin(p, thin_angle) for p in deduped], max_spacing))
     for k, pg in enumerate(placed):
-        for stroke in pg.strokes:
-            pts = subdivide(thin_polyline(stroke, thin_angle), max_spacing)
+        for _ in pg.strokes:
+            pts = next(targets)
             is_mark = float(np.max(np.ptp(pts, axis=0))) <= mark_size
             seq = TargetSequence(
                 pts, np.full(len(pts), pg.index), np.zeros(len(pts), bool), not is_mark

@@ -1,14 +1,16 @@
 """The ``inkarm write`` figure (:mod:`inkarm.plans.text`): the font's strokes in light grey,
 the Gaussian targets as dots, and the handstyle's ink on top, in page [mm].
 
-The axes limits are set before anything is drawn, so adding the ink (one collection per
-stroke) does not rescale the axes over all the artists already there each time: the figure
-is built in time linear in the text's length (thousands of strokes for a page of text)."""
+The axes limits are set before anything is drawn, and the font and the ink are each one
+collection of a few compound paths (:func:`inkarm.plots.drawing.plot_ink`), so the figure is
+built and drawn in time linear in the text's length (a page of text is thousands of strokes
+and a million samples)."""
 
 from __future__ import annotations
 
 import numpy as np
-from matplotlib.collections import LineCollection
+from matplotlib.collections import PathCollection
+from matplotlib.path import Path
 
 from inkarm.core.trajectory import Drawing
 from inkarm.plans.fidelity import TextFidelity
@@ -37,13 +39,22 @@ def plot_text(
     ax = new_axes(ax, (fig_w, max(1.5, fig_w * h / w + 0.4)))
     ax.set_xlim(lo[0] - pad, hi[0] + pad)  # fixed limits: no autoscaling as artists are added
     ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    font = [s for g in tp.glyphs for s in g.strokes]
-    ax.add_collection(
-        LineCollection(
-            font, colors="#d4d4d4", linewidths=4.0, capstyle="round", joinstyle="round", zorder=1
-        ),
-        autolim=False,
-    )
+    font = [s for g in tp.glyphs for s in g.strokes if len(s)]
+    if font:  # one path of all the font's polylines: drawn at once, not polyline by polyline
+        codes = np.full(sum(len(s) for s in font), Path.LINETO, dtype=Path.code_type)
+        codes[np.cumsum([len(s) for s in font]) - [len(s) for s in font]] = Path.MOVETO
+        ax.add_collection(
+            PathCollection(
+                [Path(np.vstack(font), codes)],
+                facecolors="none",
+                edgecolors="#d4d4d4",
+                linewidths=4.0,
+                capstyle="round",
+                joinstyle="round",
+                zorder=1,
+            ),
+            autolim=False,
+        )
     means = [stroke.means for stroke in tp.plan.strokes]
     gaps = np.concatenate([np.linalg.norm(np.diff(m, axis=0), axis=1) for m in means] + [[]])
     spacing = float(np.median(gaps)) if gaps.size else tp.font.height
