@@ -17,7 +17,15 @@ INKARM_MAX_SIM_S       simulated seconds of one run    600 s
 INKARM_MAX_TEXT        characters of text or glyphs    20000
 INKARM_MAX_DPPLA_STEPS steps of an exact DPPLA         2e9
 INKARM_MAX_GA_INDIVIDUALS  individuals a tag's GA     250000
+INKARM_MAX_COMPUTE_S   estimated seconds of one job    10 s
 =====================  ==============================  =========
+
+INKARM_MAX_COMPUTE_S bounds work that is not in proportion to any allocation: O(n^3) dense
+algebra (LQT eigen draws, covariance and oracle; minimum-jerk systems) and many small pieces
+(human-line samples). Its estimates are measured constants times the work (stated where they
+are computed: :mod:`inkarm.models.lqt.cost`, :mod:`inkarm.models.human_line`,
+:mod:`inkarm.models.minjerk`), on the 2-core development machine (a faster one finishes
+sooner than estimated).
 """
 
 from __future__ import annotations
@@ -63,6 +71,7 @@ SIM_S = Limit("INKARM_MAX_SIM_S", 600.0, "s")
 TEXT = Limit("INKARM_MAX_TEXT", 20_000, "characters")
 DPPLA_STEPS = Limit("INKARM_MAX_DPPLA_STEPS", 2e9, "DP steps")  # the exact 2,820-sample bench
 GA_INDIVIDUALS = Limit("INKARM_MAX_GA_INDIVIDUALS", 250_000, "individuals")  # ~30 s of GA
+COMPUTE_S = Limit("INKARM_MAX_COMPUTE_S", 10.0, "s")  # estimated seconds (measured rates)
 
 
 class BudgetError(InputError):

@@ -23,6 +23,27 @@ and setting dJ/dtau1 = 0 gives the polynomial of degree 9 that the GI paper (see
 sec. 4.2) solves for the via time (see :func:`via_time_polynomial`).
 
 Units: positions in [mm], times in [s].
+
+Budgets (:mod:`inkarm.core.budget`): the path through m points solves a dense linear system
+of 6 (m - 1) unknowns, and choosing the via times (none given, m >= 4) runs up to
+``_TIME_SEARCH_MAX_EVALUATIONS`` (400) cost evaluations, each a dense solve of 2 (m - 2)
+unknowns, plus BFGS with a dense m x m matrix. Before any of it :func:`min_jerk_spline`
+checks the estimate of :func:`spline_seconds` against INKARM_MAX_COMPUTE_S (the error names
+``points``), and :func:`via_points` its time steps against INKARM_MAX_STEPS (naming ``dt``).
+The constants are medians measured on the 2-core development machine under load (BLAS with two
+threads on small matrices is slow there):
+
+=============================  ==================================  =========================
+work                           estimate [s]                        measured [s]
+=============================  ==================================  =========================
+given via times                1.5e-3 m + 7e-9 m^3                 0.30, 0.70, 2.3, 7.9 at
+                                                                   m = 200, 400, 700, 1000
+via-time search, on top        400 x 3e-6 m^2                      0.22, 0.32, 8.5, 9.3, 12.7
+                                                                   at m = 20, 40, 70, 100, 150
+=============================  ==================================  =========================
+
+so that with the 10 s default, given via times stop near m = 1000 points and the search near
+m = 90 (give ``via_times`` for longer paths).
 """
 
 from __future__ import annotations
@@ -33,6 +54,7 @@ import numpy as np
 from numpy.polynomial import Polynomial
 from scipy.optimize import minimize
 
+from inkarm.core import budget
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 
@@ -303,6 +325,34 @@ def _check_points(points) -> np.ndarray:
     return p
 
 
+SPLINE_POINT_S = 1.5e-3  # [s] per point: assembling the conditions
+SPLINE_CUBIC_S = 7e-9  # [s] per m^3: the dense solve of 6 (m - 1) unknowns
+SEARCH_EVALUATION_S = 3e-6  # [s] per m^2 and evaluation of the via-time search
+
+
+def spline_seconds(m: int, search: bool) -> float:
+    """Estimated seconds of :func:`min_jerk_spline` through ``m`` points, with the via-time
+    search (``search``: no via times given and m >= 4) or without (see the module
+    docstring)."""
+    m = float(m)
+    seconds = SPLINE_POINT_S * m + SPLINE_CUBIC_S * m**3
+    if search and m >= 4:
+        seconds += _TIME_SEARCH_MAX_EVALUATIONS * SEARCH_EVALUATION_S * m**2
+    return seconds
+
+
+def _require_time(m: int, search: bool) -> None:
+    search = search and m >= 4
+    how = "choosing the via times (up to " if search else "given via times ("
+    work = (f"{_TIME_SEARCH_MAX_EVALUATIONS} dense solves of {2 * (m - 2)} unknowns; give "
+            f"via_times to skip it)" if search else f"a dense system of {6 * (m - 1)} unknowns)")
+    budget.require(
+        spline_seconds(m, search), budget.COMPUTE_S,
+        f"time of the minimum-jerk path through {m} points, {how}{work}",
+        key="points", value=m,
+    )
+
+
 def min_jerk_spline(points, duration: float, via_times=None) -> MinJerkSpline:
     """Minimum-jerk path from rest at ``points[0]`` through ``points[1:-1]`` to rest at
     ``points[-1]`` [mm], lasting ``duration`` [s].
@@ -312,9 +362,12 @@ def min_jerk_spline(points, duration: float, via_times=None) -> MinJerkSpline:
     the best real root of :func:`via_time_polynomial`, for several by a bounded gradient
     search started from chord-length-proportional times (:func:`_optimal_times`; consecutive
     coincident points are then refused).
+
+    Its time (:func:`spline_seconds`) is checked against INKARM_MAX_COMPUTE_S first.
     """
     p = _check_points(points)
     tf = _positive("duration", duration)
+    _require_time(p.shape[0], via_times is None)
     n_via = p.shape[0] - 2
     if via_times is None:
         if n_via == 0:
@@ -514,5 +567,18 @@ def _newton_polish(evaluate, logits: np.ndarray) -> np.ndarray:
 
 
 def via_points(points, duration: float, via_times=None, dt: float = 0.01) -> Trajectory:
-    """:func:`min_jerk_spline` sampled every ``dt`` [s] as a Trajectory with exact velocity."""
+    """:func:`min_jerk_spline` sampled every ``dt`` [s] as a Trajectory with exact velocity.
+
+    The samples, ceil(duration / dt) + 1, are checked against INKARM_MAX_STEPS (the error
+    names ``dt``) and the path's time against INKARM_MAX_COMPUTE_S (naming ``points``) before
+    any work."""
+    _check_points(points)
+    tf = _positive("duration", duration)
+    step = _positive("dt", dt)
+    steps = tf / step + 1
+    budget.require(
+        steps, budget.STEPS,
+        f"time steps of the minimum-jerk path (duration {tf:g} s / dt {step:g} s)",
+        key="dt", value=dt,
+    )
     return min_jerk_spline(points, duration, via_times).to_trajectory(dt)

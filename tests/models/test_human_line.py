@@ -180,3 +180,41 @@ def test_step_budget_is_checked_before_any_work(monkeypatch):
     assert hl.sample_count(2000, 0.01, 0.01) == 2000 * (1 + 1 + 641)
     monkeypatch.setenv("INKARM_MAX_STEPS", "1e10")
     hl.check_polyline(1, 5.0, hl.DEFAULT_PX_MM, 3600.0, 1e-6)  # passes; the job is not run
+
+
+def test_many_polylines_at_once_are_the_same_numbers_as_one_by_one_and_line_by_line():
+    rng = np.random.default_rng(11)
+    for dim, squiggle, duration, dt in ((2, 5.0, 1.0, 0.01), (3, 40.0, 0.3, 0.007),
+                                        (2, 0.0, 0.05, 0.5)):
+        points = np.cumsum(rng.normal(size=(5, dim)) * [25.0, 3.0, 1.0][:dim], axis=0)
+        points[2] = points[1]  # a line of zero length
+        seeds = [3, 99, 2**40 + 1]
+        t, pos, vel = hl.human_polylines(points, seeds, squiggle, PX, duration, dt)
+        for i, seed in enumerate(seeds):
+            one = hl.human_polyline(points, seed, squiggle, PX, duration, dt)
+            assert np.array_equal(one.t, t) and np.array_equal(one.pos, pos[i])
+            assert np.array_equal(one.vel, vel[i])
+            gen = np.random.default_rng(seed)  # the lines one after the other, one generator
+            lines = [hl.human_line(points[k], points[k + 1], gen, squiggle, PX, duration, dt)
+                     for k in range(len(points) - 1)]
+            ref = np.vstack([lines[0].pos] + [line.pos[1:] for line in lines[1:]])
+            assert np.array_equal(ref, pos[i])
+            ref = np.vstack([lines[0].vel] + [line.vel[1:] for line in lines[1:]])
+            assert np.array_equal(ref, vel[i])
+
+
+def test_many_polylines_are_refused_by_their_time_naming_the_generators(monkeypatch):
+    import time
+
+    from inkarm.core.budget import BudgetError
+
+    points = np.cumsum(np.full((201, 2), 3.0), axis=0)  # 200 lines of 0.05 s
+    start = time.perf_counter()
+    with pytest.raises(BudgetError, match=r"^rngs: time of 10001 human polylines of 200 lines "
+                       r"\(duration 0\.05 s / dt 0\.01 s\): about 50\.\d+ s, more than the limit "
+                       r"of 10 s \(raise it with the environment variable INKARM_MAX_COMPUTE_S\)"):
+        hl.human_polylines(points, range(10_001), duration=0.05, dt=0.01)
+    assert time.perf_counter() - start < 2.0
+    assert hl.polylines_seconds(1, 200, 0.05, 0.01) < 0.5  # one polyline is cheap
+    monkeypatch.setenv("INKARM_MAX_COMPUTE_S", "100")
+    hl.check_polylines(10_001, 200, 0.05, 0.01)  # passes; the polylines are not computed

@@ -90,6 +90,56 @@ def test_memory_of_samples_covariance_eigen_and_batch_is_refused_before_drawing(
         LQT(_stroke(40_000), LQTConfig(3, 0.01, d=5.0, solver="batch"))
 
 
+# -- time of the O((N D)^3) operations ----------------------------------------------------------
+
+
+def test_eigen_draws_are_refused_by_their_time_pointing_to_the_exact_sampler(quick):
+    model = LQT(_stroke(2000), LQTConfig())  # N D = 4000: ~0.3 ns (N D)^3 = 19 s; memory fine
+    with pytest.raises(BudgetError, match=r"^method: time of 5 eigen draws of the LQT \(2000 "
+                       r"steps x 2-D: 9 eigenpairs of a dense \d+ x \d+ matrix, O\(\(N D\)\^3\); "
+                       r"method='exact', the default, draws in O\(N\)\): about 19\.2 s, more "
+                       r"than the limit of 10 s \(raise it with the environment variable "
+                       r"INKARM_MAX_COMPUTE_S\)") as info:
+        model.sample(5, method="eigen")
+    assert info.value.value == "eigen" and info.value.variable == "INKARM_MAX_COMPUTE_S"
+    small = LQT(_stroke(800), LQTConfig())  # all components cost ~8x more: 2.5 ns (N D)^3
+    with pytest.raises(BudgetError, match=r"all eigenpairs .*about 10\.24 s"):
+        small.sample(5, method="eigen", components=None)
+    assert cost.eigen_seconds(800, 2, 9) < 10.0  # a few components pass
+
+
+def test_dense_covariance_and_oracle_are_refused_by_their_time(quick):
+    model = LQT(_stroke(2300), LQTConfig())  # N D = 4600: memory fits, time does not
+    with pytest.raises(BudgetError, match=r"time of the dense LQT covariance \(2300 steps x "
+                       r"2-D: O\(\(N D\)\^3\) with N D = 4600\): .*INKARM_MAX_COMPUTE_S"):
+        model.covariance()
+    stroke = _stroke(800)  # N D = 1600: 4 ns (N D)^3 = 16 s
+    with pytest.raises(BudgetError, match=r"^solver: time of the dense LQT oracle \(800 steps x "
+                       r"2-D; O\(\(N D\)\^3\), use another solver\): about 16\.38 s"):
+        LQT(stroke, LQTConfig(solver="batch"))
+    with pytest.raises(BudgetError, match="time of the dense LQT oracle .*INKARM_MAX_COMPUTE_S"):
+        oracle.batch(stroke, LQTConfig())
+
+
+def test_raising_the_compute_limit_passes_the_time_checks(monkeypatch):
+    seconds = cost.eigen_seconds(2000, 2, 9)
+    with pytest.raises(BudgetError, match="INKARM_MAX_COMPUTE_S"):
+        cost.require_time(seconds, "eigen draws")
+    monkeypatch.setenv("INKARM_MAX_COMPUTE_S", "60")
+    cost.require_time(seconds, "eigen draws")  # passes; the draws are not made
+    cost.require_time(cost.batch_seconds(800, 2), "oracle")
+    with pytest.raises(BudgetError, match=r"about 68\.75 s, more than the limit of 60 s"):
+        cost.require_time(cost.covariance_seconds(2500, 2, "augmented"), "covariance")
+
+
+def test_the_time_estimates_are_the_stated_constants():
+    assert cost.eigen_seconds(1000, 2, 9) == pytest.approx(0.3e-9 * 2000**3)
+    assert cost.eigen_seconds(1000, 2, None) == pytest.approx(2.5e-9 * 2000**3)
+    assert cost.eigen_seconds(2, 2, 9) == cost.eigen_seconds(2, 2, None)  # 9 >= N D: all
+    assert cost.covariance_seconds(1000, 2, "cholesky") == pytest.approx(0.15e-9 * 2000**3)
+    assert cost.batch_seconds(500, 2, with_cov=True) == pytest.approx(5.5e-9 * 1000**3)
+
+
 def _clear_caches() -> None:
     for f in (problem.state_stencils, problem._arange, problem._ones, normal.control_rows,
               normal._control_band, solvers._augmented_structure):

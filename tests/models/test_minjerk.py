@@ -326,3 +326,41 @@ def test_single_via_time_is_scale_free_even_near_overflow():
     for scale in (1e-200, 1e-3, 1e6, 1e200):
         t = mj.optimal_via_time(start * scale, via * scale, end * scale, 1.0)
         assert t == pytest.approx(ref, abs=1e-12)
+
+
+# -- budgets ------------------------------------------------------------------------------------
+
+
+def test_many_points_are_refused_by_the_time_of_their_dense_systems(monkeypatch):
+    import time
+
+    from inkarm.core.budget import BudgetError
+
+    points = np.cumsum(np.ones((200, 2)), axis=0) * [1.0, 0.5]
+    start = time.perf_counter()
+    with pytest.raises(BudgetError, match=r"^points: time of the minimum-jerk path through 200 "
+                       r"points, choosing the via times \(up to 400 dense solves of 396 unknowns; "
+                       r"give via_times to skip it\): about 48\.36 s, more than the limit of 10 s "
+                       r"\(raise it with the environment variable INKARM_MAX_COMPUTE_S\)") as info:
+        mj.via_points(points, 10.0)
+    assert info.value.value == 200 and info.value.variable == "INKARM_MAX_COMPUTE_S"
+    many = np.cumsum(np.ones((3000, 2)), axis=0)
+    with pytest.raises(BudgetError, match=r"through 3000 points, given via times \(a dense "
+                       r"system of 17994 unknowns\): about 193\.5 s"):
+        mj.min_jerk_spline(many, 300.0, np.linspace(0.0, 300.0, 3000)[1:-1])
+    assert time.perf_counter() - start < 2.0
+    # given via times, the same 200 points are cheap (~0.3 s)
+    assert mj.spline_seconds(200, search=False) < 1.0
+    traj = mj.via_points(points, 10.0, np.linspace(0.0, 10.0, 200)[1:-1], dt=0.1)
+    np.testing.assert_allclose(traj.pos[0], points[0])
+    monkeypatch.setenv("INKARM_MAX_COMPUTE_S", "300")
+    mj._require_time(200, search=True)  # passes; the search is not run
+    mj._require_time(3000, search=False)
+
+
+def test_via_points_checks_its_time_steps_first():
+    from inkarm.core.budget import BudgetError
+
+    with pytest.raises(BudgetError, match=r"^dt: time steps of the minimum-jerk path \(duration "
+                       r"3600 s / dt 1e-06 s\): about 3\.6e\+09 time steps, .*INKARM_MAX_STEPS"):
+        mj.via_points([[0.0, 0.0], [1.0, 1.0]], 3600.0, dt=1e-6)

@@ -3,6 +3,7 @@ that name the stroke, independent and reproducible random streams."""
 
 from __future__ import annotations
 
+import re
 import time
 import tomllib
 import tracemalloc
@@ -13,7 +14,13 @@ import pytest
 from inkarm.core.budget import BudgetError
 from inkarm.errors import InkarmError
 from inkarm.io.planfile import STREAMS, parse_plan, stroke_seeds
-from inkarm.plans.realise import plan_bytes, realise_plan, stroke_size
+from inkarm.plans.realise import (
+    plan_bytes,
+    realise_plan,
+    require_plan_time,
+    stroke_seconds,
+    stroke_size,
+)
 
 BASIC = """
 title = "two strokes"
@@ -216,3 +223,74 @@ def test_model_errors_name_the_key_as_the_file_spells_it():
                  "minjerk = { duration = 1.0, via_times = [2.0] }\n")
     with pytest.raises(InkarmError, match=r"^plan.toml: strokes\[0\]\.minjerk\.via_times: "):
         realise_plan(plan)
+
+
+# -- time ---------------------------------------------------------------------------------------
+
+
+def _case(text: str, key: str, value, what: str) -> tuple:
+    """A slow plan: its text, the key and value its refusal names, and a regex of its cause."""
+    return text, key, value, what
+
+
+SLOW = {  # each passes the step, sample and memory budgets but would run for minutes or more
+    "eigen": _case(
+        "samples = 10\ncov = 4.0\n[model]\nsampling = 'eigen'\nsegment_time = 5.0\n[[strokes]]\n"
+        "targets = [{ mean = [0.0, 0.0] }, { mean = [10.0, 0.0] }, { mean = [10.0, 10.0] }, "
+        "{ mean = [0.0, 10.0] }]\n",
+        "strokes[0].model.sampling",
+        "eigen",
+        r"the eigen draws of strokes\[0\] \(eigenpairs of a dense 4000 x 4000 matrix, "
+        r"O\(\(N D\)\^3\); sampling = \"exact\", the default, draws in O\(N\)\)\): about 19\.2 s",
+    ),
+    "batch": _case(
+        "samples = 0\ncov = 4.0\n[model]\nsolver = 'batch'\nsegment_time = 4.0\n[[strokes]]\n"
+        "targets = [{ mean = [0.0, 0.0] }, { mean = [10.0, 0.0] }]\n",
+        "strokes[0].model.solver",
+        "batch",
+        r"the dense oracle of strokes\[0\] \(800 steps x 2-D: .*solver = \"auto\" is linear in N\)",
+    ),
+    "human_line": _case(
+        "samples = 10000\n[model]\ndt = 0.01\n[[strokes]]\nkind = 'human_line'\npoints = ["
+        + ", ".join(f"[{3.0 * i}, {3.0 * i}]" for i in range(201))
+        + "]\nhuman_line = { duration = 0.05 }\n",
+        "samples",
+        10000,
+        r"10000 sampled human polylines of strokes\[0\] \(200 lines of 0\.05 s / dt 0\.01 s\)",
+    ),
+    "minjerk": _case(
+        "[[strokes]]\nkind = 'minjerk'\npoints = ["
+        + ", ".join(f"[{float(i)}, {float(i % 7)}]" for i in range(200))
+        + "]\nminjerk = { duration = 20.0 }\n",
+        "strokes[0].points",
+        200,
+        r"the minimum-jerk path of strokes\[0\] through 200 points; give via_times to skip the "
+        r"via-time search",
+    ),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(SLOW))
+def test_slow_plans_are_refused_by_their_time_naming_the_input(kind, monkeypatch):
+    text, key, value, what = SLOW[kind]
+    plan = parse(text)
+    start = time.perf_counter()
+    with pytest.raises(BudgetError, match=r"^plan.toml: " + re.escape(key) + r": time of "
+                       r"realising the plan \(1 stroke, \d+ samples? each; (mostly )?" + what
+                       + r".*more than the limit of 10 s \(raise it with the environment "
+                       r"variable INKARM_MAX_COMPUTE_S\)$") as info:
+        realise_plan(plan)
+    assert time.perf_counter() - start < 2.0
+    assert (info.value.key, info.value.value, info.value.file) == (key, value, "plan.toml")
+    assert info.value.estimate > 10.0 and info.value.variable == "INKARM_MAX_COMPUTE_S"
+    monkeypatch.setenv("INKARM_MAX_COMPUTE_S", "1000")
+    require_plan_time(plan, plan.samples)  # passes; the plan is not realised
+
+
+def test_the_time_of_a_plan_is_the_sum_of_its_strokes():
+    plan = parse(MIXED)
+    parts = [part for s in plan.strokes for part in stroke_seconds(s, plan.samples)]
+    assert [part[1] for part in parts] == ["strokes[1].points", "samples", "strokes[2].points"]
+    start = time.perf_counter()
+    realise_plan(plan)
+    assert sum(part[0] for part in parts) < 1.0 and time.perf_counter() - start < 5.0

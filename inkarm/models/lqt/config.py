@@ -26,7 +26,9 @@ in [6.7e-80, 4.1e50] and control^2 = r / dt^(2n) (the entries of the normal matr
 
 Budgets (:mod:`inkarm.core.budget`): the number of time steps N of a stroke is checked against
 INKARM_MAX_STEPS by :func:`time_grid`, before anything is allocated; the memory of the solve,
-the samples and the covariance against INKARM_MAX_MEMORY_MB (:mod:`.cost`).
+the samples and the covariance against INKARM_MAX_MEMORY_MB, and the time of the O((N D)^3)
+operations (eigen draws, covariance, dense oracle) against INKARM_MAX_COMPUTE_S
+(:mod:`.cost`).
 """
 
 from __future__ import annotations

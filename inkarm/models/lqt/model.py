@@ -47,6 +47,11 @@ class LQT:
                 f"memory of the dense LQT oracle ({prob.n_steps} steps x {prob.dim}-D, "
                 f"order {prob.n}; O(N^2), use another solver)",
             )
+            cost.require_time(
+                cost.batch_seconds(prob.n_steps, prob.dim),
+                f"time of the dense LQT oracle ({prob.n_steps} steps x {prob.dim}-D; "
+                f"O((N D)^3), use another solver)", key="solver", value="batch",
+            )
 
     @property
     def method(self) -> str:
@@ -115,7 +120,9 @@ class LQT:
         Args:
             k: Number of draws; their memory (:mod:`.cost`:
                 about 8 k N D (4 or 7) bytes exact, plus 8 (N D)^2 for eigen) is checked
-                against INKARM_MAX_MEMORY_MB before drawing.
+                against INKARM_MAX_MEMORY_MB before drawing, and for eigen its O((N D)^3)
+                time (about 0.3 ns (N D)^3, 2.5 ns with all components) against
+                INKARM_MAX_COMPUTE_S.
             seed: None, an int or a numpy Generator.
         """
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
@@ -145,6 +152,15 @@ class LQT:
             f"memory of {int(k)} {method} draws of the LQT ({prob.n_steps} steps x "
             f"{prob.dim}-D)",
         )
+        if method == "eigen":
+            size = prob.n_free * prob.dim
+            cost.require_time(
+                cost.eigen_seconds(prob.n_steps, prob.dim, components),
+                f"time of {int(k)} eigen draws of the LQT ({prob.n_steps} steps x {prob.dim}-D: "
+                f"{'all' if components is None else components} eigenpairs of a dense {size} x "
+                f"{size} matrix, O((N D)^3); method='exact', the default, draws in O(N))",
+                key="method", value=method,
+            )
         rng = np.random.default_rng(seed)
         if method == "exact":
             c = self.factor.samples(int(k), rng, self._coefficients)
@@ -159,7 +175,8 @@ class LQT:
 
         From the factorisation: Sigma_x = M H^-1 M^T, H^-1 the posterior covariance of the
         free coefficients and M their linear map to positions; O(N^2) memory, about
-        8 (N D)^2 (4 or 6) bytes (:mod:`.cost`), checked against INKARM_MAX_MEMORY_MB first.
+        8 (N D)^2 (4 or 6) bytes (:mod:`.cost`), checked against INKARM_MAX_MEMORY_MB first,
+        and O((N D)^3) time, checked against INKARM_MAX_COMPUTE_S.
         """
         prob = self.problem
         n, d = prob.n_steps, prob.dim
@@ -168,6 +185,12 @@ class LQT:
             cost.batch_bytes(n, d, prob.n, with_cov=True) if batch
             else cost.covariance_bytes(n, d, self.method),
             f"memory of the dense LQT covariance ({n} steps x {d}-D: ({n * d})^2 entries)",
+        )
+        cost.require_time(
+            cost.batch_seconds(n, d, with_cov=True) if batch
+            else cost.covariance_seconds(n, d, self.method),
+            f"time of the dense LQT covariance ({n} steps x {d}-D: O((N D)^3) with N D = "
+            f"{n * d})",
         )
         if batch:
             cov = oracle.batch(self.stroke, self.config, self.references, with_cov=True)[1]

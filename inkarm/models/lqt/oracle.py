@@ -127,6 +127,10 @@ def batch(stroke: StrokePlan, cfg: LQTConfig, references=(), with_cov: bool = Fa
         cost.batch_bytes(n_steps, dim, n, with_cov),
         f"memory of the dense LQT oracle ({n_steps} steps x {dim}-D, order {n}; O(N^2))",
     )
+    cost.require_time(
+        cost.batch_seconds(n_steps, dim, with_cov),
+        f"time of the dense LQT oracle ({n_steps} steps x {dim}-D; O((N D)^3))",
+    )
     nd = n * dim
     a, b = system_matrices(n, dim, cfg.dt, cfg.discretisation)
     s_xi, s_u = transfer_matrices(a, b, n_steps)
