@@ -7,6 +7,7 @@ The parent has imported inkarm and its dependencies once; each case forks (milli
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import resource
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-MEMORY_LIMIT_BYTES = 1_500_000_000  # on top of nothing: the whole address space of the child
+MEMORY_LIMIT_BYTES = 1_500_000_000  # address space a case may add to the forked test process
 TIMEOUT_S = 20.0
 
 
@@ -47,10 +48,18 @@ class Outcome:
         lines = [line for line in self.stderr.splitlines() if line.strip()]
         if self.code == 2 and len(lines) == 1 and lines[0].startswith("inkarm "):
             parts = lines[0].split(": ")
-            if any(a == b for a, b in zip(parts, parts[1:])):
+            if any(a == b for a, b in itertools.pairwise(parts)):
                 return f"a part of the message repeats: {lines[0]}"
             return None
         return f"exit {self.code} with {len(lines)} stderr lines"
+
+
+def _mapped_bytes() -> int:
+    """This process's virtual memory size (VmSize) in bytes."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmSize:"):
+            return int(line.split()[1]) * 1024
+    return 0
 
 
 def run_isolated(argv: list[str], cwd: Path, timeout_s: float = TIMEOUT_S,
@@ -66,7 +75,10 @@ def run_isolated(argv: list[str], cwd: Path, timeout_s: float = TIMEOUT_S,
             code = 3
             try:
                 os.chdir(cwd)
-                resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+                # The limit is on top of what the (forked) test process already maps, so that a
+                # long test session's address space does not eat into the case's allowance.
+                mapped = _mapped_bytes()
+                resource.setrlimit(resource.RLIMIT_AS, (mapped + memory_bytes,) * 2)
                 out = os.open(out_path, os.O_WRONLY | os.O_CREAT)
                 err = os.open(err_path, os.O_WRONLY | os.O_CREAT)
                 os.dup2(out, 1)
