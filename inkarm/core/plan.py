@@ -12,6 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
+from inkarm.core.equality import same
 from inkarm.errors import PlanError
 
 
@@ -123,24 +124,6 @@ def _clearly_positive_definite(rows: list[list[float]]) -> bool:
     return True
 
 
-def _same(a, b) -> bool:
-    """Value equality that also holds for NumPy arrays (element-wise, NaN equal to NaN, shapes
-    equal) and for dicts, lists and tuples holding them."""
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        a, b = np.asarray(a), np.asarray(b)
-        if a.shape != b.shape:
-            return False
-        try:
-            return bool(np.array_equal(a, b, equal_nan=True))
-        except TypeError:  # non-numeric arrays: NaN has no meaning there
-            return bool(np.array_equal(a, b))
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
-    return bool(a == b)
-
-
 @dataclass(frozen=True, eq=False)
 class GaussianTarget:
     """A target N(mean, cov): mean (D,) in [mm], cov (D, D) in [mm^2], symmetric positive definite.
@@ -164,7 +147,7 @@ class GaussianTarget:
     def __eq__(self, other) -> bool:
         if other.__class__ is not self.__class__:
             return NotImplemented
-        return _same(self.mean, other.mean) and _same(self.cov, other.cov)
+        return same(self.mean, other.mean) and same(self.cov, other.cov)
 
     def __hash__(self) -> int:
         # Python floats hash -0.0 like 0.0, as == has them equal; means and covs are finite.
@@ -253,8 +236,8 @@ class StrokePlan:
             and self.segment_time == other.segment_time
             and self.keypoints == other.keypoints
             and self.velocity_var == other.velocity_var
-            and _same(self.velocities, other.velocities)
-            and _same(self.meta, other.meta)
+            and same(self.velocities, other.velocities)
+            and same(self.meta, other.meta)
         )
 
     def __hash__(self) -> int:

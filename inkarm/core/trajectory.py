@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.equality import same
 from inkarm.errors import InputError
 
 A4_MM = (210.0, 297.0)
@@ -102,27 +103,6 @@ def _as_array(name: str, value, ndim: int) -> np.ndarray:
     return arr
 
 
-def _same(a, b) -> bool:
-    """Value equality that holds for NumPy arrays too: same shape and the same values element
-    by element (exactly; NaN equal to NaN, so that a value equals itself), None only equal to
-    None, and dicts, lists and tuples compared item by item with the same rule."""
-    if a is None or b is None:
-        return a is None and b is None
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        a, b = np.asarray(a), np.asarray(b)
-        if a.shape != b.shape:
-            return False
-        try:
-            return bool(np.array_equal(a, b, equal_nan=True))
-        except TypeError:  # non-numeric arrays: NaN has no meaning there
-            return bool(np.array_equal(a, b))
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
-    return bool(a == b)
-
-
 def _check_increasing(t: np.ndarray) -> None:
     """Raise :class:`InputError` unless ``t`` is strictly increasing (NaN fails)."""
     if t.shape[0] > 1 and not (t[1:] > t[:-1]).all():
@@ -205,7 +185,7 @@ class Trajectory:
         if other.__class__ is not self.__class__:
             return NotImplemented
         return all(
-            _same(getattr(self, name), getattr(other, name))
+            same(getattr(self, name), getattr(other, name))
             for name in ("t", "pos", "vel", "pressure")
         )
 
@@ -336,7 +316,7 @@ class Drawing:
         return (
             self.page_size == other.page_size
             and self.strokes == other.strokes
-            and _same(self.meta, other.meta)
+            and same(self.meta, other.meta)
         )
 
     __hash__ = None  # type: ignore[assignment]

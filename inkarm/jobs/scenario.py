@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from inkarm.control.config import LoopConfig
+from inkarm.core.equality import same
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InkarmError, InputError, ScenarioError
 from inkarm.ink.canvas import INK_MODELS
@@ -168,17 +169,10 @@ def _table_of(obj) -> dict:
     out = {}
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
-        if value is None or (f.default is not dataclasses.MISSING and _same(value, f.default)):
+        if value is None or (f.default is not dataclasses.MISSING and same(value, f.default)):
             continue
         out[f.name] = list(value) if isinstance(value, tuple | np.ndarray) else value
     return out
-
-
-def _same(a, b) -> bool:
-    try:
-        return bool(np.array_equal(a, b)) if isinstance(a, tuple | np.ndarray) else a == b
-    except (TypeError, ValueError):
-        return False
 
 
 def _set_dotted(data: dict, dotted: str, value) -> None:
