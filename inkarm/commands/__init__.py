@@ -5,10 +5,8 @@ from __future__ import annotations
 import argparse
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir
 
 
 def add_trace_options(parser: argparse.ArgumentParser) -> None:
@@ -19,14 +17,6 @@ def add_trace_options(parser: argparse.ArgumentParser) -> None:
                         help=f"SVG only: pen speed in [mm/s] (default {DEFAULT_SPEED:g})")
     parser.add_argument("--rate", type=float, default=DEFAULT_RATE,
                         help=f"SVG only: sampling rate in [Hz] (default {DEFAULT_RATE:g})")
-
-
-def output_folder(path: str | Path, inputs=(), names=()) -> Path:
-    """The ``--out`` folder, checked before any work and not created (a command writes into
-    :func:`inkarm.io.outputs.staged`, which creates it when the files are complete)."""
-    out = check_out_dir(path, inputs=inputs, names=names)
-    out.mkdir(parents=True, exist_ok=True)  # TODO(plan, write): write through staged() instead
-    return out
 
 
 @contextmanager

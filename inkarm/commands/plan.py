@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from inkarm.commands import output_folder
 from inkarm.core import budget
 from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_dir, staged
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -57,6 +57,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+PLAN_FILES = ("mean.csv", "samples.npz", "plan.png", "plan.svg")
+
+
 def run(args) -> int:
     from inkarm.io.planfile import load_plan
     from inkarm.plans.realise import realise_plan
@@ -68,18 +71,18 @@ def run(args) -> int:
                        value=args.samples)
     if args.seed is not None and args.seed < 0:
         raise InputError(f"--seed: expected an integer >= 0, got {args.seed}")
+    out = check_out_dir(args.out, inputs=[args.file], names=PLAN_FILES)
     plan = load_plan(args.file, seed=args.seed)
     result = realise_plan(plan, samples=args.samples)
-    out = output_folder(args.out)
-    written = [out / "mean.csv"]
-    result.drawing.to_csv(written[0])
-    if result.n_samples > 0:
-        written.append(out / "samples.npz")
-        np.savez(written[-1], **result.stacked_samples())
-    if not args.no_figure:
-        from inkarm.plots.plans import save_plan_figure
+    with staged(out) as stage:
+        result.drawing.to_csv(stage / "mean.csv")
+        if result.n_samples > 0:
+            np.savez(stage / "samples.npz", **result.stacked_samples())
+        if not args.no_figure:
+            from inkarm.plots.plans import save_plan_figure
 
-        written += save_plan_figure(result, out / "plan")
+            save_plan_figure(result, stage / "plan")
+        written = [out / p.name for p in sorted(stage.iterdir())]
     n = sum(s.n for s in result.drawing.strokes)
     duration = result.drawing.strokes[-1].t[-1]
     print(

@@ -80,8 +80,7 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     """
     cell = Cell(scenario.cell, scenario.robot)
     try:
-        drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
-        check_budget(drawing, scenario, cell)
+        drawing = placed_within_budget(scenario, cell)
         believed = kinematic_model(cell)  # the controller's own model; the plant gets a twin
         canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                         ink=scenario.ink.make())
@@ -124,12 +123,19 @@ def check(scenario: Scenario) -> Drawing:
 
     cell = Cell(scenario.cell, scenario.robot)
     try:
-        drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
-        check_budget(drawing, scenario, cell)
+        drawing = placed_within_budget(scenario, cell)
         require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
         check_reachable(drawing, kinematic_model(cell), scenario.controller)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
+    return drawing
+
+
+def placed_within_budget(scenario: Scenario, cell: Cell) -> Drawing:
+    """The scenario's drawing placed on the cell's page, its run checked against the
+    simulated-time and plan-memory budgets (:func:`check_budget`)."""
+    drawing = place(source_drawing(scenario), scenario.placement, cell.paper_size_mm)
+    check_budget(drawing, scenario, cell)
     return drawing
 
 

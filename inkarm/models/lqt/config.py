@@ -102,7 +102,10 @@ def _covariance_errors(covs: np.ndarray) -> tuple[int, str | None]:
 def check_stroke_ranges(stroke: StrokePlan) -> None:
     """Refuse means, covariances and velocities of ``stroke`` outside the valid ranges (see
     the module docstring); errors name ``targets[i].mean``, ``targets[i].cov``,
-    ``velocities``."""
+    ``velocities``. A stroke plan is immutable, so a stroke that passed is not checked again
+    (realising a plan sizes each stroke before solving it)."""
+    if stroke.__dict__.get("_ranges_checked"):
+        return
     means = stroke.means
     far = ~(np.abs(means) <= MAX_COORDINATE)
     if far.any():
@@ -122,6 +125,7 @@ def check_stroke_ranges(stroke: StrokePlan) -> None:
             raise PlanError(f"{expected_in(*VARIANCE_RANGE, '(mm/s)^2', 'a number')}, got "
                             f"{bad:g}",
                             key="velocity_var", value=stroke.velocity_var)
+    object.__setattr__(stroke, "_ranges_checked", True)
 
 
 def positive_number(value) -> bool:
