@@ -1,0 +1,301 @@
+"""The firmware of a Dynamixel X-series servo in position control, as a model (pure NumPy).
+
+What a position-controlled servo does between the goal the host writes and the torque at its
+horn, vectorised over n servos (ROBOTIS e-Manual, X-series control tables: "Position PID Gain
+(80, 82, 84), Feedforward 1st/2nd Gains (88, 90)", "Profile Velocity (112)", "Profile
+Acceleration (108)", "Current Limit (38)", "PWM Limit (36)"):
+
+1. **Profile generator.** Goal Position (116) becomes a desired position and velocity
+   trajectory (registers 140 and 136) limited by Profile Velocity ``V`` [0.229 rev/min] and
+   Profile Acceleration ``A`` [214.577 rev/min^2] (velocity-based profile): from rest a step of
+   ``D`` ticks is a trapezoid, accelerating at ``A`` for ``t1 = V / A``, cruising at ``V`` and
+   decelerating at ``A``, lasting ``t3 = D / V + t1``; a triangle when ``D < V^2 / A``.
+   ``V = 0`` means no velocity limit and ``A = 0`` no acceleration limit (both 0: a step).
+   A new goal re-plans from the present desired position and velocity, so the generator is
+   the online time-optimal tracker ``v* = sign(e) min(V, sqrt(2 A |e|))`` with ``|dv| <= A dt``.
+2. **Position PID with feed-forward**, in encoder ticks (4096 a turn), the control-table gains
+   converted as the e-Manual gives them (the constants include the sampling time):
+   ``KPP = P/128``, ``KPI = I/65536``, ``KPD = D/16``, ``KFF1 = FF1/4``, ``KFF2 = FF2/4``;
+   with ``e = p_desired - p_present`` [ticks]::
+
+       u = KPP e + KPI sum(e) + KPD (e_k - e_{k-1}) + KFF1 v_desired + KFF2 a_desired   [PWM]
+
+   The firmware's own cycle is :data:`FIRMWARE_CYCLE_S`; at another period ``T`` the sum
+   gains ``T / cycle`` per step and the difference ``cycle / T``, so the gains mean the same
+   at any simulation step. ``v`` and ``a`` are per firmware cycle [ticks/cycle, ticks/cycle^2].
+   The integral is clamped so that its term alone stays within the PWM limit (anti-windup).
+3. **PWM to torque** (DC motor behind its gear train): duty ``d = clip(u, +-PWM limit) / 885``
+   and, at output speed ``w`` [rad/s], ``tau = tau_stall (d - w / w_noload)``, so at full
+   duty the torque falls linearly from stall to zero at the no-load speed (voltage
+   saturation). The current ``tau / k_t`` is clipped to Current Limit x current unit
+   [mA]: ``|tau| <= k_t I_limit`` (servos without current sensing have no such limit).
+
+Units: registers in their own units (ticks, 0.229 rpm, 214.577 rev/min^2, mA steps); the
+joint side in SI ([rad], [rad/s], [N m]). Conversions between the two live here and nowhere
+else (:func:`ticks_to_rad` and friends). Tick 2048 is the servo's centre, 0 rad.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from inkarm.errors import InputError, unknown_name
+
+TICKS_PER_REV = 4096
+CENTRE_TICK = 2048
+VELOCITY_UNIT_RPM = 0.229
+ACCELERATION_UNIT_RPM2 = 214.577
+PWM_FULL_SCALE = 885
+FIRMWARE_CYCLE_S = 0.001  # the position loop's cycle the table gains are scaled to [s]
+
+_RPM = 2.0 * np.pi / 60.0  # [rad/s] per rev/min
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    """One Dynamixel model's figures (datasheet at 12 V; control-table defaults).
+
+    Attributes:
+        name: Model name, e.g. ``"XM430-W350"``.
+        model_number: The Model Number register (0).
+        stall_torque_nm: Stall torque at the output [N m].
+        stall_current_a: Stall current [A].
+        no_load_speed_rad_s: No-load output speed [rad/s].
+        current_unit_ma: One Current register step [mA]; None where the model senses no current.
+        current_limit_max: Largest Current Limit (38) value [current units] (0: none).
+        velocity_limit_default: Velocity Limit (44) default [0.229 rpm].
+        position_pid_default: Position D, I, P gains' defaults (80, 82, 84).
+        ticks_per_rev: Encoder ticks per output revolution.
+    """
+
+    name: str
+    model_number: int
+    stall_torque_nm: float
+    stall_current_a: float
+    no_load_speed_rad_s: float
+    current_unit_ma: float | None
+    current_limit_max: int
+    velocity_limit_default: int
+    position_pid_default: tuple[int, int, int]
+    ticks_per_rev: int = TICKS_PER_REV
+
+    @property
+    def torque_constant_nm_per_a(self) -> float:
+        """Output torque per motor current [N m/A], from the stall figures."""
+        return self.stall_torque_nm / self.stall_current_a
+
+
+SERVO_MODELS: dict[str, ServoModel] = {
+    m.name: m for m in (
+        ServoModel("XM430-W350", 1020, 4.1, 2.3, 46.0 * _RPM, 2.69, 1193, 200, (0, 0, 800)),
+        ServoModel("XL430-W250", 1060, 1.5, 1.4, 61.0 * _RPM, None, 0, 265, (4000, 0, 640)),
+        ServoModel("XM540-W270", 1120, 10.6, 4.4, 30.0 * _RPM, 2.69, 2047, 128, (0, 0, 800)),
+    )
+}
+
+
+def servo_model(name: str | ServoModel) -> ServoModel:
+    """The :class:`ServoModel` of a model name (or the model itself)."""
+    if isinstance(name, ServoModel):
+        return name
+    if name not in SERVO_MODELS:
+        raise unknown_name("servo model", name, SERVO_MODELS)
+    return SERVO_MODELS[name]
+
+
+# --- unit conversions (the control tables' units <-> SI) -----------------------------------
+
+def ticks_to_rad(ticks, ticks_per_rev: int = TICKS_PER_REV) -> np.ndarray:
+    """Position register [ticks] -> angle [rad], tick 2048 at 0 rad."""
+    return (np.asarray(ticks, dtype=float) - CENTRE_TICK) * (2.0 * np.pi / ticks_per_rev)
+
+
+def rad_to_ticks(rad, ticks_per_rev: int = TICKS_PER_REV) -> np.ndarray:
+    """Angle [rad] -> position register [ticks] (float; round before writing)."""
+    return np.asarray(rad, dtype=float) * (ticks_per_rev / (2.0 * np.pi)) + CENTRE_TICK
+
+
+def velocity_units_to_rad_s(units) -> np.ndarray:
+    """Velocity register [0.229 rev/min] -> [rad/s]."""
+    return np.asarray(units, dtype=float) * (VELOCITY_UNIT_RPM * _RPM)
+
+
+def rad_s_to_velocity_units(rad_s) -> np.ndarray:
+    """[rad/s] -> velocity register [0.229 rev/min] (float)."""
+    return np.asarray(rad_s, dtype=float) / (VELOCITY_UNIT_RPM * _RPM)
+
+
+def acceleration_units_to_rad_s2(units) -> np.ndarray:
+    """Profile Acceleration register [214.577 rev/min^2] -> [rad/s^2]."""
+    return np.asarray(units, dtype=float) * (ACCELERATION_UNIT_RPM2 * 2.0 * np.pi / 3600.0)
+
+
+def rad_s2_to_acceleration_units(rad_s2) -> np.ndarray:
+    """[rad/s^2] -> Profile Acceleration register [214.577 rev/min^2] (float)."""
+    return np.asarray(rad_s2, dtype=float) / (ACCELERATION_UNIT_RPM2 * 2.0 * np.pi / 3600.0)
+
+
+def current_units_to_a(units, current_unit_ma: float) -> np.ndarray:
+    """Current register [units of ``current_unit_ma`` mA] -> [A]."""
+    return np.asarray(units, dtype=float) * (current_unit_ma * 1e-3)
+
+
+def a_to_current_units(amps, current_unit_ma: float) -> np.ndarray:
+    """[A] -> current register units (float)."""
+    return np.asarray(amps, dtype=float) / (current_unit_ma * 1e-3)
+
+
+# --- the firmware ---------------------------------------------------------------------------
+
+@dataclass
+class FirmwareGains:
+    """The registers that shape the position loop, shape (n,) each, in register units.
+
+    ``current_limit`` is in current units (ignored for models without current sensing);
+    ``pwm_limit`` in PWM units (885 = 100 %). Scalars broadcast to n in :class:`ServoFirmware`.
+    """
+
+    position_p: np.ndarray | float = 800.0
+    position_i: np.ndarray | float = 0.0
+    position_d: np.ndarray | float = 0.0
+    feedforward_1st: np.ndarray | float = 0.0
+    feedforward_2nd: np.ndarray | float = 0.0
+    profile_velocity: np.ndarray | float = 0.0
+    profile_acceleration: np.ndarray | float = 0.0
+    current_limit: np.ndarray | float = np.inf
+    pwm_limit: np.ndarray | float = float(PWM_FULL_SCALE)
+
+    @classmethod
+    def defaults(cls, models: Sequence[str | ServoModel]) -> FirmwareGains:
+        """The factory registers of ``models``."""
+        ms = [servo_model(m) for m in models]
+        return cls(position_p=np.array([m.position_pid_default[2] for m in ms], float),
+                   position_i=np.array([m.position_pid_default[1] for m in ms], float),
+                   position_d=np.array([m.position_pid_default[0] for m in ms], float),
+                   current_limit=np.array([m.current_limit_max for m in ms], float))
+
+
+@dataclass
+class _ProfileState:
+    position: np.ndarray          # desired position, register 140 [ticks]
+    velocity: np.ndarray          # desired velocity, register 136 [ticks/s]
+    acceleration: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [ticks/s^2]
+
+
+class ServoFirmware:
+    """n X-series servos' position loops (module docstring), one :meth:`torque` per period.
+
+    Args:
+        models: One model name (or :class:`ServoModel`) per servo.
+        gains: Register values; scalars broadcast.
+        period_s: The period :meth:`torque` is called at (e.g. the physics step) [s].
+    """
+
+    def __init__(self, models: Sequence[str | ServoModel], gains: FirmwareGains,
+                 period_s: float):
+        self.models = tuple(servo_model(m) for m in models)
+        self.n = len(self.models)
+        if not (np.isfinite(period_s) and 0.0 < period_s <= 0.1):
+            raise InputError(f"expected a firmware period in (0, 0.1] s, got {period_s}",
+                             key="period_s", value=period_s)
+        self.period_s = float(period_s)
+        self.gains = gains
+        m = self.models
+        self._stall = np.array([x.stall_torque_nm for x in m])
+        self._w_noload = np.array([x.no_load_speed_rad_s for x in m])
+        self._kt = np.array([x.torque_constant_nm_per_a for x in m])
+        self._unit_a = np.array([np.inf if x.current_unit_ma is None else x.current_unit_ma * 1e-3
+                                 for x in m])
+        self._rad_per_tick = np.array([2.0 * np.pi / x.ticks_per_rev for x in m])
+        self.reset(np.full(self.n, float(CENTRE_TICK)))
+
+    def register(self, name: str) -> np.ndarray:
+        """A gain register as a float array (n,)."""
+        value = np.broadcast_to(np.asarray(getattr(self.gains, name), dtype=float), (self.n,))
+        return value
+
+    def set_register(self, name: str, value) -> None:
+        """Write one gain register (all servos, or an (n,) array)."""
+        if name not in {f.name for f in fields(FirmwareGains)}:
+            raise unknown_name("firmware register", name, [f.name for f in fields(FirmwareGains)])
+        setattr(self.gains, name, np.broadcast_to(np.asarray(value, float), (self.n,)).copy())
+
+    def reset(self, present_ticks) -> None:
+        """Torque on: the desired trajectory starts at rest at the present position, the
+        integral and the error history are cleared (no jump)."""
+        p = np.broadcast_to(np.asarray(present_ticks, dtype=float), (self.n,)).copy()
+        self.profile = _ProfileState(p, np.zeros(self.n), np.zeros(self.n))
+        self._integral = np.zeros(self.n)
+        self._last_error = np.zeros(self.n)
+        self.pwm = np.zeros(self.n)
+        self.current_a = np.zeros(self.n)
+
+    def advance_profile(self, goal_ticks) -> None:
+        """One period of the profile generator towards ``goal_ticks`` (module docstring, 1)."""
+        dt = self.period_s
+        goal = np.broadcast_to(np.asarray(goal_ticks, dtype=float), (self.n,))
+        ticks_per_rad = 1.0 / self._rad_per_tick
+        v_max = velocity_units_to_rad_s(self.register("profile_velocity")) * ticks_per_rad
+        a_max = acceleration_units_to_rad_s2(self.register("profile_acceleration")) * ticks_per_rad
+        v_max = np.where(v_max > 0, v_max, np.inf)
+        a_max = np.where(a_max > 0, a_max, np.inf)
+        p, v = self.profile.position, self.profile.velocity
+        error = goal - p
+        # Speed from which braking at a_max stops exactly at the goal one period from now
+        # (the discrete braking curve; sqrt(2 a |e|) in the continuous limit).
+        a_safe = np.where(np.isfinite(a_max), a_max, 1.0)
+        brake = np.where(np.isfinite(a_max),
+                         a_safe * dt * (np.sqrt(0.25 + 2.0 * np.abs(error) / (a_safe * dt * dt))
+                                        - 0.5), np.inf)
+        speed = np.minimum(v_max, brake)
+        step_mode = np.isinf(speed)
+        v_target = np.where(step_mode | (error == 0), 0.0, np.sign(error) * np.where(
+            step_mode, 0.0, speed))
+        dv = np.clip(v_target - v, -a_max * dt, a_max * dt)
+        v_new = v + dv
+        step = v_new * dt
+        p_new = np.where(step_mode | (np.abs(step) >= np.abs(error)), goal, p + step)
+        arrived = p_new == goal
+        v_new = np.where(step_mode | (arrived & (np.abs(v_new) <= a_max * dt)), 0.0, v_new)
+        self.profile = _ProfileState(p_new, v_new, (v_new - v) / dt)
+
+    def torque(self, goal_ticks, present_ticks, present_velocity) -> np.ndarray:
+        """One period of the position loop (module docstring, 1-3).
+
+        Args:
+            goal_ticks: Goal Position (116) [ticks], (n,).
+            present_ticks: Present Position [ticks], (n,) (float: the physics' exact angle).
+            present_velocity: Output speed [rad/s], (n,).
+
+        Returns:
+            Torque at the output [N m], (n,), after the PWM, voltage and current limits.
+        """
+        self.advance_profile(goal_ticks)
+        dt, cycle = self.period_s, FIRMWARE_CYCLE_S
+        error = self.profile.position - np.asarray(present_ticks, dtype=float)
+        kpp = self.register("position_p") / 128.0
+        kpi = self.register("position_i") / 65536.0
+        kpd = self.register("position_d") / 16.0
+        kff1 = self.register("feedforward_1st") / 4.0
+        kff2 = self.register("feedforward_2nd") / 4.0
+        pwm_limit = np.minimum(self.register("pwm_limit"), PWM_FULL_SCALE)
+        self._integral += error * (dt / cycle)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = np.where(kpi > 0, pwm_limit / kpi, 0.0)
+        self._integral = np.clip(self._integral, -bound, bound)
+        derivative = (error - self._last_error) * (cycle / dt)
+        self._last_error = error
+        u = (kpp * error + kpi * self._integral + kpd * derivative
+             + kff1 * self.profile.velocity * cycle
+             + kff2 * self.profile.acceleration * cycle * cycle)
+        self.pwm = np.clip(u, -pwm_limit, pwm_limit)
+        duty = self.pwm / PWM_FULL_SCALE
+        tau = self._stall * (duty - np.asarray(present_velocity, dtype=float) / self._w_noload)
+        limit = self._kt * self._unit_a * self.register("current_limit")
+        limit = np.where(np.isnan(limit), np.inf, limit)
+        tau = np.clip(tau, -limit, limit)
+        self.current_a = tau / self._kt
+        return tau
