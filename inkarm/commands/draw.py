@@ -4,6 +4,7 @@ simulated robot."""
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import sys
@@ -39,6 +40,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--viewer", action="store_true",
                    help="open MuJoCo's viewer on the finished run (needs a display)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--backend", default="sim", metavar="{sim,plotter,...}",
+                   help="where to draw: sim (the MuJoCo arm, default) or a device on --port "
+                   "(plotter: GRBL 1.1; see inkarm.jobs.backends)")
+    p.add_argument("--port", default=None,
+                   help="serial port of the device (a pseudo-terminal from `inkarm emulate`)")
+    p.add_argument("--profile", metavar="NAME|FILE.toml", default=None,
+                   help="device profile: for a plotter, the pen profile (servo, z) or a file")
+    p.add_argument("--time-scale", type=float, default=1.0,
+                   help="device seconds per wall second: an emulator's --speedup (default 1)")
     p.add_argument("--check", action="store_true",
                    help="check the scenario (source, budgets, placement, reach) and stop before "
                    "simulating; writes nothing")
@@ -137,6 +147,13 @@ def run(args: argparse.Namespace) -> int:
               f"{scenario.robot.name}")
         return 0
     bar = None if args.quiet else ProgressBar(f"drawing {scenario.title!r} ({scenario.robot.name})")
+    if args.backend != "sim" or args.port is not None:
+        from inkarm.jobs.backends import BackendOptions, get_backend, run_backend
+
+        get_backend(args.backend)  # an unknown name fails here, before the port is opened
+        options = BackendOptions(port=args.port, profile=args.profile,
+                                 time_scale=args.time_scale)
+        run_scenario = functools.partial(run_backend, args.backend, options=options)
     try:
         result = run_scenario(scenario, progress=bar)
     except RunInterrupted as interrupted:
