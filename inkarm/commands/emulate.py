@@ -1,0 +1,111 @@
+"""``inkarm emulate {grbl,...}``: start a device emulator on a pseudo-terminal, print the port
+to connect to and run until Ctrl-C.
+
+One sub-parser per emulated device; to add one, write ``_add_<name>(subparsers)`` that sets
+``_emulate`` to a function ``(args) -> int`` and list it in :data:`EMULATORS`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from inkarm.errors import InputError
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def _add_grbl(sub) -> None:
+    p = sub.add_parser(
+        "grbl",
+        help="a GRBL 1.1 pen plotter (planner, 128-byte buffer, pen servo, ink canvas)",
+        description="Emulate a GRBL 1.1 pen plotter on a pseudo-terminal: 128-byte receive "
+        "buffer (overflow is lost silently), 15-block planner with acceleration and junction "
+        "deviation, real-time commands, status reports, soft limits and alarms, a pen servo "
+        "with a settle time drawing on an ink canvas. Prints the port; Ctrl-C stops it.",
+    )
+    p.add_argument("--speedup", type=_positive, default=1.0,
+                   help="machine seconds per wall-clock second (default 1: real time)")
+    p.add_argument("--out", metavar="FILE.png", default=None,
+                   help="write the emulated pen's canvas here on exit")
+    p.add_argument("--page", metavar="W,H", default="210,297",
+                   help="page (width, height) in mm under the pen (default 210,297: A4)")
+    p.add_argument("--px-per-mm", type=_positive, default=10.0,
+                   help="canvas resolution in px/mm (default 10)")
+    p.add_argument("--fault", action="append", default=[], metavar="KIND:LINE[:CODE]",
+                   help="inject a fault at the LINE-th G-code line received: error:LINE[:CODE] "
+                   "(reply error:CODE, default 20), alarm:LINE[:CODE] (ALARM:CODE, default 1: "
+                   "hard limit), disconnect:LINE (close the port); repeatable")
+    p.set_defaults(_emulate=_run_grbl)
+
+
+EMULATORS = {"grbl": _add_grbl}
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "emulate",
+        help="start a device emulator on a pseudo-terminal and print its port",
+        description="Start an emulator of a real device on a pseudo-terminal, print the port "
+        "to give to `inkarm draw --backend ... --port PORT`, and run until Ctrl-C.",
+    )
+    sub = p.add_subparsers(dest="device", metavar="DEVICE", parser_class=type(p))
+    for add in EMULATORS.values():
+        add(sub)
+    return p
+
+
+def _page(text: str) -> tuple[float, float]:
+    try:
+        w, h = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"expected W,H in mm, got {text!r}", key="--page", value=text) from None
+    if not (0 < w <= 2000 and 0 < h <= 2000):
+        raise InputError(f"expected a page of at most 2000 x 2000 mm, got {text!r}",
+                         key="--page", value=text)
+    return w, h
+
+
+def _run_grbl(args: argparse.Namespace) -> int:
+    from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator, parse_fault
+    from inkarm.ink.canvas import Canvas
+
+    if args.out is not None and Path(args.out).suffix.lower() != ".png":
+        raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
+    faults = [parse_fault(text) for text in args.fault]
+    canvas = Canvas(size_mm=_page(args.page), px_per_mm=args.px_per_mm)
+    emulator = GrblEmulator(EmulatorConfig(speedup=args.speedup), canvas=canvas, faults=faults)
+    port = emulator.start()
+    print(f"GRBL 1.1 emulator on {port} (speed-up {args.speedup:g}); Ctrl-C to stop", flush=True)
+    print(port, flush=True)
+    try:
+        while emulator.running:
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        emulator.stop()
+        if args.out is not None:
+            print(f"canvas: {canvas.to_png(args.out)}", file=sys.stderr)
+    stats = emulator.stats
+    print(f"received {stats.lines} lines, {stats.bytes_dropped} bytes lost to overflow, "
+          f"{stats.machine_time_s:.2f} s of machine time", file=sys.stderr)
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    handler = getattr(args, "_emulate", None)
+    if handler is None:
+        raise InputError(f"which device? expected one of {', '.join(EMULATORS)} (inkarm emulate "
+                         "DEVICE --help)", key="DEVICE", choices=tuple(EMULATORS))
+    return int(handler(args) or 0)
