@@ -1,0 +1,84 @@
+"""Running the primitive fHMM generatively (seed 004 sec. 4, Fig. 8) and back to pen space.
+
+:func:`sample_states` runs each chain from its prior (eq. 4) on its own, with no timing code:
+the primitives fire at the learned onset rate and progress through their states, and the output
+is their superposition (eq. 1 and 3), optionally with the output noise C (eq. 2).
+:func:`pen_path` integrates the (de-normalised) first differences back to the pen: position
+[mm] from the x, y channels, and a pressure level in [0, 1] from the pressure channel when the
+model has one. The paper's scribbles (Fig. 6b, 8) are such paths from (0, 0), line thickness
+showing pressure.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from inkarm.core.trajectory import Trajectory
+from inkarm.errors import InputError
+from inkarm.models.primitives.model import PrimitiveModel
+
+
+def sample_states(model: PrimitiveModel, n_samples: int, rng: np.random.Generator) -> np.ndarray:
+    """(T, M) state of each chain, each drawn from its own Markov chain (eq. 4)."""
+    if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)) or n_samples < 1:
+        raise InputError(f"expected a positive number of samples, got {n_samples!r}",
+                         key="n_samples", value=n_samples)
+    M, K = model.n_chains, model.n_states
+    states = np.empty((n_samples, M), dtype=int)
+    cumulative = np.cumsum(model.start, axis=1)
+    states[0] = np.minimum((rng.random((M, 1)) > cumulative).sum(axis=1), K - 1)
+    for t in range(1, n_samples):
+        prev = states[t - 1]
+        moves = rng.random(M) < model.advance[np.arange(M), prev]
+        states[t] = np.where(moves, (prev + 1) % K, prev)
+    return states
+
+
+def outputs(model: PrimitiveModel, states: np.ndarray, rng: np.random.Generator | None = None
+            ) -> np.ndarray:
+    """(T, D) the output means sum_m W^m[s_t^m] (eq. 3), plus N(0, C) noise when ``rng``."""
+    mean = model.W[np.arange(model.n_chains), states].sum(axis=1)
+    if rng is None:
+        return mean
+    return mean + rng.multivariate_normal(np.zeros(model.dim), model.C, size=len(states))
+
+
+def sample(model: PrimitiveModel, n_samples: int, rng: np.random.Generator,
+           noise: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """(Y (T, D), states (T, M)) drawn from the model."""
+    states = sample_states(model, n_samples, rng)
+    return outputs(model, states, rng if noise else None), states
+
+
+def pen_path(model: PrimitiveModel, Y: np.ndarray, start=(0.0, 0.0)) -> Trajectory:
+    """The pen path [mm, s] whose normalised first differences are ``Y`` (T, D).
+
+    Channels named ``dx``, ``dy`` give the position (the first two channels otherwise); a
+    ``dp`` channel gives the pressure, its level integrated from pen-up (0) and clipped to
+    [0, 1].
+    """
+    Y = np.asarray(Y, dtype=float)
+    names = list(model.channels)
+    ix = names.index("dx") if "dx" in names else 0
+    iy = names.index("dy") if "dy" in names else min(1, model.dim - 1)
+    steps = Y * model.scale
+    pos = np.vstack([np.zeros(2), np.cumsum(steps[:, [ix, iy]], axis=0)]) + np.asarray(start)
+    t = np.arange(len(pos)) / model.rate_hz
+    pressure = None
+    if "dp" in names:
+        level = np.concatenate([[0.0], np.cumsum(steps[:, names.index("dp")])])
+        pressure = np.clip(level, 0.0, 1.0)
+    return Trajectory(t=t, pos=pos, pressure=pressure)
+
+
+def scribble(model: PrimitiveModel, duration_s: float, seed: int = 0,
+             noise: bool = False) -> tuple[Trajectory, np.ndarray]:
+    """A generative scribble (Fig. 8): ``duration_s`` [s] of the model run without timing code,
+    integrated to the pen from (0, 0) [mm]; returns (path, states (T, M))."""
+    if not (np.isfinite(duration_s) and duration_s > 0):
+        raise InputError(f"expected a positive duration in s, got {duration_s}",
+                         key="duration_s", value=duration_s)
+    n = max(round(duration_s * model.rate_hz), 1)
+    rng = np.random.default_rng(seed)
+    Y, states = sample(model, n, rng, noise=noise)
+    return pen_path(model, Y), states
