@@ -22,30 +22,44 @@ ink let through the product of their transmittances, so darkness never exceeds 1
 stroke the coverage is the maximum over its capsules, so that the heavily overlapping capsules
 laid at successive steps do not darken their own anti-aliased edges.
 
-Ink models turn the contact force [N] and the pen speed [mm/s] into a line width [mm] and an
-opacity: :class:`MarkerInk` (force-saturating width), :class:`BrushInk` (width an inverse power
-of speed, seed 000 sec. 4 and GI sec. 5) and :class:`PencilInk` (thin, force-dependent
-darkness). Their parameters are refused outside generous physical ranges (widths 0.01 to
-25 mm, force scales 0.001 to 1000 N, ...; see each class), naming the field.
+Ink models (:mod:`inkarm.ink.inks`) turn the contact force [N] and the pen speed [mm/s] into
+a line width [mm] and an opacity. A model that textures strokes (the pencil,
+:class:`inkarm.ink.inks.TexturedInk`) gets the stroke's path and forces at the lift, and its
+result replaces the stroke before it is composited; other models cost nothing extra per touch.
 
-Memory: a canvas holds three float32 rasters of the page (12 bytes per pixel), and a whole run
-(drawing, metrics, canvas.png, report) peaks at about :data:`RASTER_BYTES_PER_PX` per page pixel
-above the interpreter's baseline; the constructor refuses a page whose estimate
-(:func:`raster_bytes`) exceeds the memory budget (``INKARM_MAX_MEMORY_MB``, see
-:mod:`inkarm.core.budget`) before it allocates anything.
+Memory: see :mod:`inkarm.ink.memory`; the constructor refuses a page whose estimated raster
+memory exceeds the budget before it allocates anything.
+
+This module also re-exports the ink models, the memory estimates and :func:`png_pixels`, so
+``from inkarm.ink.canvas import Canvas, MarkerInk, require_raster_memory`` keeps working.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 
-from inkarm.core.budget import require_memory
 from inkarm.errors import InputError
+from inkarm.ink.brush import BrushInk
+from inkarm.ink.checks import FORCE_SCALE_RANGE_N, WIDTH_RANGE_MM, require_positive
+from inkarm.ink.inks import INK_MODELS, InkModel, TexturedInk, make_ink
+from inkarm.ink.marker import MarkerInk
+from inkarm.ink.memory import (
+    RASTER_BYTES_PER_PX,
+    raster_bytes,
+    raster_shape,
+    require_raster_memory,
+)
+from inkarm.ink.pencil import PencilInk
+from inkarm.ink.png import _GREY_LEVELS, png_pixels
+
+__all__ = [
+    "A4_MM", "FORCE_SCALE_RANGE_N", "INK_MODELS", "RASTER_BYTES_PER_PX", "WIDTH_RANGE_MM",
+    "BrushInk", "Canvas", "InkModel", "MarkerInk", "PencilInk", "TexturedInk", "make_ink",
+    "pixel_centres_mm", "png_pixels", "raster_bytes", "raster_shape", "require_raster_memory",
+]
 
 A4_MM = (210.0, 297.0)
 # Capsules rasterised together (Canvas._rasterise_queue): enough to spread numpy's per-call
@@ -54,213 +68,6 @@ _QUEUE_LENGTH = 64
 # ... and at most this many padded pixels K * H * W (about 24 bytes each in the temporaries), so
 # that a batch of wide capsules at a fine resolution does not allocate hundreds of MB.
 _QUEUE_PIXELS = 1 << 21
-# Rows of the page converted at a time by png_pixels (a few MB of temporaries).
-_PNG_ROWS = 256
-
-# Peak memory of a whole drawing run per page pixel, in bytes: the canvas's three float32
-# rasters (12 bytes, written in full at construction) and the 8-bit grey image of canvas.png
-# (1 byte), rounded up. benchmarks/bench_memory.py measures the default scenario (run and
-# written, report included) at 10, 20 and 40 px/mm: peak RSS = about 210 MB + 12.7 to 13.1
-# bytes x page pixels (the constant: 133 MB of imports, MuJoCo's model, the log, the figure).
-# Metrics and report work on the ink's bounding box, so they add memory in proportion to the
-# ink.
-RASTER_BYTES_PER_PX = 14.0
-# Ink model parameter ranges, generous for any pen a user could model.
-WIDTH_RANGE_MM = (0.01, 25.0)
-FORCE_SCALE_RANGE_N = (1e-3, 1e3)
-
-
-class InkModel(Protocol):
-    """Maps contact force and pen speed to the mark the pen leaves."""
-
-    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
-        """Line width in [mm] and opacity in [0, 1] for a contact force in [N] and a pen
-        speed in [mm/s]."""
-        ...
-
-
-def _require_positive(owner: str, **values: float) -> None:
-    for name, value in values.items():
-        if not (value > 0 and math.isfinite(value)):
-            raise InputError(f"{owner}.{name}: expected a positive finite number, got {value!r}")
-
-
-def _require_range(owner: str, name: str, value: float, bounds: tuple[float, float],
-                   what: str) -> None:
-    """Refuse ``value`` outside the closed interval ``bounds`` (NaN included), naming the
-    field ``name`` as the error's key."""
-    lo, hi = bounds
-    if not lo <= value <= hi:
-        raise InputError(f"{owner} expects {what} in [{lo:g}, {hi:g}], got {value!r}",
-                         key=name, value=value)
-
-
-def _require_opacity(owner: str, name: str, value: float) -> None:
-    if not 0 < value <= 1:
-        raise InputError(f"{owner} expects an opacity in (0, 1], got {value!r}", key=name,
-                         value=value)
-
-
-@dataclass(frozen=True)
-class MarkerInk:
-    """A felt-tip marker: the nib flattens under load, so the width grows with the normal force
-    and saturates,
-
-        w(F) = w0 + k (1 - exp(-F / F0))        [mm],
-
-    at constant opacity.
-
-    Attributes (each refused outside its range with an InputError keyed by the field):
-        w0_mm: Width at a feather-light touch in [mm], in [0.01, 25].
-        k_mm: Extra width at full load in [mm], in [0, 25].
-        f0_n: Force scale of the saturation in [N], in [0.001, 1000].
-        opacity: Darkness of the ink in (0, 1].
-    """
-
-    w0_mm: float = 0.3
-    k_mm: float = 0.5
-    f0_n: float = 1.0
-    opacity: float = 1.0
-
-    def __post_init__(self) -> None:
-        _require_range("MarkerInk", "w0_mm", self.w0_mm, WIDTH_RANGE_MM, "a width [mm]")
-        _require_range("MarkerInk", "k_mm", self.k_mm, (0.0, WIDTH_RANGE_MM[1]),
-                       "an extra width [mm]")
-        _require_range("MarkerInk", "f0_n", self.f0_n, FORCE_SCALE_RANGE_N,
-                       "a force scale [N]")
-        _require_opacity("MarkerInk", "opacity", self.opacity)
-
-    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
-        return self.w0_mm + self.k_mm * (1.0 - math.exp(-force_n / self.f0_n)), self.opacity
-
-
-@dataclass(frozen=True)
-class BrushInk:
-    """A brush that deposits more ink where it moves slowly: the width is an inverse power of
-    the speed (GI sec. 5), clipped to the bristles' range,
-
-        w(v) = clip(w_ref (v_ref / v)^gamma, w_min, w_max)        [mm].
-
-    Seed 000 sec. 4 says "inversely proportional" (gamma = 1, the default) while GI sec. 5 says
-    "an inverse power function" without giving the exponent; neither gives constants, and both
-    diverge as v -> 0, hence the clip (a resting brush leaves a blob of width w_max).
-
-    Attributes (each refused outside its range with an InputError keyed by the field):
-        w_ref_mm: Width at the reference speed in [mm], in [0.01, 25].
-        v_ref_mm_s: Reference speed in [mm/s], in [0.01, 10000].
-        gamma: Exponent of the inverse power law, in [0.01, 10].
-        w_min_mm, w_max_mm: Width bounds in [mm], each in [0.01, 25], w_min_mm <= w_max_mm.
-        opacity: Darkness of the ink in (0, 1].
-    """
-
-    w_ref_mm: float = 1.5
-    v_ref_mm_s: float = 50.0
-    gamma: float = 1.0
-    w_min_mm: float = 0.3
-    w_max_mm: float = 4.0
-    opacity: float = 0.9
-
-    def __post_init__(self) -> None:
-        for name in ("w_ref_mm", "w_min_mm", "w_max_mm"):
-            _require_range("BrushInk", name, getattr(self, name), WIDTH_RANGE_MM,
-                           "a width [mm]")
-        _require_range("BrushInk", "v_ref_mm_s", self.v_ref_mm_s, (0.01, 1e4),
-                       "a reference speed [mm/s]")
-        _require_range("BrushInk", "gamma", self.gamma, (0.01, 10.0),
-                       "an exponent of the speed")
-        if self.w_min_mm > self.w_max_mm:
-            raise InputError(
-                f"BrushInk expects w_min_mm <= w_max_mm = {self.w_max_mm}, got {self.w_min_mm}",
-                key="w_min_mm", value=self.w_min_mm,
-            )
-        _require_opacity("BrushInk", "opacity", self.opacity)
-
-    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
-        if speed_mm_s <= 0.0:
-            return self.w_max_mm, self.opacity
-        try:
-            width = self.w_ref_mm * (self.v_ref_mm_s / speed_mm_s) ** self.gamma
-        except OverflowError:  # a brush all but at rest (its low-passed speed ~1e-200 mm/s)
-            width = math.inf
-        return min(max(width, self.w_min_mm), self.w_max_mm), self.opacity
-
-
-@dataclass(frozen=True)
-class PencilInk:
-    """A graphite pencil: a thin line of constant width whose darkness grows with the force
-    and saturates,
-
-        a(F) = a_max (1 - exp(-F / F0)).
-
-    (Seed 002's grade-dependent grain texture is not modelled: only the mean darkness.)
-
-    Attributes (each refused outside its range with an InputError keyed by the field):
-        width_mm: Line width in [mm], in [0.01, 25].
-        max_opacity: Darkness at full load in (0, 1].
-        f0_n: Force scale of the saturation in [N], in [0.001, 1000].
-    """
-
-    width_mm: float = 0.4
-    max_opacity: float = 0.9
-    f0_n: float = 0.7
-
-    def __post_init__(self) -> None:
-        _require_range("PencilInk", "width_mm", self.width_mm, WIDTH_RANGE_MM, "a width [mm]")
-        _require_range("PencilInk", "f0_n", self.f0_n, FORCE_SCALE_RANGE_N,
-                       "a force scale [N]")
-        _require_opacity("PencilInk", "max_opacity", self.max_opacity)
-
-    def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
-        return self.width_mm, self.max_opacity * (1.0 - math.exp(-force_n / self.f0_n))
-
-
-INK_MODELS: dict[str, type] = {"marker": MarkerInk, "brush": BrushInk, "pencil": PencilInk}
-
-
-def make_ink(name: str, **params: float) -> InkModel:
-    """The ink model called ``name`` ("marker", "brush" or "pencil") with the given parameters."""
-    if name not in INK_MODELS:
-        raise InputError(f"ink model {name!r}: expected one of {sorted(INK_MODELS)}")
-    try:
-        return INK_MODELS[name](**params)
-    except TypeError as err:
-        raise InputError(f"ink model {name!r}: {err}") from None
-
-
-def raster_shape(size_mm: tuple[float, float], px_per_mm: float) -> tuple[int, int]:
-    """(rows, cols) of the raster of a page of ``size_mm`` = (width, height) in [mm] at
-    ``px_per_mm``: ``round(height * px_per_mm)``, ``round(width * px_per_mm)``. Refuses
-    non-positive or non-finite sizes and resolutions, and a raster whose pixel count is not a
-    finite number, with an InputError naming the field."""
-    width_mm, height_mm = (float(v) for v in size_mm)
-    _require_positive("Canvas", width_mm=width_mm, height_mm=height_mm, px_per_mm=px_per_mm)
-    rows, cols = height_mm * px_per_mm, width_mm * px_per_mm
-    if not math.isfinite(rows * cols):
-        raise InputError(
-            f"Canvas: a raster of {width_mm:g} x {height_mm:g} mm at {px_per_mm:g} px/mm has "
-            f"{cols:.3g} x {rows:.3g} pixels, beyond any memory", key="px_per_mm",
-            value=px_per_mm)
-    return round(rows), round(cols)
-
-
-def raster_bytes(size_mm: tuple[float, float], px_per_mm: float) -> float:
-    """Estimated peak memory in [bytes] that a drawing run spends on the raster of a page of
-    ``size_mm`` (width, height) in [mm] at ``px_per_mm``: :data:`RASTER_BYTES_PER_PX` per
-    pixel (the canvas, canvas.png; not the interpreter's own baseline)."""
-    rows, cols = raster_shape(size_mm, px_per_mm)
-    return RASTER_BYTES_PER_PX * float(rows) * float(cols)
-
-
-def require_raster_memory(size_mm: tuple[float, float], px_per_mm: float) -> None:
-    """Refuse (:class:`inkarm.core.budget.BudgetError`, key ``ink.px_per_mm``) a page whose
-    :func:`raster_bytes` exceed the memory budget ``INKARM_MAX_MEMORY_MB``."""
-    rows, cols = raster_shape(size_mm, px_per_mm)
-    width_mm, height_mm = (float(v) for v in size_mm)
-    require_memory(
-        raster_bytes(size_mm, px_per_mm),
-        f"the ink raster of a {width_mm:g} x {height_mm:g} mm page at {px_per_mm:g} px/mm "
-        f"({cols:,} x {rows:,} pixels, {RASTER_BYTES_PER_PX:g} bytes each for a run)",
-        key="ink.px_per_mm", value=px_per_mm)
 
 
 class Canvas:
@@ -289,7 +96,7 @@ class Canvas:
         speed_tau_s: float = 0.02,
     ) -> None:
         width_mm, height_mm = (float(v) for v in size_mm)
-        _require_positive(
+        require_positive(
             "Canvas",
             width_mm=width_mm,
             height_mm=height_mm,
@@ -300,6 +107,7 @@ class Canvas:
         self.size_mm = (width_mm, height_mm)
         self.px_per_mm = float(px_per_mm)
         self.ink: InkModel = make_ink(ink) if isinstance(ink, str) else ink
+        self._textured = isinstance(self.ink, TexturedInk)
         self.max_segment_mm = float(max_segment_mm)
         self.speed_tau_s = float(speed_tau_s)
         self.shape = raster_shape((width_mm, height_mm), self.px_per_mm)
@@ -331,14 +139,17 @@ class Canvas:
             raise InputError(f"Canvas.touch: force_n must be finite and >= 0, got {force_n!r}")
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(t)):
             raise InputError(f"Canvas.touch: non-finite p_mm ({x}, {y}) or t = {t}")
+        if self._last is not None and t < self._last[2]:
+            raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous "
+                             f"{self._last[2]}")
+        if self._path is not None:
+            self._path.append((x, y, force))
         if self._last is None:  # pen down: wait for the next step to know the speed
             self._last = (x, y, t)
             self._first_force = force
             self._pending = None
             return
         lx, ly, lt = self._last
-        if t < lt:
-            raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous {lt}")
         dt = t - lt
         if dt > 0.0:
             raw = math.hypot(x - lx, y - ly) / dt
@@ -354,6 +165,13 @@ class Canvas:
         self._last = (x, y, t)
         width, opacity = self.ink.mark(force, self._speed or 0.0)
         sx, sy, sw, sa = self._stamped
+        if opacity <= 0.0:  # below the ink's threshold: finish what was laid, lay nothing
+            if self._pending is not None:
+                px, py, pw, pa = self._pending
+                self._stamp(sx, sy, sw, px, py, pw, pa)
+                self._pending = None
+            self._stamped = (x, y, width, 0.0)
+            return
         moved2 = (x - sx) ** 2 + (y - sy) ** 2
         if (
             moved2 >= self.max_segment_mm**2
@@ -378,6 +196,8 @@ class Canvas:
             sx, sy, sw, _ = self._stamped
             x, y, width, opacity = self._pending
             self._stamp(sx, sy, sw, x, y, width, opacity)
+        if self._path:
+            self._texture_stroke()
         self._refresh()
         if self._stroke_box is not None:
             r0, r1, c0, c1 = self._stroke_box
@@ -470,7 +290,30 @@ class Canvas:
         self._image[r0:r1, c0:c1] = 1.0 - (1.0 - base) * (1.0 - stroke)
         self._stale_box = None
 
+    def _texture_stroke(self) -> None:
+        """Replace the stroke just finished with the ink's texture of it (TexturedInk), on
+        the stroke's box grown by a pixel (the texture's blur)."""
+        self._rasterise_queue()
+        if self._stroke_box is None:  # nothing laid (below the ink's threshold)
+            return
+        r0, r1, c0, c1 = self._stroke_box
+        box = [max(r0 - 1, 0), min(r1 + 1, self.shape[0]), max(c0 - 1, 0),
+               min(c1 + 1, self.shape[1])]
+        r0, r1, c0, c1 = box
+        path = np.asarray(self._path, dtype=float)
+        ppm = self.px_per_mm
+        points_px = np.column_stack([path[:, 0] * ppm - 0.5,
+                                     self.shape[0] - path[:, 1] * ppm - 0.5])
+        textured = self.ink.texture_stroke(  # type: ignore[attr-defined]
+            points_px, path[:, 2], self._stroke[r0:r1, c0:c1].copy(), (r0, c0), ppm,
+            self.n_strokes)
+        self._stroke[r0:r1, c0:c1] = textured
+        for name in ("_stroke_box", "_stale_box", "_dirty_box", "_inked_box"):
+            setattr(self, name, _union(getattr(self, name), box))
+        self._revision += 1
+
     def _reset_pen(self) -> None:
+        self._path: list[tuple[float, float, float]] | None = [] if self._textured else None
         self._last: tuple[float, float, float] | None = None
         self._stamped: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
         self._pending: tuple[float, float, float, float] | None = None
@@ -565,36 +408,6 @@ def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
     rows = np.asarray(rows, dtype=float)
     cols = np.asarray(cols, dtype=float)
     return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
-
-
-# Grey level of each of 256 darkness bins: matplotlib's "gray_r" lookup table, 1 - i / 255,
-# scaled by 255 and truncated to 8 bits as its colormaps do (so some levels are one below
-# 255 - i). Kept bit for bit so that PNGs match the ones matplotlib's imsave used to write.
-_GREY_LEVELS = np.trunc((1.0 - np.linspace(0.0, 1.0, 256)) * 255.0).astype(np.uint8)
-
-
-def png_pixels(image) -> np.ndarray:
-    """8-bit grey levels (rows, cols) of a darkness image in [0, 1]: white (255) where blank
-    and black (0) where fully inked. Darkness d falls in bin floor(256 d) (d = 1 in the last),
-    whose grey level is ``_GREY_LEVELS``; values outside [0, 1] are clipped, NaN reads as
-    blank. These are the
-    R = G = B of ``matplotlib.image.imsave(..., cmap="gray_r", vmin=0, vmax=1)``.
-
-    Converted :data:`_PNG_ROWS` rows at a time, so that besides the result (one byte per
-    pixel) only a few MB of temporaries are allocated, whatever the page."""
-    image = np.asarray(image)
-    if image.ndim != 2:
-        raise InputError(f"png_pixels: expected a 2-D darkness image, got shape {image.shape}")
-    # float32 stays float32: clipping and scaling by 256 are exact in either precision
-    dtype = image.dtype if image.dtype in (np.float32, np.float64) else np.float64
-    grey = np.empty(image.shape, np.uint8)
-    for r0 in range(0, image.shape[0], _PNG_ROWS):
-        darkness = np.fmax(np.asarray(image[r0 : r0 + _PNG_ROWS], dtype=dtype), 0.0)  # NaN: 0
-        np.minimum(darkness, 1.0, out=darkness)
-        darkness *= 256.0
-        np.minimum(darkness, 255.0, out=darkness)
-        np.take(_GREY_LEVELS, darkness.astype(np.uint8), out=grey[r0 : r0 + _PNG_ROWS])
-    return grey
 
 
 def _offsets(starts: np.ndarray, n: int) -> np.ndarray:

@@ -1,0 +1,299 @@
+"""Synthesis of a pencil line's texture from a profile (seed 002, Al-Meraj, ch. 4.2).
+
+The texture is made in a straightened strip, the line running along the rows (as the scans
+were turned upright for extraction), one row per pixel of arc length and one column per pixel
+across; :mod:`inkarm.ink.pencil` bends it onto the page. Three steps, as in the thesis's
+Table 4.1:
+
+1. Grey fill (:func:`initial_fill`), the "bell-shaped fall-off" of Figs. 4.2-4.3: the pixel on
+   the line's centre draws its grey level from the mid-line histogram (range [min_mid,
+   max_mid]); a pixel at distance n from the centre, in a line of width w, draws from the dark
+   band [min_range, max_mid] of the full histogram with probability exp(-n^2 / (2 (w/4)^2))
+   and from the light band [max_mid, max_range] otherwise. The thesis's "flat, uniform" draw
+   over each range is weighted here by the full histogram within it, so that the fill starts
+   from the scan's own grey levels. (The thesis gives two bands, near and far, without a
+   boundary; the Gaussian weight is that boundary made smooth.)
+2. Co-occurrence repair (:func:`repair`), sec. 4.2: every pixel's 3x3 neighbourhood is
+   compared with the profile's co-occurrence matrices (eq. 4.1; one per neighbour direction,
+   see :data:`inkarm.ink.pencil_profile.OFFSETS`). Where a pair of levels "does not exist" in
+   the model, the pixel is replaced with a value that exists next to its neighbours: the
+   thesis's C(i, j) = 0, read here as "among the model's rarest pairs that together hold
+   ``rare_mass`` of its occurrences" (a scan's single counts are noise). Candidates are drawn
+   from the model's distribution of a level next to a random neighbour's level; of them, the
+   one that most lowers the squared error between the strip's pair counts H and the model's,
+   sum (H - N T)^2 (N pairs, T the model's probabilities), is kept if it lowers it at all:
+   the criterion of Gagalowicz and Ma (1985), whose strategy the thesis follows (sec. 2.3.1).
+   Pixels four-coloured by (row mod 2, column mod 2) are updated a colour at a time, so no two
+   neighbours change together. Sweeps repeat "until the amount of pixel changes reach a
+   minimum": here until fewer than ``tol`` of the line's pixels changed in a sweep, or
+   ``max_sweeps``.
+3. One 3x3 Gaussian blur (Fig. 4.6, "a 3x3 single-pass Gaussian filter"): the binomial kernel
+   [1 2 1]^T [1 2 1] / 16 (:func:`gaussian_blur3`).
+
+Grey levels g in [0, 255] become darkness 1 - g / 255 (paper white).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inkarm.errors import InputError
+from inkarm.ink.pencil_extract import line_glcm, pair_counts
+from inkarm.ink.pencil_profile import OFFSETS, PencilProfile
+
+# 3x3 binomial approximation of a Gaussian (sigma about 0.85 px), normalised.
+GAUSS3 = np.outer([1.0, 2.0, 1.0], [1.0, 2.0, 1.0]) / 16.0
+# Every neighbour of a 3x3 neighbourhood: (row, column) step and the index of its offset.
+_NEIGHBOURS = tuple((s * dr, s * dc, k) for k, (dr, dc) in enumerate(OFFSETS) for s in (1, -1))
+_TINY = 1e-12
+
+
+@dataclass(frozen=True)
+class RepairConfig:
+    """How the co-occurrence repair (step 2) runs.
+
+    Attributes:
+        candidates: Values drawn per replaced pixel, besides its current one.
+        max_sweeps: Most sweeps over the line.
+        tol: Stop once a sweep changes fewer than this share of the line's pixels.
+        rare_mass: A pair of levels "does not exist" when it is among the model's rarest
+            pairs that together make up this share of its occurrences (0: the thesis's
+            C(i, j) = 0 exactly; a little more ignores the single counts of a finite scan).
+    """
+
+    candidates: int = 4
+    max_sweeps: int = 8
+    tol: float = 0.05
+    rare_mass: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.candidates, int) and 1 <= self.candidates <= 64):
+            raise InputError(f"expected 1 to 64 candidates, got {self.candidates!r}",
+                             key="candidates", value=self.candidates)
+        if not (isinstance(self.max_sweeps, int) and 0 <= self.max_sweeps <= 1000):
+            raise InputError(f"expected 0 to 1000 sweeps, got {self.max_sweeps!r}",
+                             key="max_sweeps", value=self.max_sweeps)
+        for key in ("tol", "rare_mass"):
+            value = getattr(self, key)
+            if not 0.0 <= value <= (1.0 if key == "tol" else 0.5):
+                raise InputError(f"expected a share in [0, {1.0 if key == 'tol' else 0.5:g}], "
+                                 f"got {value!r}", key=key, value=value)
+
+
+@dataclass(frozen=True, eq=False)
+class LineTexture:
+    """A synthesized line in its strip (rows along the line, columns across).
+
+    Attributes:
+        filled: (N, W) uint8 grey levels after step 1 (the random fill).
+        repaired: (N, W) uint8 grey levels after step 2.
+        darkness: (N, W) float darkness in [0, 1] after step 3 (the blur), 0 off the line.
+        mask: (N, W) bool, the line's pixels.
+        changes: Pixels changed by each repair sweep.
+    """
+
+    filled: np.ndarray
+    repaired: np.ndarray
+    darkness: np.ndarray
+    mask: np.ndarray
+    changes: tuple[int, ...] = field(default=())
+
+
+def strip_mask(widths_px: np.ndarray) -> np.ndarray:
+    """(N, W) mask of a strip whose row k holds a line of width ``widths_px[k]`` [px] centred
+    on the middle column (W odd, wide enough for the widest row; the centre pixel of a row of
+    positive width is always in)."""
+    widths = np.asarray(widths_px, dtype=float)
+    if widths.ndim != 1 or not np.all(np.isfinite(widths)) or np.any(widths < 0):
+        raise InputError("expected a 1-D array of finite widths >= 0 [px]", key="widths_px")
+    half = int(np.ceil(widths.max(initial=1.0) / 2.0))
+    offsets = np.arange(-half, half + 1, dtype=float)
+    return (np.abs(offsets)[None, :] <= widths[:, None] / 2.0) | \
+        ((offsets == 0)[None, :] & (widths[:, None] > 0))
+
+
+def initial_fill(profile: PencilProfile, widths_px: np.ndarray,
+                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Step 1: grey levels (N, W) uint8 (255 off the line) and the line's mask (see the module
+    docstring)."""
+    mask = strip_mask(widths_px)
+    widths = np.asarray(widths_px, dtype=float)
+    n_rows, n_cols = mask.shape
+    offsets = np.abs(np.arange(n_cols) - (n_cols - 1) / 2.0)[None, :].repeat(n_rows, axis=0)
+    min_mid, max_mid = profile.mid_range
+    min_range, max_range = profile.full_range
+    sigma = np.maximum(widths / 4.0, 0.25)[:, None]
+    near = rng.random(mask.shape) < np.exp(-0.5 * (offsets / sigma) ** 2)
+    centre = offsets == 0
+    grey = np.full(mask.shape, 255, np.uint8)
+    draws = (
+        (mask & centre, profile.mid_hist, min_mid, max_mid),
+        (mask & ~centre & near, profile.full_hist, min(min_range, max_mid), max_mid),
+        (mask & ~centre & ~near, profile.full_hist, max_mid, max(max_range, max_mid)),
+    )
+    for where, hist, lo, hi in draws:
+        grey[where] = _draw_grey(hist, lo, hi, int(where.sum()), rng)
+    return grey, mask
+
+
+def repair(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile,
+           rng: np.random.Generator,
+           config: RepairConfig = RepairConfig()) -> tuple[np.ndarray, tuple[int, ...]]:
+    """Step 2: the grey levels after the co-occurrence repair, and the pixels changed per
+    sweep (see the module docstring)."""
+    levels = profile.levels
+    grey = np.array(grey, dtype=np.uint8)
+    level = (grey.astype(np.intp) * levels // 256)
+    exists = existing_pairs(profile.glcm, config.rare_mass)
+    cond_cdf = np.cumsum(profile.glcm / np.maximum(profile.glcm.sum(axis=2, keepdims=True),
+                                                   _TINY), axis=2)
+    marginal_cdf = np.cumsum(_level_marginal(profile.full_hist, levels))
+    grey_table, grey_cdf = _greys_per_level(profile.full_hist, levels)
+    padded_mask = np.pad(mask, 1)
+    offset_of = np.array([k for _, _, k in _NEIGHBOURS])[:, None]
+    n_line = int(mask.sum())
+    rows, cols = np.indices(mask.shape)
+    colours = [mask & (rows % 2 == a) & (cols % 2 == b) for a in (0, 1) for b in (0, 1)]
+    changes: list[int] = []
+    for _ in range(config.max_sweeps):
+        changed = 0
+        for colour in colours:
+            r, c = np.nonzero(colour)
+            if r.size == 0:
+                continue
+            padded = np.pad(level, 1)
+            nl = np.stack([padded[r + 1 + dr, c + 1 + dc] for dr, dc, _ in _NEIGHBOURS])
+            ni = np.stack([padded_mask[r + 1 + dr, c + 1 + dc] for dr, dc, _ in _NEIGHBOURS])
+            current = level[r, c]
+            bad = (~exists[offset_of, current[None, :], nl] & ni).any(axis=0)
+            if not np.any(bad):
+                continue
+            r, c, current, nl, ni = r[bad], c[bad], current[bad], nl[:, bad], ni[:, bad]
+            counts = pair_counts(level, mask, levels)
+            excess = counts - profile.glcm * counts.sum(axis=(1, 2), keepdims=True)
+            n_pairs = ni.sum(axis=0)
+            best, best_gain = current, np.zeros(current.size)
+            for _ in range(config.candidates):
+                cand = _draw_candidate(nl, ni, cond_cdf, marginal_cdf, rng)
+                # change of sum((H - N T)^2) when the pixel's pairs move from its current
+                # level to cand (each symmetric pair: two cells, +-1 each), to first order
+                # plus the constant second-order term
+                delta = 4.0 * np.where(ni, excess[offset_of, cand[None, :], nl]
+                                       - excess[offset_of, current[None, :], nl], 0.0).sum(axis=0)
+                delta += 4.0 * n_pairs * (cand != current)
+                better = delta < best_gain
+                best = np.where(better, cand, best)
+                best_gain = np.where(better, delta, best_gain)
+            moved = best != current
+            if np.any(moved):
+                r, c, new = r[moved], c[moved], best[moved]
+                level[r, c] = new
+                u = rng.random(new.size)[:, None]
+                pick = np.minimum((grey_cdf[new] < u).sum(axis=1), grey_table.shape[1] - 1)
+                grey[r, c] = grey_table[new, pick]
+                changed += int(moved.sum())
+        changes.append(changed)
+        if changed <= config.tol * n_line:
+            break
+    return grey, tuple(changes)
+
+
+def existing_pairs(prob: np.ndarray, rare_mass: float) -> np.ndarray:
+    """(4, L, L) bool: the pairs of levels that exist in the model, per offset: all but the
+    rarest ones that together hold at most ``rare_mass`` of its probability (0: every pair of
+    positive probability)."""
+    exists = prob > 0
+    if rare_mass <= 0:
+        return exists
+    for k, matrix in enumerate(prob):
+        values = np.sort(matrix.ravel())
+        below = np.cumsum(values) <= rare_mass
+        if np.any(below):
+            exists[k] &= matrix > values[np.flatnonzero(below)[-1]]
+    return exists
+
+
+def gaussian_blur3(darkness: np.ndarray) -> np.ndarray:
+    """Step 3: one pass of the 3x3 Gaussian :data:`GAUSS3` (zero beyond the edges)."""
+    from scipy.ndimage import convolve
+
+    return convolve(np.asarray(darkness, dtype=float), GAUSS3, mode="constant", cval=0.0)
+
+
+def synthesize_line(profile: PencilProfile, widths_px: np.ndarray, rng: np.random.Generator,
+                    config: RepairConfig = RepairConfig()) -> LineTexture:
+    """The three steps for a straight strip with one row per entry of ``widths_px`` [px]."""
+    filled, mask = initial_fill(profile, widths_px, rng)
+    repaired, changes = repair(filled, mask, profile, rng, config)
+    darkness = np.where(mask, 1.0 - repaired / 255.0, 0.0)
+    return LineTexture(filled, repaired, np.clip(gaussian_blur3(darkness), 0.0, 1.0), mask,
+                       changes)
+
+
+def strip_glcm(grey: np.ndarray, mask: np.ndarray, levels: int) -> np.ndarray:
+    """The co-occurrence probabilities (4, L, L) of a strip's line pixels, as extraction
+    computes them (:func:`inkarm.ink.pencil_extract.line_glcm`); all zero at an offset where
+    a line one pixel wide has no pair."""
+    return line_glcm(grey, mask, levels, require_pairs=False)
+
+
+def glcm_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """L1 distance between two sets of co-occurrence probabilities (4, L, L), averaged over
+    the offsets: 0 for equal matrices, 2 for disjoint ones (the sum form of Copeland et al.'s
+    average co-occurrence error, seed 002 sec. 2.3.2)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape:
+        raise InputError(f"co-occurrence matrices of different shapes {a.shape} and {b.shape}")
+    return float(np.abs(a - b).sum(axis=(-2, -1)).mean())
+
+
+def _draw_grey(hist: np.ndarray, lo: int, hi: int, n: int,
+               rng: np.random.Generator) -> np.ndarray:
+    """``n`` grey levels drawn from ``hist`` restricted to [lo, hi] (uniform over the range
+    where the histogram has no mass there)."""
+    if n == 0:
+        return np.empty(0, np.uint8)
+    weights = np.asarray(hist, float)[lo : hi + 1]
+    if weights.sum() <= 0:
+        weights = np.ones(hi - lo + 1)
+    return (lo + rng.choice(weights.size, size=n, p=weights / weights.sum())).astype(np.uint8)
+
+
+def _level_marginal(full_hist: np.ndarray, levels: int) -> np.ndarray:
+    marginal = np.bincount(np.arange(256) * levels // 256, weights=full_hist, minlength=levels)
+    return marginal / marginal.sum()
+
+
+def _greys_per_level(full_hist: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
+    """For each level, its grey levels (padded by repeating the last) and their cumulative
+    probabilities under the full histogram (uniform where the level has no mass)."""
+    bins = np.arange(256) * levels // 256
+    width = int(np.bincount(bins).max())
+    table = np.zeros((levels, width), np.uint8)
+    cdf = np.ones((levels, width))
+    for lv in range(levels):
+        greys = np.flatnonzero(bins == lv)
+        weights = full_hist[greys] if full_hist[greys].sum() > 0 else np.ones(greys.size)
+        table[lv, : greys.size] = greys
+        table[lv, greys.size :] = greys[-1]
+        cdf[lv, : greys.size] = np.cumsum(weights) / weights.sum()
+    return table, cdf
+
+
+def _draw_candidate(neighbour_levels: np.ndarray, neighbour_in: np.ndarray,
+                    cond_cdf: np.ndarray, marginal_cdf: np.ndarray,
+                    rng: np.random.Generator) -> np.ndarray:
+    """One candidate level per pixel: drawn from the model's distribution of a level next to a
+    randomly chosen neighbour (that neighbour's level, its offset), or from the line's level
+    marginal where that neighbour is off the line."""
+    m = neighbour_levels.shape[1]
+    which = rng.integers(0, len(_NEIGHBOURS), size=m)
+    cols = np.arange(m)
+    offset = np.array([k for _, _, k in _NEIGHBOURS])[which]
+    inside = neighbour_in[which, cols]
+    cdf = np.where(inside[:, None], cond_cdf[offset, neighbour_levels[which, cols]],
+                   marginal_cdf[None, :])
+    u = rng.random(m)[:, None]
+    return np.minimum((cdf < u).sum(axis=1), marginal_cdf.size - 1)
