@@ -92,7 +92,7 @@ def _run_sim(scenario: Scenario, options: BackendOptions, progress: Progress) ->
 
 
 def _run_plotter(scenario: Scenario, options: BackendOptions, progress: Progress) -> Run:
-    from inkarm.hardware.plotter.job import run_plotter_scenario
+    from inkarm.jobs.plotter import run_plotter_scenario
 
     return run_plotter_scenario(scenario, options.port, profile=options.profile,
                                 baudrate=options.baudrate, time_scale=options.time_scale,

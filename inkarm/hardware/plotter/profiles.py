@@ -1,0 +1,123 @@
+"""Pen profiles: how a plotter's pen goes up and down, and how fast it may draw, as data.
+
+A profile is a TOML file (built-ins in ``hardware/plotter/profiles/``: ``servo``, ``z``; or any
+file by its path), in the spirit of vpype-gcode's profiles::
+
+    description = "RC-servo pen on the spindle PWM"
+    units = "mm"                 # "mm" (G21) or "in" (G20): the units of the G-code written
+    header = ["G90", "G94", "M5"] # after the units line
+    footer = ["M5", "G0 X0 Y0"]
+    pen_down = ["M3 S1000"]      # lines that put the pen down ...
+    pen_up = ["M5"]              # ... and lift it
+    pen_down_dwell_s = 0.15      # G4 P after them: the servo's travel time [s]
+    pen_up_dwell_s = 0.15
+    draw_speed_mm_s = 60.0       # pen-down feed for a drawing without timing [mm/s]
+    max_draw_speed_mm_s = 150.0  # the pen-down feed never exceeds this (a slower pen-down)
+    min_draw_speed_mm_s = 2.0
+    max_line_rate_hz = 400.0     # lines per second the firmware executes at most
+    precision = 3                # decimals of the coordinates
+
+Travel (pen up) is ``G0``, at the machine's rapid rate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from inkarm.errors import unknown_name
+from inkarm.io.toml import TomlReader, load_toml
+
+PROFILE_DIR = Path(__file__).with_name("profiles")
+KEYS = ("description", "units", "header", "footer", "pen_down", "pen_up", "pen_down_dwell_s",
+        "pen_up_dwell_s", "draw_speed_mm_s", "max_draw_speed_mm_s", "min_draw_speed_mm_s",
+        "max_line_rate_hz", "precision")
+DEFAULT_PROFILE = "servo"
+
+
+@dataclass(frozen=True)
+class PenProfile:
+    """A checked pen profile (see the module docstring). Lengths [mm], times [s]."""
+
+    name: str
+    description: str = ""
+    units: str = "mm"
+    header: tuple[str, ...] = ("G90", "G94")
+    footer: tuple[str, ...] = ()
+    pen_down: tuple[str, ...] = ("M3 S1000",)
+    pen_up: tuple[str, ...] = ("M5",)
+    pen_down_dwell_s: float = 0.15
+    pen_up_dwell_s: float = 0.15
+    draw_speed_mm_s: float = 60.0
+    max_draw_speed_mm_s: float = 150.0
+    min_draw_speed_mm_s: float = 2.0
+    max_line_rate_hz: float = 400.0
+    precision: int = 3
+
+    @property
+    def unit_mm(self) -> float:
+        """Millimetres per G-code unit."""
+        return 25.4 if self.units == "in" else 1.0
+
+    def pen_lines(self, down: bool) -> list[str]:
+        """The lines that put the pen down (or lift it), with their dwell."""
+        lines = list(self.pen_down if down else self.pen_up)
+        dwell = self.pen_down_dwell_s if down else self.pen_up_dwell_s
+        if dwell > 0:
+            lines.append(f"G4 P{dwell:.3f}")
+        return lines
+
+
+def profile_names() -> tuple[str, ...]:
+    """The built-in profiles."""
+    return tuple(sorted(p.stem for p in PROFILE_DIR.glob("*.toml")))
+
+
+def load_profile(name_or_path: str | Path | None = None) -> PenProfile:
+    """A built-in profile by name, or a profile file by path (ending in ``.toml``)."""
+    ref = str(name_or_path or DEFAULT_PROFILE)
+    if ref.endswith(".toml"):
+        path = Path(ref)
+    else:
+        if ref not in profile_names():
+            raise unknown_name("pen profile", ref, profile_names(), key="--profile")
+        path = PROFILE_DIR / f"{ref}.toml"
+    return parse_profile(load_toml(path, "pen profile"), str(path), name=path.stem)
+
+
+def parse_profile(data: dict, source: str, name: str) -> PenProfile:
+    """Check the tables of a profile file; errors name ``source`` and the key."""
+    rd = TomlReader(source)
+    rd.keys(data, KEYS, "")
+    kw: dict = {}
+    if "description" in data:
+        kw["description"] = rd.text(data["description"], "description")
+    if "units" in data:
+        kw["units"] = rd.choice(data["units"], "units", ("mm", "in"))
+    for key in ("header", "footer", "pen_down", "pen_up"):
+        if key in data:
+            value = data[key]
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise rd.error(key, "expected an array of G-code lines (strings)", value=value)
+            for i, line in enumerate(value):
+                if len(line) > 79 or "\n" in line or "\r" in line:
+                    raise rd.error(f"{key}[{i}]", "expected one G-code line of at most 79 "
+                                   "characters", value=line)
+            kw[key] = tuple(value)
+    for key in ("pen_down_dwell_s", "pen_up_dwell_s"):
+        if key in data:
+            kw[key] = rd.number(data[key], key, 0.0, maximum=60.0)
+    for key in ("draw_speed_mm_s", "max_draw_speed_mm_s", "min_draw_speed_mm_s"):
+        if key in data:
+            kw[key] = rd.number(data[key], key, 0.0, strict=True, maximum=5000.0)
+    if "max_line_rate_hz" in data:
+        kw["max_line_rate_hz"] = rd.number(data["max_line_rate_hz"], "max_line_rate_hz", 1.0,
+                                           maximum=10000.0)
+    if "precision" in data:
+        kw["precision"] = rd.integer(data["precision"], "precision", 0, 6)
+    profile = PenProfile(name=name, **kw)
+    if profile.min_draw_speed_mm_s > profile.max_draw_speed_mm_s:
+        raise rd.error("min_draw_speed_mm_s", f"expected at most max_draw_speed_mm_s "
+                       f"({profile.max_draw_speed_mm_s:g}), got {profile.min_draw_speed_mm_s:g}",
+                       value=profile.min_draw_speed_mm_s)
+    return profile

@@ -1,0 +1,322 @@
+"""Streaming G-code to GRBL 1.1 on pyserial, with character counting.
+
+GRBL answers every line with ``ok`` or ``error:N`` once it has taken the line out of its
+128-byte receive buffer; a byte that arrives while the buffer is full is lost silently. So the
+sender keeps the bytes of the lines not yet answered, newlines included, at or below 128:
+each answer frees its line's bytes (GRBL's own ``stream.py`` and every serious sender do this).
+Answers come in the order of the lines, so the oldest unanswered line is the one an
+``error:N`` is about. Real-time bytes (``?``, ``!``, ``~``, 0x18) bypass the buffer and are
+sent at any time; status is polled with ``?`` at most 5 times a second (GRBL's advice).
+
+The first ``error:N`` or ``ALARM:N`` stops the stream: nothing more is sent, and
+:attr:`StreamState.failure` names the line number (1-based, counting the lines of the job).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import serial
+
+from inkarm.errors import InkarmError
+
+RX_BUFFER = 128
+STATUS_PERIOD_S = 0.2  # at most 5 status reports a second
+
+
+class GrblError(InkarmError):
+    """A GRBL device refused a line, raised an alarm, or stopped answering."""
+
+
+@dataclass(frozen=True)
+class StatusReport:
+    """One ``<...>`` status report.
+
+    Attributes:
+        time: When it arrived, on the streamer's clock [s].
+        state: Idle, Run, Hold:0, Alarm, Home, ...
+        mpos: Machine position (x, y, z) [mm].
+        feed: Current feed [mm/min]; spindle: S value; spindle_on: the ``A:S`` flag.
+        planner_free: Free planner blocks (``Bf:``), when reported.
+    """
+
+    time: float
+    state: str
+    mpos: tuple[float, float, float]
+    feed: float = 0.0
+    spindle: float = 0.0
+    spindle_on: bool = False
+    planner_free: int | None = None
+
+
+def parse_status(text: str, t: float) -> StatusReport | None:
+    """A :class:`StatusReport` from ``<Idle|MPos:1.000,2.000,0.000|FS:0,0>``; None if the
+    text is not one."""
+    if not (text.startswith("<") and text.endswith(">")):
+        return None
+    fields = text[1:-1].split("|")
+    values: dict = {"state": fields[0]}
+    for f in fields[1:]:
+        key, _, value = f.partition(":")
+        numbers = value.split(",")
+        try:
+            if key in ("MPos", "WPos"):
+                values["mpos"] = tuple(float(v) for v in numbers[:3])
+            elif key == "FS":
+                values["feed"], values["spindle"] = float(numbers[0]), float(numbers[1])
+            elif key == "F":
+                values["feed"] = float(numbers[0])
+            elif key == "Bf":
+                values["planner_free"] = int(numbers[0])
+            elif key == "A":
+                values["spindle_on"] = "S" in value or "C" in value
+        except (ValueError, IndexError):
+            return None
+    if "mpos" not in values:
+        return None
+    return StatusReport(time=t, **values)
+
+
+@dataclass
+class StreamState:
+    """Progress of a stream.
+
+    Attributes:
+        sent: Lines written so far; acked: lines answered ``ok``.
+        failure: Why the stream stopped early (``error:N`` / ``ALARM:N`` at line L, or a
+            disconnect), empty while it is healthy.
+        failed_line: The 1-based line the failure is about (0 when none).
+        statuses: Status reports received, in order.
+        messages: Other lines the device sent (``[MSG:...]``, banners).
+    """
+
+    sent: int = 0
+    acked: int = 0
+    failure: str = ""
+    failed_line: int = 0
+    statuses: list[StatusReport] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+
+
+class GrblStreamer:
+    """A GRBL 1.1 device on a serial port.
+
+    Args:
+        port: The serial port (or an emulator's pseudo-terminal).
+        baudrate: [bit/s]; GRBL 1.1 uses 115200.
+        clock: Where times come from [s] (``time.monotonic``).
+        on_status: Called with each :class:`StatusReport` as it arrives.
+        time_scale: Device seconds per wall second (an emulator's speed-up): status is polled
+            every 0.2 s of device time.
+    """
+
+    def __init__(self, port: str, baudrate: int = 115200,
+                 clock: Callable[[], float] = time.monotonic,
+                 on_status: Callable[[StatusReport], None] | None = None,
+                 time_scale: float = 1.0):
+        try:
+            self.serial = serial.Serial(port, baudrate, timeout=0.002, write_timeout=2.0)
+        except (serial.SerialException, ValueError, OSError) as e:
+            raise GrblError(f"cannot open {port}: {e}", key="--port", value=port) from None
+        self.port = port
+        self.clock = clock
+        self.on_status = on_status
+        self.status_period_s = STATUS_PERIOD_S / time_scale
+        self.state = StreamState()
+        self._pending: deque[str] = deque()
+        self._in_flight: deque[tuple[int, int]] = deque()  # (line number, bytes)
+        self._bytes = 0
+        self._rx = b""
+        self._last_poll = -1e9
+        self.last_status: StatusReport | None = None
+
+    # -- connection ----------------------------------------------------------------------------
+
+    def wake(self, timeout_s: float = 3.0) -> list[str]:
+        """Soft-reset the device and wait for its banner (``Grbl 1.1...``); the lines it sent."""
+        self.serial.reset_input_buffer()
+        self._rx = b""
+        self.realtime(b"\x18")
+        lines = self._wait_for(lambda line: line.startswith("Grbl "), timeout_s, "its banner")
+        end = self.clock() + 0.05
+        while self.clock() < end:  # a [MSG:...] may follow the banner
+            lines += self._read_lines()
+        self._in_flight.clear()
+        self._bytes = 0
+        return lines
+
+    def command(self, line: str, timeout_s: float = 5.0) -> list[str]:
+        """Send one line (``$X``, ``$H``, ``$$``) and wait for its ``ok``; the lines before it.
+        Raises :class:`GrblError` on ``error:N`` or ``ALARM:N``."""
+        self._write(f"{line}\n".encode("ascii"))
+        lines = self._wait_for(lambda r: r == "ok" or r.startswith(("error:", "ALARM:")),
+                               timeout_s, f"an answer to {line!r}")
+        if lines[-1] != "ok":
+            raise GrblError(f"{line!r} was answered {lines[-1]}", key="--port", value=self.port)
+        return lines[:-1]
+
+    def unlock(self) -> None:
+        """``$X``: leave the alarm state."""
+        self.command("$X")
+
+    def home(self, timeout_s: float = 120.0) -> None:
+        """``$H``: the homing cycle (needs ``$22=1``)."""
+        self.command("$H", timeout_s)
+
+    def realtime(self, byte: bytes) -> None:
+        """Send a real-time command: ``b"?"`` status, ``b"!"`` feed hold, ``b"~"`` resume,
+        ``b"\\x18"`` soft reset."""
+        self._write(byte)
+
+    def feed_hold(self) -> None:
+        self.realtime(b"!")
+
+    def resume(self) -> None:
+        self.realtime(b"~")
+
+    def close(self) -> None:
+        try:
+            self.serial.close()
+        except (serial.SerialException, OSError):
+            pass
+
+    # -- streaming -----------------------------------------------------------------------------
+
+    def queue(self, lines: Iterable[str]) -> None:
+        """Add lines to the job (sent by :meth:`pump`)."""
+        for line in lines:
+            text = line.strip()
+            if len(text) + 1 > RX_BUFFER:
+                raise GrblError(f"G-code line of {len(text) + 1} bytes does not fit GRBL's "
+                                f"{RX_BUFFER}-byte buffer: {text[:40]!r}...")
+            self._pending.append(text)
+
+    @property
+    def queued(self) -> int:
+        """Lines not yet sent."""
+        return len(self._pending)
+
+    @property
+    def done(self) -> bool:
+        """Every queued line answered, or the stream failed."""
+        return bool(self.state.failure) or (not self._pending and not self._in_flight)
+
+    def pump(self, counting: bool = True, poll: bool = True) -> None:
+        """Send what fits, read the answers, poll the status when due; never blocks long.
+        Without ``counting`` every queued line is sent at once (how a naive sender loses
+        bytes)."""
+        if self.state.failure:
+            return
+        while self._pending and (not counting or self._bytes + len(self._pending[0]) + 1
+                                 <= RX_BUFFER):
+            text = self._pending.popleft()
+            self._write(f"{text}\n".encode("ascii"))
+            self.state.sent += 1
+            self._in_flight.append((self.state.sent, len(text) + 1))
+            self._bytes += len(text) + 1
+        if poll and self.clock() - self._last_poll >= self.status_period_s:
+            self._last_poll = self.clock()
+            self._write(b"?")
+        for line in self._read_lines():
+            self._answer(line)
+
+    def stream(self, lines: Iterable[str], timeout_s: float = 600.0,
+               counting: bool = True) -> StreamState:
+        """Queue ``lines`` and pump until every one is answered (or the stream failed)."""
+        self.queue(lines)
+        end = self.clock() + timeout_s
+        while not self.done:
+            self.pump(counting)
+            if self.clock() > end:
+                self._fail(f"no answer within {timeout_s:g} s", self._oldest())
+        return self.state
+
+    def wait_idle(self, timeout_s: float = 600.0) -> StatusReport | None:
+        """Poll until the device reports Idle (or the stream failed); the last report."""
+        end = self.clock() + timeout_s
+        while not self.state.failure:
+            self.pump()
+            s = self.last_status
+            if s is not None and s.state == "Idle" and s.time > self._last_ok_time \
+                    and not self._in_flight:
+                return s
+            if self.clock() > end:
+                self._fail(f"not idle within {timeout_s:g} s", self._oldest())
+        return self.last_status
+
+    _last_ok_time = -1e9
+
+    # -- internals -----------------------------------------------------------------------------
+
+    def _answer(self, line: str) -> None:
+        if line.startswith("<"):
+            status = parse_status(line, self.clock())
+            if status is not None:
+                self.last_status = status
+                self.state.statuses.append(status)
+                if self.on_status is not None:
+                    self.on_status(status)
+            return
+        if line == "ok":
+            if self._in_flight:
+                _, n = self._in_flight.popleft()
+                self._bytes -= n
+                self.state.acked += 1
+                self._last_ok_time = self.clock()
+            return
+        if line.startswith("error:"):
+            self._fail(f"{line} at G-code line {self._oldest()}", self._oldest())
+            return
+        if line.startswith("ALARM:"):
+            self._fail(f"{line} at G-code line {self._oldest()}", self._oldest())
+            return
+        if line:
+            self.state.messages.append(line)
+
+    def _oldest(self) -> int:
+        return self._in_flight[0][0] if self._in_flight else self.state.sent
+
+    def _fail(self, why: str, line: int) -> None:
+        if not self.state.failure:
+            self.state.failure = why
+            self.state.failed_line = line
+            self._pending.clear()
+
+    def _write(self, data: bytes) -> None:
+        try:
+            self.serial.write(data)
+        except (serial.SerialException, OSError) as e:
+            self._fail(f"the device disconnected ({e})", self._oldest())
+
+    def _read_lines(self) -> list[str]:
+        try:
+            chunk = self.serial.read(max(1, self.serial.in_waiting))
+        except (serial.SerialException, OSError) as e:
+            self._fail(f"the device disconnected ({e})", self._oldest())
+            return []
+        if not chunk:
+            return []
+        self._rx += chunk
+        *lines, self._rx = self._rx.split(b"\n")
+        return [line.strip().decode("ascii", "replace") for line in lines]
+
+    def _wait_for(self, accept: Callable[[str], bool], timeout_s: float,
+                  what: str) -> list[str]:
+        end = self.clock() + timeout_s
+        seen: list[str] = []
+        while self.clock() < end:
+            if self.state.failure.startswith("the device disconnected"):
+                break
+            for line in self._read_lines():
+                if line.startswith("<"):
+                    self._answer(line)
+                    continue
+                seen.append(line)
+                if accept(line):
+                    return seen
+        raise GrblError(f"no {what} from {self.port} within {timeout_s:g} s"
+                        + (f" ({self.state.failure})" if self.state.failure else ""),
+                        key="--port", value=self.port)

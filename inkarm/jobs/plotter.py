@@ -1,0 +1,90 @@
+"""A scenario drawn on a GRBL pen plotter: the plotter backend of :mod:`inkarm.jobs.backends`.
+
+The scenario's drawing is placed on its page (page frame = the plotter's machine frame,
+origin at the sheet's lower-left corner), the pen path sequenced as for the arms and streamed
+through a :class:`~inkarm.hardware.plotter.plant.GrblPlant`; the result is the same
+:class:`~inkarm.jobs.run.Run` as a simulated run, with the same metrics.
+
+The ink: a real plotter's is on paper. The Run's canvas is the one given (an in-process
+emulator's, or a scan); without one, the measured tip positions while the pen was down are
+inked on a canvas (a polyline through the status reports: coarse at 5 Hz).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from inkarm.analysis.metrics import compute_metrics
+from inkarm.control.plotter import run_plotter
+from inkarm.core.log import DrawLog
+from inkarm.errors import InkarmError
+from inkarm.hardware.plotter.plant import GrblPlant
+from inkarm.hardware.plotter.profiles import load_profile
+from inkarm.hardware.plotter.stream import GrblStreamer
+from inkarm.ink.canvas import Canvas
+from inkarm.jobs.run import FAILED, OK, Run
+from inkarm.jobs.scenario import Scenario, place, source_drawing
+from inkarm.sim.cell import Cell
+
+
+def page_size_mm(scenario: Scenario) -> tuple[float, float]:
+    return Cell(scenario.cell, scenario.robot).paper_size_mm
+
+
+def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str | None = None,
+                         baudrate: int = 115200, time_scale: float = 1.0, progress=None,
+                         canvas: Canvas | None = None, dt: float = 0.01) -> Run:
+    """Draw ``scenario`` on the GRBL plotter at ``port``; a failed job (``error:N``,
+    ``ALARM:N``, a disconnect) returns a Run with status "failed", the reason naming the
+    G-code line, the log so far and the pen lifted."""
+    try:
+        pen = load_profile(profile)
+        size = page_size_mm(scenario)
+        drawing = place(source_drawing(scenario), scenario.placement, size)
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    streamer = GrblStreamer(port, baudrate, time_scale=time_scale)
+    try:
+        streamer.wake()
+        streamer.unlock()  # GRBL starts locked when homing is on; $X is harmless otherwise
+        plant = GrblPlant(streamer, pen, dt=dt, time_scale=time_scale,
+                          pen_force_n=scenario.controller.force_n)
+    except InkarmError:
+        streamer.close()
+        raise
+    try:
+        log = run_plotter(drawing, plant, scenario.controller, progress=progress)
+        failure = plant.failure
+    finally:
+        plant.close()
+    own_canvas = canvas is None
+    if own_canvas:
+        canvas = Canvas(size_mm=size, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make())
+        ink_measured(canvas, log)
+    notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile {pen.name!r}, "
+             f"{len(log)} status reports (the log's rows)"),)
+    if own_canvas:
+        notes += ("plotter: the canvas inks the measured status positions (5 Hz), not paper",)
+    log.notes = notes
+    if failure:
+        return Run(scenario, FAILED, drawing, log, canvas, reason=f"the plotter stopped: "
+                   f"{failure}", notes=notes)
+    travel = [plant.settings.get(130, 300.0), plant.settings.get(131, 300.0)]
+    metrics = compute_metrics(
+        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+        drawing=log.drawing, q=log.q,
+        joint_range=np.array([[0.0, travel[0] / 1000.0], [0.0, travel[1] / 1000.0]]),
+        wall_time_s=max(log.wall_s, 1e-9), canvas=canvas,
+        plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
+        contact_threshold_n=scenario.controller.contact_threshold_n)
+    return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes)
+
+
+def ink_measured(canvas: Canvas, log: DrawLog) -> None:
+    """Ink the measured tip positions of the rows with the pen down."""
+    for t, tip, force in zip(log.time, log.tip, log.force, strict=True):
+        if force > 0:
+            canvas.touch(tip[:2], float(force), float(t))
+        elif canvas.in_contact:
+            canvas.lift()
+    canvas.lift()
