@@ -104,8 +104,26 @@ class UnreachableError(InkarmError):
     a joint beyond its limits."""
 
 
-class SimulationError(InkarmError):
+class RunFault(InkarmError):
+    """A watchdog stopped a run: the pen was lifted (where the arm could still move) and the
+    arm made safe. ``watchdog`` names the check that fired (``paper_not_found``,
+    ``force_limit``, ``tracking_limit``, ``torque_saturated``, ``joint_limit``,
+    ``joint_speed``, ``diverged``), ``time_s`` is the plant time of the fault and ``log`` (set
+    by the loop) the log up to the safe stop."""
+
+    def __init__(self, message: str, *, watchdog: str = "", time_s: float = float("nan"),
+                 **context):
+        super().__init__(message, **context)
+        self.watchdog = watchdog
+        self.time_s = time_s
+
+
+class SimulationError(RunFault):
     """The simulation diverged or produced non-finite state."""
+
+    def __init__(self, message: str = "", **context):
+        context.setdefault("watchdog", "diverged")
+        super().__init__(message, **context)
 
 
 def unknown_name(what: str, name: str, choices: Iterable[str], *, key: str | None = None,

@@ -28,6 +28,14 @@ RANGES = {
     "contact_threshold_n": _R(0.0, 50.0, "N"),
     "posture_rate": _R(0.0, 1e3, "1/s"),
     "ik_period_s": _R(0.0, 1.0, "s", open_low=True),
+    "force_filter_s": _R(0.0, 1.0, "s"),
+    "search_speed_mm_s": _R(0.0, 500.0, "mm/s", open_low=True),
+    "force_limit_n": _R(0.0, 500.0, "N", open_low=True),
+    "tracking_limit_mm": _R(0.0, 1000.0, "mm", open_low=True),
+    "watchdog_s": _R(0.0, 10.0, "s"),
+    "saturation_s": _R(0.0, 10.0, "s"),
+    "stop_s": _R(0.0, 10.0, "s", open_low=True),
+    "friction_adaptation": _R(0.0, 1e9, "N m/(rad s)"),
 }
 
 
@@ -46,7 +54,12 @@ class LoopConfig:
         nib_friction: Nib-paper friction coefficient of the drag feed-forward; the kinematic
             model's when None.
         force_gain_mm_per_ns: k_F of the force integrator dz/dt = k_F (F* - F), in [mm/(N s)].
-        correction_limit_mm: Bound of the force loop's correction along the normal.
+        correction_limit_mm: Bound of the force loop's correction along the normal: how far
+            beyond where the model puts the paper the pen searches for it (and retracts).
+        force_filter_s: Time constant of the low-pass on the sensed force before the force
+            loop [s] (0: none).
+        search_speed_mm_s: Speed of the guarded search for the paper after a descent that
+            found no contact.
         settle_tol_n: |F - F*| below which the descent counts as settled.
         settle_s: How long the force must stay settled before the stroke starts.
         settle_timeout_s: Longest wait at the end of a descent.
@@ -54,8 +67,17 @@ class LoopConfig:
         posture_rate: Null-space pull towards the home posture, in [1/s].
         ik_period_s: Spacing of the IK solutions along the path; a cubic spline fills in.
         go_home: Return to the home pose at the end.
-        command: "torque" (PID torques) or "position" (q goals with velocity feed-forward, for
-            plants with their own servo loop).
+        command: "position" (joint goals with velocity, acceleration and torque feed-forward,
+            for plants whose drives close the joint loop: arm drives, servo firmware) or
+            "torque" (the host's own PID sends torques every period).
+        force_limit_n: Watchdog: the run fails when the filtered force exceeds this.
+        tracking_limit_mm: Watchdog: ... when the pen is this far from its reference (page x,
+            y) for ``watchdog_s``.
+        watchdog_s: How long the tracking and joint-speed limits may be exceeded.
+        saturation_s: Watchdog: ... when a joint torque stays at its limit this long.
+        stop_s: Duration of the safe stop's lift after a fault.
+        friction_adaptation: Rate gamma of the Coulomb friction estimate's adaptation
+            (:mod:`inkarm.control.friction`); 0 keeps the model's friction.
         speed_limits: What to do when the planned joint speed exceeds a joint's limit in the
             robot profile: "slow" (draw slower, stretching time by the excess, and say so) or
             "refuse" (raise, naming the joint).
@@ -70,7 +92,7 @@ class LoopConfig:
     joint_speed_rad_s: float = 0.8
     nib_friction: float | None = None
     force_gain_mm_per_ns: float = 40.0
-    correction_limit_mm: float = 3.0
+    correction_limit_mm: float = 10.0
     settle_tol_n: float = 0.05
     settle_s: float = 0.03
     settle_timeout_s: float = 0.6
@@ -78,8 +100,16 @@ class LoopConfig:
     posture_rate: float = 0.5
     ik_period_s: float = 0.012
     go_home: bool = True
-    command: str = "torque"
+    command: str = "position"
     speed_limits: str = "slow"
+    force_filter_s: float = 0.01
+    search_speed_mm_s: float = 20.0
+    force_limit_n: float = 5.0
+    tracking_limit_mm: float = 5.0
+    watchdog_s: float = 0.05
+    saturation_s: float = 0.1
+    stop_s: float = 0.06
+    friction_adaptation: float = 2e5
 
     def __post_init__(self) -> None:
         for f in fields(self):

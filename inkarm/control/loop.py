@@ -24,12 +24,14 @@ Units: page [mm] and [s] at this module's surface; the page-to-robot transform
 from __future__ import annotations
 
 import dataclasses
+import math
 import time as _time
 from collections.abc import Callable
 
 import numpy as np
 
 from inkarm.control.config import LoopConfig
+from inkarm.control.friction import FrictionCompensation
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.pid import JointPID, PIDGains
@@ -40,10 +42,11 @@ from inkarm.control.reference import (
     plan_joint_reference,
 )
 from inkarm.control.sequencing import pen_depth_mm, sequence_pen
-from inkarm.core.log import DRAW, PHASES, DrawLog
+from inkarm.control.watchdog import Watchdog
+from inkarm.core.log import DESCEND, DRAW, LIFT, PHASES, DrawLog
 from inkarm.core.plant import Plant, PositionCommand, TorqueCommand
 from inkarm.core.trajectory import Drawing, Trajectory
-from inkarm.errors import InputError, SimulationError
+from inkarm.errors import InputError, RunFault, SimulationError
 from inkarm.robots.kinematic import KinematicModel
 
 # Extra slowing on top of the measured excess when a reference is slowed to its speed limits.
@@ -67,7 +70,8 @@ def plan_within_speed_limits(
     the
     plan is made again, up to three times; "refuse" raises :class:`JointSpeedError`."""
     kin = kin or ArmKinematics.of(model)
-    depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm)
+    depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm,
+                         model.pen_preload_n, model.paper_stiffness_n_per_mm)
     notes: list[str] = []
     stretch = 1.0
     for attempt in range(4):
@@ -127,13 +131,18 @@ def run_drawing(
     ref, notes = plan_within_speed_limits(drawing, model, config, state.q, dt, kin, ik,
                                           speed_limits)
     pid = JointPID(gains, dt)
+    watchdog = Watchdog(config, dt, kin.joint_names, gains.torque_limit, speed_limits,
+                        np.column_stack([kin.lower, kin.upper]))
 
     settle_ticks = round(config.settle_s / dt)
     timeout_ticks = round(config.settle_timeout_s / dt)
-    log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + 1, kin.n)
+    stop_ticks = max(1, round(config.stop_s / dt))
+    log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + stop_ticks + 2, kin.n)
     k_force = config.force_gain_mm_per_ns / 1000.0 * dt  # [m/N] per period
+    search_step = config.search_speed_mm_s / 1000.0 * dt  # [m] per period
     z_limit = config.correction_limit_mm / 1000.0
     f_star, threshold, settle_tol = config.force_n, config.contact_threshold_n, config.settle_tol_n
+    smoothing = dt / (config.force_filter_s + dt)
     torque_mode = config.command == "torque"
     if config.command not in plant.commands:
         raise InputError(f"the plant takes {', '.join(sorted(plant.commands))} commands, not "
@@ -145,30 +154,51 @@ def run_drawing(
     # Local names and Python lists: this loop runs once per control period and its Python cost
     # is the budget. The plan's columns of the log are filled from ``ref_row`` afterwards.
     q_ref, qd_ref, qdd_ref, inertia, normal_q = ref.q, ref.qd, ref.qdd, ref.inertia, ref.normal_q
-    contact_tau = ref.contact_tau
+    contact_tau, page_ref = ref.contact_tau, ref.page_mm
     phases = ref.phase.tolist()
     hold_at = [False] * len(ref)  # rows where a descent waits for the force (if sensed)
     for r in ref.settle:
         hold_at[r] = senses_force
-    bias, update = kin.bias, pid.update
+    bias, update, check = kin.bias, pid.update, watchdog.check
     read, command, step = plant.read, plant.command, plant.step
     log_time, log_q, log_qd, log_torque = log.time, log.q, log.qd, log.torque
     log_tip, log_force = log.tip, log.force
     ref_row = np.zeros(len(log), dtype=np.intp)
     nan_torque = np.full(kin.n, np.nan)
+    friction = FrictionCompensation(kin.model.dof_frictionloss[kin.dof_adr], dt,
+                                    config.friction_adaptation)
 
     z_corr = 0.0  # force-loop correction along the normal, [m] (positive = deeper)
+    force_f = 0.0  # low-passed sensed force [N]
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
+    state = None
     try:
         while i < n_ref:
             state = read()
-            force = state.force if senses_force else np.nan
             phase = phases[i]
             holding = hold_at[i]
+            tip = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            if senses_force:
+                force = state.force
+                force_f += smoothing * (force - force_f)
+                # Press with the force loop while drawing and at the end of a descent; once
+                # touching, during the whole descent (the paper may be higher than believed).
+                if phase == DRAW or (holding and waited > 0) or (phase == DESCEND
+                                                                 and force_f > threshold):
+                    if force_f > threshold:
+                        z_corr = max(z_corr + k_force * (f_star - force_f), -z_limit)
+                    else:  # guarded search: no paper where the model puts it; go deeper
+                        z_corr += search_step
+                        if z_corr >= z_limit:
+                            raise RunFault(
+                                f"paper_not_found: no contact within "
+                                f"{config.correction_limit_mm:g} mm beyond where the model puts "
+                                f"the paper, at t = {state.time:.3f} s",
+                                watchdog="paper_not_found", time_s=state.time)
+            else:
+                force = np.nan
             pressing = phase == DRAW or (holding and waited > 0)
-            if pressing and force > threshold:
-                z_corr = min(max(z_corr + k_force * (f_star - force), -z_limit), z_limit)
             q_goal = q_ref[i] + z_corr * normal_q[i]
             if torque_mode:
                 feedforward = bias(state.q, state.qd) + inertia[i]
@@ -177,29 +207,44 @@ def run_drawing(
                 tau = update(q_goal, state.q, state.qd, qd_ref[i], feedforward)
                 command(TorqueCommand(tau))
             else:
-                tau = nan_torque
-                command(PositionCommand(q_goal, qd_ref[i], qdd_ref[i]))
+                feedforward = bias(q_ref[i], qd_ref[i]) + inertia[i] + friction.torque(
+                    qd_ref[i], q_goal - state.q)
+                if pressing:
+                    feedforward += contact_tau[i]
+                tau = state.torque if state.torque is not None else nan_torque
+                command(PositionCommand(q_goal, qd_ref[i], qdd_ref[i], feedforward))
             log_time[row] = state.time
             log_q[row] = state.q
             log_qd[row] = state.qd
             log_torque[row] = tau
-            log_tip[row] = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            log_tip[row] = tip
             log_force[row] = force
             ref_row[row] = i
             row += 1
+            p = page_ref[i]
+            check(state.time, state.q, state.qd, state.torque, force_f,
+                  math.hypot(tip[0] - p[0], tip[1] - p[1]))
             step()
             if progress is not None and row % report_every == 0:
                 progress(i / n_ref, PHASES[phase])
             # Hold the end of a descent until the force has settled at its set point.
             if holding and waited < timeout_ticks:
                 waited += 1
-                settled_for = settled_for + 1 if abs(force - f_star) < settle_tol else 0
+                settled_for = settled_for + 1 if abs(force_f - f_star) < settle_tol else 0
                 if settled_for < settle_ticks:
                     continue
             waited, settled_for = 0, 0
             i += 1
-    except (SimulationError, KeyboardInterrupt) as err:  # keep what happened for the caller
+    except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
+        stop_from = row
+        if state is not None and not isinstance(err, SimulationError):
+            row = _safe_stop(plant, log, ref_row, row, min(i, n_ref - 1), state, normal_q,
+                             config, stop_ticks, torque_mode, update, bias, placement, kin,
+                             senses_tip, torque_saturated=getattr(err, "watchdog", "")
+                             in ("torque_saturated", "joint_speed"))
+        _brake(plant)
         partial = _with_plan_columns(log, ref, ref_row, row)
+        partial.phase[stop_from:] = LIFT
         partial.wall_s = _time.perf_counter() - wall0
         partial.notes = notes
         err.log = partial
@@ -210,6 +255,43 @@ def run_drawing(
     if progress is not None:
         progress(1.0, PHASES[phases[-1]])
     return result
+
+
+def _safe_stop(plant, log, ref_row, row, i, state, normal_q, config, ticks, torque_mode,
+               update, bias, placement, kin, senses_tip, torque_saturated) -> int:
+    """After a fault: lift the pen ``hover_mm`` along the paper normal from where the arm is,
+    over ``stop_s`` (logged as a lift); an arm whose torques saturated is braked at once.
+    Returns the next log row."""
+    if torque_saturated:
+        return row
+    q0 = np.asarray(state.q, dtype=float)
+    lift = -config.hover_mm / 1000.0 * normal_q[i]
+    zero = np.zeros_like(q0)
+    for k in range(1, ticks + 1):
+        s = k / ticks
+        goal = q0 + (10 * s**3 - 15 * s**4 + 6 * s**5) * lift
+        state = plant.read()
+        if torque_mode:
+            plant.command(TorqueCommand(update(goal, state.q, state.qd, zero,
+                                               bias(state.q, state.qd))))
+        else:
+            plant.command(PositionCommand(goal, zero, zero, bias(goal, zero)))
+        if row < len(log.time):
+            log.time[row], log.q[row], log.qd[row] = state.time, state.q, state.qd
+            log.torque[row] = state.torque if state.torque is not None else np.nan
+            log.tip[row] = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            log.force[row] = state.force if state.force is not None else np.nan
+            ref_row[row] = i
+            row += 1
+        plant.step()
+    return row
+
+
+def _brake(plant) -> None:
+    """Hold the arm where it is: the plant's brakes where it has them."""
+    brake = getattr(plant, "brake", None)
+    if brake is not None:
+        brake()
 
 
 def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: np.ndarray, k: int) -> DrawLog:

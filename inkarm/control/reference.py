@@ -104,7 +104,8 @@ def check_reachable(
     ik = ik or IKConfig()
     kin = kin or ArmKinematics.of(model)
     placement = model.placement
-    depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm)
+    depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm,
+                         model.pen_preload_n, model.paper_stiffness_n_per_mm)
     posture = model.home_q
     q = posture.copy()
     # Task-only steps (no posture pull) warm-started along the stroke: a cheap yes/no.

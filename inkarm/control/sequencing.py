@@ -51,8 +51,11 @@ def ticks(duration: float, dt: float) -> int:
     return max(2, int(np.ceil(duration / dt)) + 1)
 
 
-def pen_depth_mm(config: LoopConfig, stiffness_n_per_mm: float, travel_mm: float) -> float:
-    """Nominal pen compression F* / k in [mm]: how far below the paper the pen reference goes.
+def pen_depth_mm(config: LoopConfig, stiffness_n_per_mm: float, travel_mm: float,
+                 preload_n: float = 0.0, paper_stiffness_n_per_mm: float = 0.0) -> float:
+    """How far below the paper the pen reference goes [mm] to press with F*: the pen's
+    compression (F* - P) / k beyond its preload P, plus the underlay's sink F* / k_paper
+    (0 for a rigid table).
 
     k is ``config.pen_stiffness_n_per_mm``, else ``stiffness_n_per_mm`` (the controller's model);
     the compression must leave 20% of the pen's ``travel_mm``."""
@@ -61,12 +64,13 @@ def pen_depth_mm(config: LoopConfig, stiffness_n_per_mm: float, travel_mm: float
     if not stiffness > 0:
         raise InputError(f"expected > 0, got {stiffness}", key="pen_stiffness_n_per_mm",
                          value=stiffness)
-    depth = config.force_n / stiffness
+    depth = max(config.force_n - preload_n, 0.0) / stiffness
     if depth > 0.8 * travel_mm:
         raise InputError(f"{config.force_n} N compresses the pen by {depth:.1f} mm, more than "
                          f"80% of its {travel_mm:.1f} mm travel", key="force_n",
                          value=config.force_n)
-    return depth
+    sink = config.force_n / paper_stiffness_n_per_mm if paper_stiffness_n_per_mm > 0 else 0.0
+    return depth + sink
 
 
 def stroke_points(drawing: Drawing, k: int, dt: float) -> np.ndarray:

@@ -56,11 +56,13 @@ class TorqueCommand:
 @dataclass(frozen=True, slots=True)
 class PositionCommand:
     """Joint position goals ``q`` (n,) in [rad] for a device with its own servo loop, with
-    velocity [rad/s] and acceleration [rad/s^2] feed-forward where it takes them."""
+    velocity [rad/s], acceleration [rad/s^2] and torque [N m] feed-forward where it takes
+    them."""
 
     q: np.ndarray
     qd: np.ndarray | None = None
     qdd: np.ndarray | None = None
+    torque: np.ndarray | None = None
 
 
 @dataclass(frozen=True, slots=True)

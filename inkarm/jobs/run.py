@@ -17,13 +17,20 @@ from inkarm.control.loop import run_drawing
 from inkarm.core.budget import SIM_S, require, require_memory
 from inkarm.core.log import DrawLog
 from inkarm.core.trajectory import Drawing
-from inkarm.errors import InkarmError, SimulationError
+from inkarm.errors import InkarmError, RunFault
 from inkarm.ink.canvas import Canvas, require_raster_memory
 from inkarm.jobs.scenario import Scenario, place, source_drawing
-from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
+from inkarm.sim.cell import Cell, joint_ranges, kinematic_model
+from inkarm.sim.perturb import plant_model
 from inkarm.sim.plant import MujocoPlant
 
-OK, FAILED, INTERRUPTED = "ok", "failed", "interrupted"
+OK, DEGRADED, FAILED, INTERRUPTED = "ok", "degraded", "failed", "interrupted"
+# A run that finished is "degraded" when its drawing falls short of these (page [mm], [N]):
+QUALITY = {
+    "tracking_rms_mm": 1.0,  # pen RMS distance from its reference while drawing
+    "gap_mm": 0.0,  # total length of the strokes drawn without contact
+    "force_error_n": 0.25,  # |mean force - F*| while drawing
+}
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -41,14 +48,16 @@ class Run:
 
     Attributes:
         scenario: The scenario that was run.
-        status: "ok"; "failed" when the run started but did not finish (``reason`` says why;
-            the log and canvas hold what happened until then); "interrupted" (Ctrl-C).
-        reason: Why it failed; empty when ok.
+        status: "ok"; "degraded" when it finished but missed a quality bound (:data:`QUALITY`;
+            ``reason`` lists them); "failed" when a watchdog stopped it (``reason`` names the
+            watchdog and the fault; the pen was lifted, the arm braked, and the log and canvas
+            hold what happened until then); "interrupted" (Ctrl-C).
+        reason: Why it failed or is degraded; empty when ok.
         drawing: The placed drawing, page [mm] and [s].
         log: One row per control period (:class:`inkarm.core.log.DrawLog`).
         canvas: The ink on the page.
-        metrics: Tracking, ink, force, joint and timing figures (:mod:`inkarm.analysis.metrics`);
-            empty when failed.
+        metrics: Tracking, ink, force, joint and timing figures (:mod:`inkarm.analysis.metrics`),
+            of the partial log when failed (empty when nothing was logged).
         notes: What the planner changed (e.g. slowed to the robot's speed limits).
     """
 
@@ -81,20 +90,23 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     cell = Cell(scenario.cell, scenario.robot)
     try:
         drawing = placed_within_budget(scenario, cell)
-        believed = kinematic_model(cell)  # the controller's own model; the plant gets a twin
+        believed = kinematic_model(cell)  # the controller's own model, of the nominal cell
         canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                         ink=scenario.ink.make())
-        plant = MujocoPlant(build_model(cell), cell=cell, canvas=canvas,
+        truth = scenario.plant.realised()
+        plant = MujocoPlant(plant_model(cell, truth), cell=cell, canvas=canvas,
                             substeps=_substeps(scenario.robot.control_period_s,
-                                               scenario.cell.timestep))
+                                               scenario.cell.timestep),
+                            truth=truth, drive_gains=scenario.robot.drive)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     try:
         log = run_drawing(drawing, plant, believed, scenario.robot.gains, scenario.controller,
                           progress=progress, speed_limits=scenario.robot.speed_limits)
-    except SimulationError as e:
+    except RunFault as e:
         partial = getattr(e, "log", None)
-        return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e),
+        return Run(scenario, FAILED, drawing, partial, canvas,
+                   _metrics(partial, drawing, believed, canvas), reason=str(e),
                    notes=partial.notes if partial is not None else ())
     except KeyboardInterrupt as e:
         partial = getattr(e, "log", None)
@@ -105,14 +117,37 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         raise e.within(file=scenario.path, key="controller" if controller else None) from None
     finally:
         plant.close()
-    plan_strokes = [s.pos[:, :2] for s in drawing.strokes]
-    metrics = compute_metrics(
+    metrics = _metrics(log, drawing, believed, canvas)
+    shortfalls = judge(metrics, scenario.controller.force_n)
+    return Run(scenario, DEGRADED if shortfalls else OK, drawing, log, canvas, metrics,
+               reason="; ".join(shortfalls), notes=log.notes)
+
+
+def judge(metrics: dict, force_n: float) -> list[str]:
+    """The quality bounds (:data:`QUALITY`) a finished run missed, each as a sentence."""
+    out = []
+    if metrics.get("tracking_rms_mm", 0.0) > QUALITY["tracking_rms_mm"]:
+        out.append(f"tracking RMS {metrics['tracking_rms_mm']:.2f} mm above "
+                   f"{QUALITY['tracking_rms_mm']:g} mm")
+    if metrics.get("gap_mm", 0.0) > QUALITY["gap_mm"]:
+        out.append(f"{metrics['gap_mm']:.1f} mm of the strokes drawn without contact")
+    mean = metrics.get("contact_force_mean_n", force_n)
+    if np.isfinite(mean) and abs(mean - force_n) > QUALITY["force_error_n"]:
+        out.append(f"mean force {mean:.2f} N, more than {QUALITY['force_error_n']:g} N from "
+                   f"the {force_n:g} N set point")
+    return out
+
+
+def _metrics(log: DrawLog | None, drawing: Drawing, believed, canvas) -> dict:
+    """The metrics of a (possibly partial) log; empty when nothing was logged or drawn."""
+    if log is None or len(log) == 0 or not log.drawing.any():
+        return {}
+    return compute_metrics(
         times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
         drawing=log.drawing, q=log.q,
         joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
-        canvas=canvas, plan_strokes=plan_strokes,
+        canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
     )
-    return Run(scenario, OK, drawing, log, canvas, metrics, notes=log.notes)
 
 
 def check(scenario: Scenario) -> Drawing:

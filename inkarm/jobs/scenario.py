@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -70,8 +70,10 @@ from inkarm.jobs.sources import Source, parse_source, source_table
 from inkarm.robots.profile import GAIN_KEYS, RobotProfile, gain_vector
 from inkarm.robots.registry import DEFAULT_ROBOT, load_robot, robot_names
 from inkarm.sim.cell import CellConfig
+from inkarm.sim.imperfections import PlantTruth
 
-TOP_KEYS = ("title", "seed", "source", "placement", "robot", "cell", "controller", "ink")
+TOP_KEYS = ("title", "seed", "source", "placement", "robot", "cell", "controller", "ink",
+            "plant")
 PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale")
 ROBOT_KEYS = ("name", "file", "gains")
 # Upper bounds of the placement's scalings: a sheet is at most 2 m, a drawing at most 1000x its
@@ -131,6 +133,7 @@ class Scenario:
     cell: CellConfig
     controller: LoopConfig
     ink: InkSpec
+    plant: PlantTruth = field(default_factory=PlantTruth)
 
     def to_dict(self) -> dict:
         """The TOML tables that parse back to this scenario (file names absolute)."""
@@ -148,6 +151,7 @@ class Scenario:
             "controller": _table_of(self.controller),
             "ink": {"model": self.ink.model, "px_per_mm": self.ink.px_per_mm,
                     **_table_of(self.ink.params)},
+            "plant": _plant_table(self.plant),
         }
 
     def with_overrides(self, overrides: dict[str, Any]) -> Scenario:
@@ -173,6 +177,35 @@ def _table_of(obj) -> dict:
             continue
         out[f.name] = list(value) if isinstance(value, tuple | np.ndarray) else value
     return out
+
+
+def _plant_table(truth: PlantTruth) -> dict:
+    table = _table_of(dataclasses.replace(truth, random={}))
+    table.pop("random", None)
+    if truth.random:
+        table["random"] = {k: list(v) for k, v in truth.random.items()}
+    return table
+
+
+def _plant(rd: TomlReader, raw) -> PlantTruth:
+    """The ``[plant]`` table: :class:`PlantTruth` fields, and ``[plant.random]`` ranges."""
+    table = dict(rd.table(raw, "plant"))
+    random = rd.table(table.pop("random", {}), "plant.random")
+    ranges = {}
+    for name, bounds in random.items():
+        pair = rd.array(bounds, f"plant.random.{name}", 1)
+        if len(pair) != 2:
+            raise rd.error(f"plant.random.{name}", f"expected [low, high], got {bounds!r}",
+                           value=bounds)
+        ranges[name] = (float(pair[0]), float(pair[1]))
+    truth = _dataclass_table(rd, table, "plant", PlantTruth)
+    if not ranges:
+        return truth
+    try:
+        return dataclasses.replace(truth, random=ranges)
+    except InkarmError as e:
+        raise ScenarioError(e.message, key=e.key, value=e.value,
+                            choices=e.choices).within(file=rd.source, key="plant") from None
 
 
 def _set_dotted(data: dict, dotted: str, value) -> None:
@@ -313,6 +346,7 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
         controller=_dataclass_table(rd, rd.table(data.get("controller", {}), "controller"),
                                     "controller", LoopConfig),
         ink=InkSpec(ink_model, _dataclass_table(rd, ink, "ink", INK_MODELS[ink_model]), px_per_mm),
+        plant=_plant(rd, data.get("plant", {})),
     )
 
 

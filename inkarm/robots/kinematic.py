@@ -29,6 +29,8 @@ class KinematicModel:
         pen_stiffness_n_per_mm: Pen spring rate [N/mm].
         pen_travel_mm: Pen slide travel [mm].
         nib_friction: Nib-paper sliding friction coefficient.
+        pen_preload_n: Force [N] below which the pen does not move into its holder.
+        paper_stiffness_n_per_mm: Stiffness of the sheet's underlay [N/mm]; 0: rigid.
     """
 
     model: mujoco.MjModel
@@ -39,6 +41,8 @@ class KinematicModel:
     pen_stiffness_n_per_mm: float
     pen_travel_mm: float
     nib_friction: float
+    pen_preload_n: float = 0.0
+    paper_stiffness_n_per_mm: float = 0.0
 
     @property
     def n(self) -> int:

@@ -31,6 +31,9 @@ the same way, ``inkarm draw --robot my_arm.toml``)::
     kp = [...]                        # [N m/rad]; also ki [N m/(rad s)], kd [N m s/rad],
                                       # integral_limit [N m]; torque_limit defaults to torque_nm
 
+    [drive]                           # optional: the joint drives' PID at the physics step
+    kp = [...]                        # (position commands); the [gains] when absent
+
     [backends.dynamixel]              # what a hardware backend needs (servo ids, models, ...)
 
 Units in the file are in the key names; the profile object holds SI (rad, rad/s, N m, m) except
@@ -51,7 +54,7 @@ from inkarm.io.toml import TomlReader, load_toml
 from inkarm.robots.gains import PIDGains
 
 TOP_KEYS = ("name", "description", "control_period_s", "model", "pen", "paper", "joints",
-            "gains", "backends")
+            "gains", "drive", "backends")
 JOINT_KEYS = ("name", "range_deg", "speed_deg_s", "torque_nm", "home_rad")
 GAIN_KEYS = ("kp", "ki", "kd", "torque_limit", "integral_limit")
 MODEL_KEYS = ("builder", "menagerie", "flange_site", "armature", "damping")
@@ -104,6 +107,13 @@ class RobotProfile:
     description: str = ""
     source: str = ""
     backends: Mapping[str, Mapping] = field(default_factory=dict)  # read-only by convention
+    drive_gains: PIDGains | None = None
+
+    @property
+    def drive(self) -> PIDGains:
+        """The joint drives' gains at the physics step (position commands): ``[drive]``, else
+        ``[gains]``."""
+        return self.drive_gains if self.drive_gains is not None else self.gains
 
     @property
     def n(self) -> int:
@@ -130,18 +140,22 @@ class RobotProfile:
         return np.array([j.torque_limit for j in self.joints])
 
     def with_gains(self, **gains) -> RobotProfile:
-        """The same robot with some PID gain vectors replaced (checked by :class:`PIDGains`)."""
+        """The same robot with some PID gain vectors replaced (checked by :class:`PIDGains`),
+        in the joint loop wherever it runs: the host's ``[gains]`` and the drives' ``[drive]``."""
         try:
             new = dataclasses.replace(self.gains, **gains)
+            drive = None if self.drive_gains is None else \
+                dataclasses.replace(self.drive_gains, **gains)
         except InputError as e:
             raise e.within(key="gains") from None
-        return dataclasses.replace(self, gains=new)
+        return dataclasses.replace(self, gains=new, drive_gains=drive)
 
     def __eq__(self, other) -> bool:
         if not isinstance(other, RobotProfile):
             return NotImplemented
         return self.source == other.source and self.name == other.name and all(
-            np.array_equal(getattr(self.gains, k), getattr(other.gains, k)) for k in GAIN_KEYS
+            np.array_equal(getattr(self.gains, k), getattr(other.gains, k))
+            and np.array_equal(getattr(self.drive, k), getattr(other.drive, k)) for k in GAIN_KEYS
         ) and (self.joints, self.model, self.pen, self.control_period_s) == (
             other.joints, other.model, other.pen, other.control_period_s)
 
@@ -248,18 +262,8 @@ def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
     names = [j.name for j in joints]
     if len(set(names)) != n:
         raise rd.error("joints", f"joint names repeat: {names}", value=names)
-    gains_table = rd.table(data["gains"], "gains")
-    rd.keys(gains_table, GAIN_KEYS, "gains")
-    for name in ("kp", "ki", "kd"):
-        if name not in gains_table:
-            raise rd.error(f"gains.{name}", "required")
-    gains = {k: gain_vector(rd, v, f"gains.{k}", n) for k, v in gains_table.items()}
-    gains.setdefault("torque_limit", np.array([j.torque_limit for j in joints]))
-    gains.setdefault("integral_limit", 0.25 * gains["torque_limit"])
-    try:
-        pid = PIDGains(**gains)
-    except InputError as e:
-        raise e.within(file=source, key="gains") from None
+    pid = _gains(rd, data["gains"], "gains", joints, source)
+    drive = _gains(rd, data["drive"], "drive", joints, source) if "drive" in data else None
     pen = rd.table(data.get("pen", {}), "pen")
     rd.keys(pen, ("holder_mm", "shaft_mm"), "pen")
     paper = rd.table(data.get("paper", {}), "paper")
@@ -286,5 +290,23 @@ def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
                         for k, v in pen.items()}),
         source=source,
         backends={k: dict(rd.table(v, f"backends.{k}")) for k, v in backends.items()},
+        drive_gains=drive,
         **kw,
     )
+
+
+def _gains(rd: TomlReader, raw, key: str, joints, source: str) -> PIDGains:
+    """A ``[gains]`` or ``[drive]`` table: kp, ki, kd required; torque_limit defaults to the
+    joints' torque_nm, integral_limit to a quarter of it."""
+    table = rd.table(raw, key)
+    rd.keys(table, GAIN_KEYS, key)
+    for name in ("kp", "ki", "kd"):
+        if name not in table:
+            raise rd.error(f"{key}.{name}", "required")
+    gains = {k: gain_vector(rd, v, f"{key}.{k}", len(joints)) for k, v in table.items()}
+    gains.setdefault("torque_limit", np.array([j.torque_limit for j in joints]))
+    gains.setdefault("integral_limit", 0.25 * gains["torque_limit"])
+    try:
+        return PIDGains(**gains)
+    except InputError as e:
+        raise e.within(file=source, key=key) from None

@@ -56,6 +56,8 @@ CELL_RANGES = {
     "paper_yaw_deg": Range(-360.0, 360.0, "deg"),
     "paper_thickness_mm": Range(0.0, 10.0, "mm", open_low=True),
     "pen_stiffness_n_per_mm": Range(1e-3, 1e3, "N/mm"),
+    "pen_preload_n": Range(0.0, 100.0, "N"),
+    "paper_stiffness_n_per_mm": Range(0.0, 1e3, "N/mm"),
     "pen_damping_ns_per_mm": Range(0.0, 10.0, "N s/mm"),
     "pen_travel_mm": Range(0.1, 100.0, "mm"),
     "pen_tip_radius_mm": Range(0.01, 10.0, "mm"),
@@ -80,6 +82,10 @@ class CellConfig:
             axis along the robot's x axis (away from the robot).
         paper_thickness_mm: Sheet thickness in [mm].
         pen_stiffness_n_per_mm: Pen spring rate in [N/mm] (0.3 N/mm = 300 N/m).
+        pen_preload_n: Spring force [N] holding the pen against its outer stop: the tip does
+            not move into the holder below this force.
+        paper_stiffness_n_per_mm: Stiffness of the underlay the sheet lies on [N/mm] (a felt
+            or blotter pad: 1 N sinks the sheet 1 / k mm); 0 for a sheet on the bare table.
         pen_damping_ns_per_mm: Pen slide damping in [N s/mm].
         pen_travel_mm: Pen slide travel in [mm].
         pen_tip_radius_mm: Radius of the tip sphere in [mm].
@@ -97,6 +103,8 @@ class CellConfig:
     paper_yaw_deg: float = 0.0
     paper_thickness_mm: float = 0.1
     pen_stiffness_n_per_mm: float = 0.3
+    pen_preload_n: float = 0.3
+    paper_stiffness_n_per_mm: float = 2.0
     pen_damping_ns_per_mm: float = 0.004
     pen_travel_mm: float = 6.0
     pen_tip_radius_mm: float = 0.5
@@ -229,17 +237,32 @@ def build_spec(cell: Cell | None = None) -> mujoco.MjSpec:
     eye = np.array([1.7, -1.3, 1.2]) * reach / 0.9
     world.add_camera(name=CAMERAS[1], pos=eye, quat=_look_at(eye, [0.5 * reach, 0.0, 0.5 * reach]),
                      fovy=45.0)
-    spec.add_key(name=HOME_KEY, qpos=[*robot.home_q.tolist(), 0.0])
+    pad = [0.0] if cfg.paper_stiffness_n_per_mm > 0 else []
+    spec.add_key(name=HOME_KEY, qpos=[*robot.home_q.tolist(), 0.0, *pad])
     return spec
 
 
+PAPER_PAD = "paper_pad"
+_PAD_MASS_KG = 0.05
+
+
 def _add_paper(world, cell: Cell) -> None:
+    """The sheet: a body on a vertical spring (the underlay, ``paper_stiffness_n_per_mm``,
+    critically damped, its weight compensated so that it rests at 0), whose box collides with
+    the pen tip only."""
     cfg = cell.config
     rot = paper_rotation(cfg.paper_yaw_deg)
     w, h = (v / 1000.0 for v in cell.paper_size_mm)
     thick = cfg.paper_thickness_mm / 1000.0
     centre = np.array([cell.paper_centre_mm[0] / 1000.0, cell.paper_centre_mm[1] / 1000.0, 0.0])
-    paper = world.add_body(name=PAPER, pos=centre, quat=_quat(rot))
+    paper = world.add_body(name=PAPER, pos=centre, quat=_quat(rot), mass=_PAD_MASS_KG,
+                           inertia=[1e-3, 1e-3, 1e-3], gravcomp=1.0)
+    paper.explicitinertial = True
+    stiffness = cfg.paper_stiffness_n_per_mm * 1000.0
+    if stiffness > 0:
+        paper.add_joint(name=PAPER_PAD, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0],
+                        stiffness=[stiffness, 0.0, 0.0],
+                        damping=[2.0 * np.sqrt(stiffness * _PAD_MASS_KG), 0.0, 0.0])
     # The collision box reaches 5 mm down into the table (which collides with nothing): a
     # sheet-thin box lets a pressed tip tunnel through it once the penetration exceeds the
     # thickness.
@@ -301,8 +324,13 @@ def _add_pen(flange: mujoco.MjsFrame, cfg: CellConfig, robot: RobotProfile) -> N
         axis=[0.0, 0.0, -1.0],
         range=[0.0, travel],
         limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        # Rigid stops at both ends (the stiffest a soft constraint may be at this time step).
+        solref_limit=[2.0 * cfg.timestep, 1.0],
+        solimp_limit=[0.99, 0.999, 0.0001, 0.5, 2.0],
         stiffness=[cfg.pen_stiffness_n_per_mm * 1000.0, 0.0, 0.0],
-        springref=0.0,
+        # The spring's rest length lies beyond the outer stop: it holds the pen there with
+        # ``pen_preload_n``.
+        springref=-cfg.pen_preload_n / (cfg.pen_stiffness_n_per_mm * 1000.0),
         damping=[cfg.pen_damping_ns_per_mm * 1000.0, 0.0, 0.0],
         armature=0.03,
     )
@@ -351,6 +379,8 @@ def kinematic_model(cell: Cell | None = None) -> KinematicModel:
         pen_travel_mm=cell.config.pen_travel_mm,
         # MuJoCo combines two geoms' friction by taking the larger.
         nib_friction=float(max(model.geom_friction[tip][0], model.geom_friction[paper][0])),
+        pen_preload_n=cell.config.pen_preload_n,
+        paper_stiffness_n_per_mm=cell.config.paper_stiffness_n_per_mm,
     )
 
 

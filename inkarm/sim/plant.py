@@ -10,6 +10,16 @@ tip's normal force comes from ``mj_contactForce`` and, while it is positive, the
 receives ``canvas.touch(p_mm, force_n, t)`` with the tip position in page [mm] at that same time;
 ``canvas.lift()`` is called once when the contact ends.
 
+Commands. A :class:`TorqueCommand` is held for the period. A :class:`PositionCommand` goes to
+the joint drives (:class:`inkarm.sim.drive.JointDrive`, the profile's gains) which close the loop
+at physics rate, as a real arm's drives do, with the command's velocity and torque feed-forward;
+the plant takes position commands only when it was given ``drive_gains`` or a ``firmware``.
+
+The plant's truth (:class:`inkarm.sim.imperfections.PlantTruth`) acts here where it is not in the
+model: measurements (:mod:`inkarm.sim.senses`), an actuation delay (commands queued for whole
+physics steps), series elasticity and backlash (:mod:`inkarm.sim.transmission`). When a joint's
+transmission mode is too fast for the time step, the step is subdivided.
+
 Divergence (non-finite state, a MuJoCo warning about bad qpos/qvel/qacc, or a joint faster
 than ``max_joint_speed``) raises :class:`inkarm.errors.SimulationError`. MuJoCo's automatic
 reset is disabled so that a diverging run cannot silently restart from the initial pose.
@@ -25,11 +35,17 @@ import numpy as np
 
 from inkarm.core.plant import (
     PlantState,
-        TorqueCommand,
+    PositionCommand,
+    TorqueCommand,
     unsupported,
 )
 from inkarm.errors import InputError, SimulationError
+from inkarm.robots.gains import PIDGains
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_SLIDE, PEN_TIP, Cell, build_model
+from inkarm.sim.drive import JointDrive
+from inkarm.sim.imperfections import PlantTruth
+from inkarm.sim.senses import Senses
+from inkarm.sim.transmission import Transmission
 
 _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
@@ -76,6 +92,11 @@ class MujocoPlant:
         canvas: Optional ink raster with ``touch(p_mm, force_n, t)`` and ``lift()``.
         q0: Initial arm joint angles in [rad]; the model's ``home`` keyframe when None.
         max_joint_speed: Joint speed in [rad/s] above which the run counts as diverged.
+        truth: How the plant differs from the controller's model at run time (the model-level
+            differences are in ``model``: :func:`inkarm.sim.perturb.plant_model`).
+        drive_gains: Joint drive gains; with them the plant takes position commands.
+        firmware: A servo firmware model (``inkarm.robots.servo.ServoFirmware``-like: ``reset``,
+            ``torque(goal_q, q, qd)`` in [rad], [rad/s] -> [N m]) used instead of the drive.
     """
 
     def __init__(
@@ -87,6 +108,9 @@ class MujocoPlant:
         canvas=None,
         q0=None,
         max_joint_speed: float = 50.0,
+        truth: PlantTruth | None = None,
+        drive_gains: PIDGains | None = None,
+        firmware=None,
     ):
         if int(substeps) < 1:
             raise InputError(f"MujocoPlant: substeps must be >= 1, got {substeps}")
@@ -152,14 +176,71 @@ class MujocoPlant:
         self._warning_stats = [self.data.warning[w] for w in _DIVERGENCE_WARNINGS]
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
+        self._setup_truth(truth or PlantTruth(), drive_gains, firmware)
+
+    def _setup_truth(self, truth: PlantTruth, drive_gains, firmware) -> None:
+        m, d, n = self.model, self.data, len(self.joint_names)
+        if truth.random:
+            truth = truth.realised()
+        self.truth = truth
+        self._arm_ctrl = self._actuators_of_joints()
+        self._limit = m.actuator_ctrlrange[self._arm_ctrl, 1].copy()
+        dofs = np.arange(m.nv)[self._dof_adr]
+        stiffness = truth.per_joint("elasticity_nm_per_rad", n)
+        backlash = np.deg2rad(truth.per_joint("backlash_deg", n))
+        rotor = m.dof_armature[dofs].copy()
+        self.transmission = Transmission(stiffness, backlash, rotor, m.opt.timestep)
+        if self.transmission:
+            loose = dofs[self.transmission.joints]
+            m.dof_armature[loose] = 0.0  # the rotor is the transmission's own body now
+            mujoco.mj_setConst(m, d)
+            mujoco.mj_forward(m, d)
+            # The link side sees tau_c held over a step: keep sqrt(k / J_link) h <= 1.
+            link_inertia = d.qM[m.dof_Madr[loose]]
+            omega = float(np.max(np.sqrt(self.transmission.k / np.maximum(link_inertia, 1e-9))))
+            split = max(1, int(np.ceil(omega * m.opt.timestep)))
+            if split > 1:
+                m.opt.timestep /= split
+                self.substeps *= split
+                self._timestep = float(m.opt.timestep)
+            self.transmission = Transmission(stiffness, backlash, rotor, m.opt.timestep)
+            self.transmission.reset(self._qpos[self._qpos_adr], self._qvel[self._dof_adr])
+        self.senses_model = Senses(truth, n, m.opt.timestep)
+        self._delay_steps = round(truth.actuation_delay_ms / 1000.0 / m.opt.timestep)
+        self._queue: list = []
+        self._steps = 0
+        self.drive = JointDrive(drive_gains, m.opt.timestep) if drive_gains is not None else None
+        self.firmware = firmware
+        self._position_goal: np.ndarray | None = None
+        self._motor_torque = np.zeros(n)
+        self._fast = (self.senses_model.ideal and self._delay_steps == 0
+                      and not self.transmission and self.drive is None and firmware is None)
+        if not self.senses_model.ideal:
+            self.senses_model.record(self._snapshot(self._qpos[self._qpos_adr].copy(),
+                                                    self._qvel[self._dof_adr].copy()))
 
     senses = frozenset({"force", "tip", "torque"})
-    commands = frozenset({"torque"})
+
+    @property
+    def commands(self) -> frozenset[str]:
+        """Torque always; position goals when the plant has drives or servo firmware."""
+        if self.drive is not None or self.firmware is not None:
+            return frozenset({"torque", "position"})
+        return frozenset({"torque"})
 
     @property
     def dt(self) -> float:
         """Control period in [s]."""
         return self.substeps * self.model.opt.timestep
+
+    def _actuators_of_joints(self) -> np.ndarray:
+        m = self.model
+        dof_of_actuator = {int(m.jnt_dofadr[m.actuator_trnid[a, 0]]): a for a in range(m.nu)}
+        dofs = np.arange(m.nv)[self._dof_adr]
+        missing = [self.joint_names[i] for i, dof in enumerate(dofs) if dof not in dof_of_actuator]
+        if missing:
+            raise InputError(f"MujocoPlant: no motor drives the joints {missing}")
+        return np.array([dof_of_actuator[int(dof)] for dof in dofs])
 
     def _warning_counts(self) -> np.ndarray:
         return np.array([w.number for w in self._warning_stats])
@@ -167,31 +248,64 @@ class MujocoPlant:
     def _tip_mm(self) -> np.ndarray:
         return self._tip_xpos @ self._to_page - self._page_offset
 
+    def _snapshot(self, q_measured: np.ndarray, qd_reported: np.ndarray) -> SimState:
+        return SimState(
+            time=self.data.time,
+            q=q_measured,
+            qd=qd_reported,
+            torque=self._motor_torque.copy() if self.drive or self.firmware else
+            self._ctrl[self._arm_ctrl].copy(),
+            force=self.senses_model.force(self._pen_force),
+            tip_mm=self._tip_mm(),
+            pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
+        )
+
     def read(self) -> SimState:
-        """The state at the current time (tip from the current kinematics, force from the last
-        physics step)."""
+        """The state at the current time as the devices report it (tip from the current
+        kinematics, force from the last physics step), ``sensing_delay_ms`` old."""
+        if not self.senses_model.ideal:
+            return self.senses_model.latest()
         return SimState(
             time=self.data.time,
             q=self._qpos[self._qpos_adr].copy(),
             qd=self._qvel[self._dof_adr].copy(),
-            torque=self._ctrl.copy(),
+            torque=self._motor_torque.copy() if self.drive or self.firmware else
+            self._ctrl[self._arm_ctrl].copy(),
             force=self._pen_force,
             tip_mm=self._tip_mm(),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
         )
 
     def command(self, command) -> None:
-        """Hold the joint torques of a :class:`TorqueCommand` [N m] (clamped to the motor
-        limits) until the next command. The simulated arm has no position servo nor separate
-        pen actuator."""
-        if type(command) is not TorqueCommand:
+        """A :class:`TorqueCommand` [N m] is held until the next command (clamped to the motor
+        limits); a :class:`PositionCommand` goes to the drives (or servo firmware). Either
+        reaches the joints ``actuation_delay_ms`` later."""
+        kind = type(command)
+        if kind is not TorqueCommand and not (kind is PositionCommand and
+                                              "position" in self.commands):
             raise InputError(unsupported(self, command))
-        self._ctrl[:] = command.torque
+        if self._fast:
+            self._ctrl[self._arm_ctrl] = command.torque
+            return
+        self._queue.append((self._steps + self._delay_steps, command))
+
+    def _apply(self, command) -> None:
+        if type(command) is TorqueCommand:
+            self._position_goal = None
+            self._motor_torque = np.clip(command.torque, -self._limit, self._limit)
+        elif self.drive is not None:
+            self._position_goal = command.q
+            self.drive.set_point(command.q, command.qd, command.torque)
+        else:
+            self._position_goal = np.asarray(command.q, dtype=float)
 
     def step(self) -> None:
         """Advance one control period; feed the canvas; raise SimulationError on divergence."""
         m, d, canvas = self.model, self.data, self.canvas
+        fast = self._fast
         for _ in range(self.substeps):
+            if not fast:
+                self._actuate()
             mujoco.mj_step2(m, d)
             force = self._tip_normal_force() if d.ncon else 0.0
             self._pen_force = force
@@ -205,7 +319,45 @@ class MujocoPlant:
                 if canvas is not None:
                     canvas.lift()
             mujoco.mj_step1(m, d)
+            if not fast:
+                self._steps += 1
+                if not self.senses_model.ideal:
+                    q = self.senses_model.position(self._qpos[self._qpos_adr].copy())
+                    qd = self.senses_model.velocity(q, self._qvel[self._dof_adr].copy())
+                    self.senses_model.record(self._snapshot(q, qd))
         self._check_divergence()
+
+    def _actuate(self) -> None:
+        """One physics step of the drives and transmission: due commands, motor torques,
+        torques on the links."""
+        queue = self._queue
+        while queue and queue[0][0] <= self._steps:
+            self._apply(queue.pop(0)[1])
+        q_true = self._qpos[self._qpos_adr]
+        qd_true = self._qvel[self._dof_adr]
+        trans = self.transmission
+        if self._position_goal is not None:
+            senses = self.senses_model
+            q_meas = senses.position(q_true.copy())
+            if trans:  # damping acts on the rotor: the drives' velocity is the motors'
+                qd_motor = qd_true.copy()
+                qd_motor[trans.joints] = trans.omega
+            else:
+                qd_motor = qd_true
+            if self.drive is not None:
+                v = self.drive.velocity(q_meas, None if senses.differences else qd_motor)
+                tau = self.drive.torque(q_meas, v)
+            else:
+                tau = self.firmware.torque(self._position_goal, q_meas, qd_motor)
+            self._motor_torque = np.clip(tau, -self._limit, self._limit)
+        tau = self._motor_torque
+        if trans:
+            j = trans.joints
+            coupling = trans.advance(tau[j], q_true, qd_true)
+            tau = tau.copy()
+            tau[j] = 0.0
+            self.data.qfrc_applied[np.arange(self.model.nv)[self._dof_adr][j]] = coupling
+        self._ctrl[self._arm_ctrl] = tau
 
     def _tip_page_xy(self) -> tuple[float, float]:
         """Pen tip (x, y) in page [mm]: the first two columns of :meth:`_tip_mm`."""
@@ -249,6 +401,19 @@ class MujocoPlant:
             f"{where}: {joint.name} moves at {abs(d.qvel[j]):.1f} {unit}, above the "
             f"{self.max_joint_speed:.1f} divergence threshold; {why}"
         )
+
+    def brake(self) -> None:
+        """Engage the joint brakes (as a real arm does on a safety stop): every arm joint held
+        by dry friction of 100 times its torque limit, motors off."""
+        m = self.model
+        dofs = np.arange(m.nv)[self._dof_adr]
+        m.dof_frictionloss[dofs] = 100.0 * np.maximum(self._limit, 1.0)
+        self._position_goal = None
+        self._queue.clear()
+        self._motor_torque = np.zeros(len(self.joint_names))
+        self.data.ctrl[:] = 0.0
+        self.data.qfrc_applied[:] = 0.0
+        self._fast = False
 
     def close(self) -> None:
         """Zero the torques and lift the canvas pen. Idempotent."""

@@ -9,9 +9,13 @@ Kinematics (zero pose: arm straight up, every link frame aligned with the base f
 
 Joints 1, 3, 5 and 7 sit on the link axes, so where they are placed along them changes nothing
 kinematically; they are placed as on the real links (157.5, 564.5, 964.5, 1261 mm above the
-base). Masses and inertias are approximate (link masses of the public iiwa 14 URDF, inertias of
-capsules); joint damping and armature are plausible values for harmonic-drive joints. Position,
-speed and torque limits are the robot profile's (``inkarm/robots/data/iiwa14.toml``).
+base). Masses, centres of mass and principal inertias are the published ones of the iiwa 14
+description kept by the Drake project (``iiwa14_no_collision.urdf``: KUKA CAD masses, 25.6 kg
+moving), rotated from its link frames into these (every link frame here is aligned with the base
+at the zero pose); the centres of mass sit off the link axes as on the real arm. Joint damping,
+armature and dry friction are plausible values for harmonic-drive joints (dry friction about 1 %
+of the rated torque). Position, speed and torque limits are the robot profile's
+(``inkarm/robots/data/iiwa14.toml``).
 """
 
 from __future__ import annotations
@@ -27,7 +31,15 @@ FLANGE_OFFSET_M = 0.045  # link 7 joint -> flange; 0.081 + 0.045 = d7 = 0.126
 # Capsule length along each link (to the next joint) and radius, in [m].
 LINK_LENGTHS_M = (0.2025, 0.2045, 0.2155, 0.1845, 0.2155, 0.081, 0.045)
 LINK_RADII_M = (0.075, 0.07, 0.07, 0.065, 0.06, 0.06, 0.045)
-LINK_MASSES_KG = (4.0, 4.0, 3.0, 2.7, 1.7, 1.8, 0.3)
+LINK_MASSES_KG = (5.76, 6.35, 3.5, 3.5, 3.5, 1.8, 1.2)
+# Centre of mass [m] and principal inertia about it [kg m^2], in the link frames here.
+LINK_COMS_M = ((0.0, -0.03, 0.12), (-0.0003, 0.042, 0.059), (0.0, 0.03, 0.13),
+               (0.0, -0.034, 0.067), (-0.0001, -0.021, 0.076), (0.0, 0.0004, 0.0006),
+               (0.0, 0.0, 0.02))
+LINK_INERTIAS = ((0.033, 0.0333, 0.0123), (0.0305, 0.0304, 0.011), (0.025, 0.0238, 0.0076),
+                 (0.017, 0.0164, 0.006), (0.01, 0.0087, 0.00449), (0.0049, 0.0036, 0.0047),
+                 (0.001, 0.001, 0.001))
+FRICTION_NM = (2.0, 2.0, 1.2, 1.2, 0.8, 0.3, 0.3)  # dry joint friction [N m]
 ARMATURE = (0.4, 0.4, 0.2, 0.2, 0.1, 0.05, 0.05)  # reflected rotor inertia [kg m^2]
 DAMPING = (0.5, 0.5, 0.3, 0.3, 0.2, 0.1, 0.1)  # viscous joint friction [N m s/rad]
 
@@ -60,20 +72,23 @@ def add_arm(
     )
     parent = world
     for i, name in enumerate(joint_names):
-        body = parent.add_body(name=f"link{i + 1}", pos=[0.0, 0.0, LINK_OFFSETS_M[i]])
+        body = parent.add_body(name=f"link{i + 1}", pos=[0.0, 0.0, LINK_OFFSETS_M[i]],
+                               mass=LINK_MASSES_KG[i], ipos=LINK_COMS_M[i],
+                               inertia=LINK_INERTIAS[i])
+        body.explicitinertial = True
         body.add_joint(
             name=name,
             type=mujoco.mjtJoint.mjJNT_HINGE,
             axis=JOINT_AXES[i],
             armature=ARMATURE[i],
             damping=[DAMPING[i], 0.0, 0.0],
+            frictionloss=FRICTION_NM[i],
         )
         body.add_geom(
             name=f"link{i + 1}",
             type=mujoco.mjtGeom.mjGEOM_CAPSULE,
             fromto=[0, 0, 0, 0, 0, LINK_LENGTHS_M[i]],
             size=[LINK_RADII_M[i], 0, 0],
-            mass=LINK_MASSES_KG[i],
             rgba=orange if i % 2 else grey,
             contype=0,
             conaffinity=0,

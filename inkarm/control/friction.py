@@ -1,0 +1,43 @@
+"""Coulomb friction compensation in the torque feed-forward, adapted online.
+
+Dry friction F_c sign(qd) makes a position loop lag at every reversal by about F_c / K_p (the
+drive's integrator needs time to swing through 2 F_c). The host adds
+
+    tau_f = F_hat tanh(qd* / w),     dF_hat/dt = gamma e sign(qd*),   0 <= F_hat <= F_max
+
+to the feed-forward: the planned velocity qd* says which way friction will act (the smooth
+sign's width w = 0.01 rad/s avoids chatter at rest), F_hat starts at the model's friction and
+follows the real one from the joint error e = q_goal - q: a joint that lags in its direction of
+motion needs more. This is the classical Coulomb-estimate adaptation (a gradient law on
+e sign(qd*)); F_max = 4 F_model + 2 N m bounds what it may believe.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SIGN_WIDTH = 0.01  # [rad/s]
+
+
+class FrictionCompensation:
+    """Args:
+        model_friction: (n,) Coulomb friction of the controller's model [N m].
+        dt: Control period [s].
+        gamma: Adaptation rate [N m / (rad s)]; 0: fixed at the model's friction.
+    """
+
+    def __init__(self, model_friction: np.ndarray, dt: float, gamma: float):
+        self.estimate = np.asarray(model_friction, dtype=float).copy()
+        self.ceiling = 4.0 * self.estimate + 2.0
+        self.rate = gamma * dt
+
+    def torque(self, qd_ref: np.ndarray, error: np.ndarray) -> np.ndarray:
+        """The friction feed-forward [N m] for this period; adapts the estimate."""
+        direction = np.tanh(qd_ref / SIGN_WIDTH)
+        if self.rate:
+            self.estimate = np.clip(self.estimate + self.rate * error * direction, 0.0,
+                                    self.ceiling)
+        return self.estimate * direction
+
+
+__all__ = ["FrictionCompensation"]

@@ -1,0 +1,197 @@
+"""The plant's truth apart from the controller's belief: how the simulated world differs from
+the model the controller was given.
+
+A :class:`PlantTruth` changes only the plant. :func:`inkarm.sim.cell.build_spec` applies the
+model-level differences (paper pose and stiffness, link masses, inertias and centres of mass, a
+payload, link lengths, joint friction, contact) to the plant's MjSpec; :class:`MujocoPlant`
+applies the rest at run time (series elasticity and backlash between motor and link, encoder
+resolution and noise, velocity as the device reports it, force-sensor noise and bias, sensing and
+actuation delays, torque limits). The controller keeps :func:`inkarm.sim.cell.kinematic_model`
+of the nominal cell.
+
+Every scalar field can instead be drawn at random, uniformly within a range, from a seed:
+``PlantTruth(random={"mass_scale": (0.8, 1.2)}).realised(seed)`` (in a scenario, the
+``[plant.random]`` table). Directions (a centre of mass's offset, a link's length error) come
+from the same seed, so a truth with a seed is one definite plant.
+
+Units: [mm], [deg], [ms], [N], [N m], [kg] as the field names say.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from inkarm.core.ranges import Range, check_ranges
+from inkarm.errors import InputError, closest
+
+VELOCITY_MODES = ("exact", "differences")
+PerJoint = float | tuple[float, ...]
+
+RANGES = {
+    "paper_height_mm": Range(-50.0, 50.0, "mm"),
+    "paper_tilt_deg": Range(-20.0, 20.0, "deg"),
+    "paper_tilt_axis_deg": Range(-360.0, 360.0, "deg"),
+    "paper_shift_x_mm": Range(-100.0, 100.0, "mm"),
+    "paper_shift_y_mm": Range(-100.0, 100.0, "mm"),
+    "paper_yaw_deg": Range(-45.0, 45.0, "deg"),
+    "paper_stiffness_n_per_mm": Range(0.0, 1e6, "N/mm"),
+    "paper_timeconst_s": Range(0.0, 1.0, "s"),
+    "nib_friction": Range(-1.0, 5.0),
+    "mass_scale": Range(0.1, 10.0),
+    "inertia_scale": Range(0.1, 10.0),
+    "com_offset_mm": Range(0.0, 200.0, "mm"),
+    "payload_kg": Range(0.0, 50.0, "kg"),
+    "link_length_error_mm": Range(0.0, 50.0, "mm"),
+    "coulomb_nm": Range(0.0, 500.0, "N m"),
+    "viscous_nms": Range(0.0, 500.0, "N m s/rad"),
+    "elasticity_nm_per_rad": Range(0.0, 1e7, "N m/rad"),
+    "backlash_deg": Range(0.0, 10.0, "deg"),
+    "encoder_ticks_per_rev": Range(0.0, 1e9),
+    "q_noise_rad": Range(0.0, 0.1, "rad"),
+    "force_noise_n": Range(0.0, 100.0, "N"),
+    "force_bias_n": Range(-100.0, 100.0, "N"),
+    "sensing_delay_ms": Range(0.0, 1000.0, "ms"),
+    "actuation_delay_ms": Range(0.0, 1000.0, "ms"),
+    "torque_limit_scale": Range(0.0, 10.0, open_low=True),
+}
+
+
+@dataclass(frozen=True)
+class PlantTruth:
+    """What the plant is, where it differs from the controller's model. Defaults: no difference.
+
+    Attributes:
+        paper_height_mm: Sheet surface above (+) or below (-) where the controller believes it.
+        paper_tilt_deg: Tilt of the sheet about an axis in its plane [deg].
+        paper_tilt_axis_deg: Direction of that axis from the page x axis [deg].
+        paper_shift_x_mm, paper_shift_y_mm: Sheet displaced along the page axes [mm].
+        paper_yaw_deg: Sheet turned about the vertical [deg].
+        paper_stiffness_n_per_mm: Underlay stiffness [N/mm]; None: the cell's; 0: rigid.
+        paper_timeconst_s: Tip-paper contact time constant [s] (hard paper: 0.002); None: the
+            cell's.
+        nib_friction: Tip-paper friction coefficient; None: the cell's.
+        mass_scale: Every link's mass times this.
+        inertia_scale: Every link's rotational inertia times this (on top of ``mass_scale``).
+        com_offset_mm: Every link's centre of mass moved this far, in a seeded direction.
+        payload_kg: A point mass at the flange [kg].
+        link_length_error_mm: Every link's length changed by up to this, seeded sign and size.
+        coulomb_nm: Joint dry friction [N m] (one number for all joints, or one per joint),
+            replacing the cell's nominal friction.
+        viscous_nms: Extra viscous joint friction [N m s/rad].
+        elasticity_nm_per_rad: Series stiffness between motor and link [N m/rad]; 0: rigid.
+        backlash_deg: Total free play between motor and link [deg].
+        encoder_ticks_per_rev: Encoder resolution [ticks/rev]; 0: exact.
+        q_noise_rad: Standard deviation of white noise on measured joint positions [rad].
+        velocity: "exact" (the simulator's) or "differences" (of successive measured positions,
+            as a device without a velocity sensor reports it).
+        force_noise_n, force_bias_n: On the sensed pen force [N].
+        sensing_delay_ms: Age of every reading [ms].
+        actuation_delay_ms: Time before a command reaches the joints [ms].
+        torque_limit_scale: The joints' torque limits times this.
+        seed: Seed of the random draws and directions.
+        random: Field name -> (low, high): drawn uniformly by :meth:`realised`.
+    """
+
+    paper_height_mm: float = 0.0
+    paper_tilt_deg: float = 0.0
+    paper_tilt_axis_deg: float = 0.0
+    paper_shift_x_mm: float = 0.0
+    paper_shift_y_mm: float = 0.0
+    paper_yaw_deg: float = 0.0
+    paper_stiffness_n_per_mm: float | None = None
+    paper_timeconst_s: float | None = None
+    nib_friction: float | None = None
+    mass_scale: float = 1.0
+    inertia_scale: float = 1.0
+    com_offset_mm: float = 0.0
+    payload_kg: float = 0.0
+    link_length_error_mm: float = 0.0
+    coulomb_nm: PerJoint | None = None
+    viscous_nms: PerJoint = 0.0
+    elasticity_nm_per_rad: PerJoint = 0.0
+    backlash_deg: PerJoint = 0.0
+    encoder_ticks_per_rev: float = 0.0
+    q_noise_rad: float = 0.0
+    velocity: str = "exact"
+    force_noise_n: float = 0.0
+    force_bias_n: float = 0.0
+    sensing_delay_ms: float = 0.0
+    actuation_delay_ms: float = 0.0
+    torque_limit_scale: float = 1.0
+    seed: int = 0
+    random: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if float(self.seed) != int(self.seed) or not 0 <= int(self.seed) < 2**63:
+            raise InputError(f"expected a whole number >= 0, got {self.seed}", key="seed",
+                             value=self.seed)
+        object.__setattr__(self, "seed", int(self.seed))
+        if self.velocity not in VELOCITY_MODES:
+            raise InputError(f"expected one of {', '.join(VELOCITY_MODES)}, got "
+                             f"{self.velocity!r}", key="velocity", value=self.velocity,
+                             choices=VELOCITY_MODES)
+        for name, value in vars(self).items():
+            if isinstance(value, tuple) and not all(np.isfinite(value)):
+                raise InputError("expected finite numbers", key=name, value=value)
+            if isinstance(value, float) and not math.isfinite(value):
+                raise InputError(f"expected a finite number, got {value}", key=name, value=value)
+        check_ranges(self, RANGES)
+        scalar = {f.name for f in fields(self) if f.name in RANGES}
+        for name, bounds in self.random.items():
+            if name not in scalar:
+                hint = closest(name, scalar)
+                raise InputError(f"{name!r} cannot be drawn at random"
+                                 + (f" (did you mean {hint!r}?)" if hint else ""),
+                                 key=f"random.{name}", value=name, choices=sorted(scalar))
+            for v in _pair(bounds, f"random.{name}"):
+                if not RANGES[name].contains(v):
+                    raise InputError(f"expected a range within {RANGES[name]}, got {bounds}",
+                                     key=f"random.{name}", value=bounds)
+
+    @property
+    def is_nominal(self) -> bool:
+        """True when the plant is the controller's model."""
+        return self == PlantTruth(seed=self.seed)
+
+    def realised(self, seed: int | None = None) -> PlantTruth:
+        """A definite truth: every field of :attr:`random` drawn uniformly from its range with
+        ``seed`` (this truth's own seed when None)."""
+        seed = self.seed if seed is None else int(seed)
+        rng = np.random.default_rng([seed, 0x1A4B])
+        drawn = {name: float(rng.uniform(*_pair(b, name))) for name, b in sorted(self.random.items())}
+        return dataclasses.replace(self, random={}, seed=seed, **drawn)
+
+    def per_joint(self, name: str, n: int) -> np.ndarray:
+        """Field ``name`` as (n,) values (one number repeats; a list must have n)."""
+        value = getattr(self, name)
+        out = np.broadcast_to(np.asarray(value, dtype=float), (n,)) if np.ndim(value) == 0 \
+            else np.asarray(value, dtype=float)
+        if out.shape != (n,):
+            raise InputError(f"expected 1 or {n} numbers (one per joint), got {len(value)}",
+                             key=name, value=value)
+        return out.copy()
+
+    def directions(self, n_links: int) -> tuple[np.ndarray, np.ndarray]:
+        """Seeded unit vectors (n_links, 3) for centre-of-mass offsets, and signed fractions
+        in [-1, 1] (n_links,) for link-length errors."""
+        rng = np.random.default_rng([self.seed, 0xC0A])
+        v = rng.normal(size=(n_links, 3))
+        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        return v, rng.uniform(-1.0, 1.0, n_links)
+
+
+def _pair(bounds, key: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(b) for b in bounds)
+    except (TypeError, ValueError):
+        raise InputError(f"expected [low, high], got {bounds!r}", key=key, value=bounds) from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise InputError(f"expected finite low <= high, got [{lo}, {hi}]", key=key, value=bounds)
+    return lo, hi
+
+
+__all__ = ["VELOCITY_MODES", "PlantTruth"]
