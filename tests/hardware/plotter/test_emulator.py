@@ -1,0 +1,249 @@
+"""The GRBL emulator on a pseudo-terminal, driven through pyserial: buffer, answers, real-time
+commands, faults, timing and ink."""
+
+import time
+
+import numpy as np
+import pytest
+
+from inkarm.analysis.metrics import ink_chamfer_mm
+from inkarm.errors import InputError
+from inkarm.hardware.plotter.emulator import EmulatorConfig, Fault, GrblEmulator, parse_fault
+from inkarm.hardware.plotter.gcode import drawing_to_gcode
+from inkarm.hardware.plotter.profiles import load_profile
+from inkarm.hardware.plotter.stream import GrblError, GrblStreamer, parse_status
+from inkarm.hardware.plotter.timing import estimate_seconds
+from inkarm.ink.canvas import Canvas
+from inkarm.jobs.plotter import page_size_mm, run_plotter_scenario
+from inkarm.jobs.scenario import load_scenario, place, source_drawing
+
+pytestmark = pytest.mark.hardware_emulated
+
+
+def job_lines(n: int, seed: int = 0) -> list[str]:
+    """A pen-down random walk of n G1 lines of about 1 mm (the first 2,000-line job)."""
+    rng = np.random.default_rng(seed)
+    pts = np.clip(100 + np.cumsum(rng.normal(0, 0.8, (n, 2)), axis=0), 5, 250)
+    return (["G21 G90", "F6000", "M3 S1000", "G4 P0.1"]
+            + [f"G1 X{x:.3f} Y{y:.3f}" for x, y in pts] + ["M5"])
+
+
+@pytest.fixture
+def emulator():
+    emu = GrblEmulator(EmulatorConfig(speedup=10))
+    emu.start()
+    yield emu
+    emu.stop()
+
+
+def connect(emu, **kw) -> GrblStreamer:
+    s = GrblStreamer(emu.port, time_scale=emu.config.speedup, **kw)
+    banner = s.wake()
+    assert any(line.startswith("Grbl 1.1") for line in banner)
+    return s
+
+
+def test_2000_lines_stream_with_character_counting_and_no_byte_lost(emulator):
+    s = connect(emulator)
+    lines = job_lines(2000)
+    state = s.stream(lines)
+    s.wait_idle()
+    assert state.failure == ""
+    assert state.acked == state.sent == len(lines)
+    assert emulator.stats.bytes_dropped == 0
+    assert emulator.stats.lines == len(lines)
+    assert emulator.machine.position[:2] == pytest.approx(
+        [float(v[1:]) for v in lines[-2].split()[1:]], abs=1e-3)
+    s.close()
+
+
+def test_the_same_job_without_character_counting_loses_bytes(emulator):
+    s = connect(emulator)
+    lines = job_lines(2000)
+    s.queue(lines)
+    s.pump(counting=False, poll=False)  # everything at once, as a naive sender does
+    end = time.monotonic() + 10
+    while emulator.stats.bytes_received < sum(len(x) + 1 for x in lines) and \
+            time.monotonic() < end:
+        s.pump(counting=False, poll=False)
+    assert emulator.stats.bytes_dropped > 1000
+    assert emulator.stats.lines < len(lines)  # lines were merged or lost
+    s.close()
+
+
+def test_status_reports_and_real_time_hold_resume_reset(emulator):
+    s = connect(emulator)
+    s.stream(["G21 G90", "G1 X200 Y0 F3000"])
+    time.sleep(0.05)
+    s.feed_hold()
+    time.sleep(0.3)  # 3 s of machine time: long enough to stop at 1500 mm/s^2
+    s.realtime(b"?")
+    time.sleep(0.02)
+    s.pump(poll=False)
+    held = s.last_status
+    assert held.state == "Hold:0"
+    assert 0 < held.mpos[0] < 200
+    s.resume()
+    s.wait_idle(20)
+    assert s.last_status.mpos[0] == pytest.approx(200.0, abs=1e-3)
+    # A reset while moving: ALARM:3, G-code locked until $X.
+    s.stream(["G1 X0 F3000"])
+    time.sleep(0.05)
+    lines = s.wake()
+    assert "ALARM:3" in emulator.stats.replies
+    with pytest.raises(GrblError, match="error:9"):
+        s.command("G1 X10 F3000")
+    s.unlock()
+    with pytest.raises(GrblError, match="error:22"):  # the reset forgot the feed
+        s.command("G1 X10")
+    s.command("G1 X10 F3000")
+    s.close()
+
+
+def test_status_parse():
+    report = parse_status("<Run|MPos:1.000,2.500,0.000|Bf:12,128|FS:1200,1000|A:S>", 3.0)
+    assert report.state == "Run" and report.mpos == (1.0, 2.5, 0.0)
+    assert report.feed == 1200 and report.spindle_on and report.planner_free == 12
+    assert parse_status("<Idle|FS:0,0>", 0.0) is None
+    assert parse_status("ok", 0.0) is None
+
+
+def test_answers_of_the_gcode_subset(emulator):
+    s = connect(emulator)
+    assert s.command("$I")[0].startswith("[VER:1.1")
+    assert s.command("$G")[0].startswith("[GC:G0 G54 G17 G21 G90 G94 M5")
+    settings = s.command("$$")
+    assert "$11=0.010" in settings and "$120=1500.000" in settings
+    s.command("G20")
+    s.command("G1 X1 Y1 F60")  # inches
+    s.command("G21 G91 G1 X-5 Y5")
+    s.command("G90 G2 X30.4 Y30.4 I5 J0")  # a half circle, clockwise over the top
+    s.wait_idle(10)
+    assert s.last_status.mpos[:2] == pytest.approx((30.4, 30.4), abs=1e-3)
+    with pytest.raises(GrblError, match="error:33"):
+        s.command("G2 X0 Y0 I5 J0")
+    s.command("G4 P0.5")
+    for line, code in [("G1", "error:26"), ("X1 Y2 Q3", "error:20"), ("G5 X1", "error:20"),
+                       ("G0 G1 X1", "error:21"), ("G1 X1 X2", "error:25"), ("1", "error:1"),
+                       ("G1 XY1", "error:2"), ("$Q", "error:3"), ("$H", "error:5"),
+                       ("G1 X" + "1" * 90, "error:11"), ("G2 X1 Y1", "error:26")]:
+        with pytest.raises(GrblError, match=code):
+            s.command(line)
+    s.close()
+
+
+def test_soft_limit_holds_and_raises_alarm_2(emulator):
+    s = connect(emulator)
+    s.command("G1 X50 Y50 F6000")
+    with pytest.raises(GrblError, match="ALARM:2"):
+        s.command("G1 X400")
+    time.sleep(0.2)
+    s.realtime(b"?")
+    time.sleep(0.05)
+    s.pump(poll=False)
+    assert s.last_status.state == "Alarm"
+    assert s.last_status.mpos[0] <= 50.0 + 1e-6  # held inside the limits
+    with pytest.raises(GrblError, match="error:9"):
+        s.command("G1 X10")
+    s.unlock()
+    s.close()
+
+
+def test_homing_when_enabled():
+    with GrblEmulator(EmulatorConfig(speedup=10, settings=((22, 1),))) as emu:
+        s = connect(emu)
+        assert "[MSG:'$H'|'$X' to unlock]" in s.state.messages or \
+            "[MSG:'$H'|'$X' to unlock]" in emu.stats.replies
+        with pytest.raises(GrblError, match="error:9"):
+            s.command("G1 X1 F100")
+        s.home()
+        s.command("G1 X5 Y5 F3000")
+        s.wait_idle(5)
+        assert s.last_status.mpos[:2] == pytest.approx((5.0, 5.0))
+        s.close()
+
+
+def test_parse_fault_and_its_errors():
+    assert parse_fault("error:12") == Fault("error", 12, 20)
+    assert parse_fault("alarm:3:2") == Fault("alarm", 3, 2)
+    for bad in ("oops:1", "error:x", "error:0", "error:1:999", "error"):
+        with pytest.raises(InputError, match="--fault"):
+            parse_fault(bad)
+
+
+def placed(path=None):
+    scenario = load_scenario(path)
+    return scenario, place(source_drawing(scenario), scenario.placement, page_size_mm(scenario))
+
+
+# The emulator counts every line it receives; before the job, the sender sent $X and $$.
+@pytest.mark.parametrize("kind, expected", [("error", "error:20 at G-code line 58"),
+                                            ("alarm", "ALARM:1 at G-code line 58")])
+def test_error_or_alarm_stops_the_job_lifts_the_pen_and_names_the_line(kind, expected):
+    scenario, _ = placed()
+    canvas = Canvas((210, 297), 10)
+    with GrblEmulator(EmulatorConfig(speedup=10), canvas=canvas,
+                      faults=[Fault(kind, 60, 20 if kind == "error" else 1)]) as emu:
+        run = run_plotter_scenario(scenario, emu.port, time_scale=10, canvas=canvas)
+        assert emu.wait_idle(3)
+        machine = emu.machine
+        assert not machine.pen_down_target and not canvas.in_contact
+        assert machine.alarm == 0  # unlocked by the safe stop
+        lines_after = emu.stats.lines
+    assert run.status == "failed" and not run.ok
+    assert expected in run.reason
+    assert run.metrics == {}
+    assert run.log is not None
+    # Nothing after the failing line was streamed but the reset, unlock and pen-up lines.
+    assert lines_after <= 60 + 8 + 3
+
+
+def test_disconnect_fails_the_run():
+    scenario, _ = placed()
+    with GrblEmulator(EmulatorConfig(speedup=10), faults=[Fault("disconnect", 40)]) as emu:
+        t0 = time.monotonic()
+        run = run_plotter_scenario(scenario, emu.port, time_scale=10)
+        assert time.monotonic() - t0 < 10
+    assert run.status == "failed" and "disconnected" in run.reason
+
+
+def test_unopenable_port_is_an_input_error():
+    scenario, _ = placed()
+    with pytest.raises(GrblError, match="cannot open /nonexistent"):
+        run_plotter_scenario(scenario, "/nonexistent/tty")
+
+
+@pytest.mark.parametrize("path", [None, "scenarios/text_inkarm.toml"])
+def test_emulated_ink_matches_the_plan_and_the_estimate_the_time(path):
+    """The pen's ink within 0.2 mm chamfer of the plan; the planner model's time within 5% of
+    the emulator's."""
+    scenario, drawing = placed(path)
+    profile = load_profile("servo")
+    job = drawing_to_gcode(drawing, profile, optimise=True)
+    estimate = estimate_seconds(job.lines)
+    canvas = Canvas((210, 297), 10)
+    # At 400 lines/s of machine time, a speed-up of 2 is what this sender and emulator, two
+    # Python threads, keep fed without the planner running dry.
+    with GrblEmulator(EmulatorConfig(speedup=2), canvas=canvas) as emu:
+        s = connect(emu)
+        state = s.stream(job.lines)
+        s.wait_idle(30)
+        assert state.failure == "" and emu.stats.bytes_dropped == 0
+        executed = emu.stats.idle_since_s - emu.stats.first_line_s
+        s.close()
+    assert executed == pytest.approx(estimate, rel=0.05)
+    chamfer = ink_chamfer_mm(canvas.image, canvas.px_per_mm,
+                             [st.pos[:, :2] for st in drawing.strokes])
+    assert chamfer < 0.2
+
+
+def test_scenario_on_the_emulated_plotter_gives_the_arm_metrics():
+    scenario, _ = placed()
+    canvas = Canvas((210, 297), 10)
+    with GrblEmulator(EmulatorConfig(speedup=5), canvas=canvas) as emu:
+        run = run_plotter_scenario(scenario, emu.port, time_scale=5, canvas=canvas)
+    assert run.ok, run.reason
+    assert set(run.metrics) >= {"tracking_rms_mm", "ink_chamfer_mm", "gap_mm"}
+    assert run.metrics["ink_chamfer_mm"] < 0.2
+    assert len(run.log) > 10 and run.log.drawing.any()
+    assert np.all(np.diff(run.log.time) > 0)
