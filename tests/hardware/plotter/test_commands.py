@@ -1,0 +1,99 @@
+"""inkarm gcode, inkarm emulate grbl and inkarm draw --backend plotter."""
+
+import json
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from inkarm.cli import main
+from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator
+from inkarm.hardware.plotter.stream import GrblStreamer
+from inkarm.jobs.backends import backend_names
+
+
+def test_gcode_writes_a_job_and_its_estimate(tmp_path, capsys):
+    out = tmp_path / "n.gcode"
+    assert main(["gcode", "inkarm/data/default.toml", "--out", str(out), "--optimise"]) == 0
+    lines = out.read_text().splitlines()
+    assert lines[0] == "G21" and "M3 S1000" in lines and lines[-1] == "G0 X0 Y0"
+    assert "estimated" in capsys.readouterr().out
+
+
+def test_gcode_reads_an_svg_drawing(tmp_path):
+    svg = tmp_path / "square.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" '
+                   'viewBox="0 0 100 100"><path d="M10,10 L90,10 L90,90 L10,90 Z"/></svg>')
+    out = tmp_path / "square.gcode"
+    assert main(["gcode", str(svg), "--out", str(out), "--profile", "z"]) == 0
+    assert "G1 Z0 F1200" in out.read_text()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--out", "x.txt"], "expected a .gcode"),
+    (["--out", "{tmp}/a.gcode", "--profile", "sevro"], "did you mean 'servo'"),
+    (["--out", "{tmp}/a.gcode", "--speed", "-3"], "--speed"),
+])
+def test_gcode_errors(tmp_path, capsys, argv, message):
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    assert main(["gcode", "inkarm/data/default.toml", *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_profile_file_errors_name_the_key(tmp_path, capsys):
+    bad = tmp_path / "pen.toml"
+    bad.write_text('pen_dwn = ["M3"]\n')
+    assert main(["gcode", "inkarm/data/default.toml", "--out", str(tmp_path / "a.gcode"),
+                 "--profile", str(bad)]) == 2
+    assert "pen_dwn: unknown key (did you mean 'pen_down'?)" in capsys.readouterr().err
+
+
+def test_backends_are_registered():
+    assert backend_names()[:2] == ("sim", "plotter")
+
+
+@pytest.mark.hardware_emulated
+def test_draw_on_the_emulated_plotter_writes_the_run(tmp_path, capsys):
+    with GrblEmulator(EmulatorConfig(speedup=5)) as emu:
+        status = main(["draw", "--backend", "plotter", "--port", emu.port, "--time-scale", "5",
+                       "--quiet", "--out", str(tmp_path / "run")])
+    assert status == 0, capsys.readouterr().err
+    assert json.loads((tmp_path / "run" / "status.json").read_text())["status"] == "ok"
+    assert (tmp_path / "run" / "metrics.json").is_file()
+    assert "tracking RMS" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--backend", "plotter"], "the plotter backend needs a serial port"),
+    (["--backend", "plottr", "--port", "/dev/null"], "did you mean 'plotter'"),
+])
+def test_draw_backend_errors(tmp_path, capsys, argv, message):
+    assert main(["draw", *argv, "--quiet", "--out", str(tmp_path / "o")]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_emulate_needs_a_device(capsys):
+    assert main(["emulate"]) == 2
+    assert "which device? expected one of grbl" in capsys.readouterr().err
+
+
+@pytest.mark.hardware_emulated
+def test_emulate_grbl_prints_its_port_and_writes_its_canvas_on_ctrl_c(tmp_path):
+    out = tmp_path / "canvas.png"
+    proc = subprocess.Popen([sys.executable, "-m", "inkarm.cli", "emulate", "grbl", "--speedup",
+                             "10", "--out", str(out)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        proc.stdout.readline()
+        port = proc.stdout.readline().strip()
+        s = GrblStreamer(port, time_scale=10)
+        s.wake()
+        s.stream(["G21 G90 F3000", "G0 X20 Y20", "M3 S1000", "G4 P0.2", "G1 X60 Y20", "M5"])
+        s.wait_idle(10)
+        s.close()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0, err
+    assert out.is_file() and "received 6 lines, 0 bytes lost" in err
