@@ -133,9 +133,14 @@ def _ignore_sigint() -> None:
 def process_results(scenario: Scenario, points: list[Point],
                     workers: int) -> Iterator[PointResult]:
     """Run ``points`` on a local process pool; yield results as they finish."""
-    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        context = multiprocessing.get_context("forkserver")
+        # the server imports inkarm once (no MuJoCo model, no thread yet), the workers fork it
+        context.set_forkserver_preload(["inkarm.jobs.sweep", "inkarm.jobs.run"])
+    else:
+        context = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint,
-                               mp_context=multiprocessing.get_context(method))
+                               mp_context=context)
     pending = {pool.submit(run_point, scenario, p) for p in points}
     try:
         while pending:
