@@ -88,3 +88,19 @@ def ink_measured(canvas: Canvas, log: DrawLog) -> None:
         elif canvas.in_contact:
             canvas.lift()
     canvas.lift()
+
+
+def arm_and_plotter(scenario: Scenario, speedup: float = 2.0) -> tuple[Run, Run]:
+    """``scenario`` drawn by the simulated arm and by the GRBL emulator (in this process, on a
+    pseudo-terminal, at ``speedup``), both measured by the same metrics."""
+    from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator
+    from inkarm.jobs.run import run
+
+    arm = run(scenario)
+    canvas = Canvas(size_mm=page_size_mm(scenario), px_per_mm=scenario.ink.px_per_mm,
+                    ink=scenario.ink.make())
+    config = EmulatorConfig(speedup=speedup)
+    with GrblEmulator(config, canvas=canvas) as emulator:
+        plotter = run_plotter_scenario(scenario, emulator.port, time_scale=speedup,
+                                       canvas=canvas)
+    return arm, plotter

@@ -131,6 +131,7 @@ class GrblStreamer:
         self._bytes = 0
         self._rx = b""
         self._last_poll = -1e9
+        self._polls: deque[float] = deque()  # when each unanswered "?" was sent
         self.last_status: StatusReport | None = None
 
     # -- connection ----------------------------------------------------------------------------
@@ -145,6 +146,7 @@ class GrblStreamer:
         while self.clock() < end:  # a [MSG:...] may follow the banner
             lines += self._read_lines()
         self._in_flight.clear()
+        self._polls.clear()
         self._bytes = 0
         return lines
 
@@ -169,6 +171,8 @@ class GrblStreamer:
     def realtime(self, byte: bytes) -> None:
         """Send a real-time command: ``b"?"`` status, ``b"!"`` feed hold, ``b"~"`` resume,
         ``b"\\x18"`` soft reset."""
+        if byte == b"?":
+            self._polls.append(self.clock())
         self._write(byte)
 
     def feed_hold(self) -> None:
@@ -219,7 +223,7 @@ class GrblStreamer:
             self._bytes += len(text) + 1
         if poll and self.clock() - self._last_poll >= self.status_period_s:
             self._last_poll = self.clock()
-            self._write(b"?")
+            self.realtime(b"?")
         for line in self._read_lines():
             self._answer(line)
 
@@ -253,7 +257,11 @@ class GrblStreamer:
 
     def _answer(self, line: str) -> None:
         if line.startswith("<"):
-            status = parse_status(line, self.clock())
+            # The report describes the device between the poll and its arrival: stamp it
+            # half-way (the round trip's middle), not at arrival.
+            now = self.clock()
+            asked = self._polls.popleft() if self._polls else now
+            status = parse_status(line, 0.5 * (asked + now))
             if status is not None:
                 self.last_status = status
                 self.state.statuses.append(status)
