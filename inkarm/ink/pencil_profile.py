@@ -190,9 +190,12 @@ def shipped_profile_path(grade: str) -> Path:
 
 
 def resolve_profile(grade_or_path: str) -> PencilProfile:
-    """The shipped grade called ``grade_or_path`` or the profile in the file it names (a
-    relative path is taken from the working directory); cached until the file changes."""
+    """The shipped grade called ``grade_or_path`` (in any case) or the profile in the file it
+    names (a relative path is taken from the working directory); cached until the file
+    changes."""
     name = str(grade_or_path)
+    if name.upper() in GRADES:
+        name = name.upper()
     try:
         stamp = Path(name).stat().st_mtime_ns if name not in GRADES else 0
     except OSError:

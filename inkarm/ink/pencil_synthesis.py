@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from inkarm.errors import InputError
-from inkarm.ink.pencil_extract import line_glcm, pair_counts
+from inkarm.ink.pencil_extract import line_glcm
 from inkarm.ink.pencil_profile import OFFSETS, PencilProfile
 
 # 3x3 binomial approximation of a Gaussian (sigma about 0.85 px), normalised.
@@ -110,8 +110,9 @@ def strip_mask(widths_px: np.ndarray) -> np.ndarray:
         raise InputError("expected a 1-D array of finite widths >= 0 [px]", key="widths_px")
     half = int(np.ceil(widths.max(initial=1.0) / 2.0))
     offsets = np.arange(-half, half + 1, dtype=float)
-    return (np.abs(offsets)[None, :] <= widths[:, None] / 2.0) | \
-        ((offsets == 0)[None, :] & (widths[:, None] > 0))
+    inked = widths[:, None] > 0
+    return inked & ((np.abs(offsets)[None, :] <= widths[:, None] / 2.0)
+                    | (offsets == 0)[None, :])
 
 
 def initial_fill(profile: PencilProfile, widths_px: np.ndarray,
@@ -198,6 +199,25 @@ def repair(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile,
         if changed <= config.tol * n_line:
             break
     return grey, tuple(changes)
+
+
+def pair_counts(level: np.ndarray, mask: np.ndarray, levels: int) -> np.ndarray:
+    """(4, L, L) symmetric counts of the pairs of levels (0..L-1) of the pixels in ``mask`` at
+    OFFSETS (eq. 4.1, unnormalised): what :func:`inkarm.ink.pencil_extract.pair_counts`
+    (scikit-image's ``graycomatrix``) counts, by ``np.bincount`` on shifted views, which the
+    repair calls after every colour of every sweep without importing scikit-image's feature
+    module into a drawing run."""
+    n_rows, n_cols = level.shape
+    out = np.empty((len(OFFSETS), levels, levels))
+    for k, (dr, dc) in enumerate(OFFSETS):
+        c0, c1 = max(0, -dc), n_cols - max(0, dc)
+        a = (slice(0, n_rows - dr), slice(c0, c1))
+        b = (slice(dr, n_rows), slice(c0 + dc, c1 + dc))
+        both = mask[a] & mask[b]
+        index = level[a][both] * levels + level[b][both]
+        counts = np.bincount(index, minlength=levels * levels).reshape(levels, levels)
+        out[k] = counts + counts.T
+    return out
 
 
 def existing_pairs(prob: np.ndarray, rare_mass: float) -> np.ndarray:
