@@ -119,16 +119,28 @@ def forward_backward(log_h: np.ndarray, log_stay: np.ndarray, log_advance: np.nd
     """
     T = log_h.shape[0]
     la = np.empty_like(log_h)
-    la[0] = log_start + log_h[0]
-    for t in range(1, T):
-        moved = la[t - 1] + log_advance
-        la[t] = log_h[t] + np.logaddexp(la[t - 1] + log_stay, np.roll(moved, 1, axis=-1))
     lb = np.empty_like(log_h)
+    stay = np.empty_like(log_h[0])
+    moved = np.empty_like(log_h[0])
+    # the band as two shifted views, without np.roll's allocations: state i is reached from i
+    # (stay) and from i - 1 (advance), state 0 from K - 1
+    np.add(log_start, log_h[0], out=la[0])
+    for t in range(1, T):
+        prev = la[t - 1]
+        np.add(prev, log_stay, out=stay)
+        np.add(prev[:, :-1], log_advance[:-1], out=moved[:, 1:])
+        np.add(prev[:, -1], log_advance[-1], out=moved[:, 0])
+        np.logaddexp(stay, moved, out=la[t])
+        la[t] += log_h[t]
+    # hb = log h_t + log beta_t: the evidence from t on, given the state at t
     lb[T - 1] = 0.0
-    # hb[t] = log h_t + log beta_t: the evidence from t onwards given the state at t
+    hb = np.empty_like(log_h[0])
     for t in range(T - 1, 0, -1):
-        hb = log_h[t] + lb[t]
-        lb[t - 1] = np.logaddexp(log_stay + hb, log_advance + np.roll(hb, -1, axis=-1))
+        np.add(log_h[t], lb[t], out=hb)
+        np.add(hb, log_stay, out=stay)
+        np.add(hb[:, 1:], log_advance[:-1], out=moved[:, :-1])
+        np.add(hb[:, 0], log_advance[-1], out=moved[:, -1])
+        np.logaddexp(stay, moved, out=lb[t - 1])
     log_z = np.logaddexp.reduce(la[T - 1], axis=-1)
     gamma = np.exp(la + lb - log_z[:, None])
     gamma *= mask[..., None]
@@ -193,7 +205,7 @@ def e_step(model: PrimitiveModel, batch: Batch, start: Posterior | None = None,
             old = post.chains[m].gamma
             new = update_chain(model, batch, m, old, mean, P, log_stay[m], log_adv[m],
                                log_start[m])
-            mean += np.einsum("tbk,kd->tbd", new.gamma - old, model.W[m])
+            mean += (new.gamma - old) @ model.W[m]
             change = max(change, float(np.max(np.abs(new.gamma - old))))
             post.chains[m] = new
         if change <= tol:
