@@ -139,17 +139,18 @@ class Canvas:
             raise InputError(f"Canvas.touch: force_n must be finite and >= 0, got {force_n!r}")
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(t)):
             raise InputError(f"Canvas.touch: non-finite p_mm ({x}, {y}) or t = {t}")
-        if self._last is not None and t < self._last[2]:
-            raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous "
-                             f"{self._last[2]}")
-        if self._path is not None:
-            self._path.append((x, y, force))
         if self._last is None:  # pen down: wait for the next step to know the speed
+            if self._path is not None:
+                self._path.append((x, y, force))
             self._last = (x, y, t)
             self._first_force = force
             self._pending = None
             return
         lx, ly, lt = self._last
+        if t < lt:
+            raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous {lt}")
+        if self._path is not None:
+            self._path.append((x, y, force))
         dt = t - lt
         if dt > 0.0:
             raw = math.hypot(x - lx, y - ly) / dt

@@ -66,4 +66,6 @@ class MarkerInk:
     def mark(self, force_n: float, speed_mm_s: float) -> tuple[float, float]:
         if force_n < self.threshold_n:
             return self.w0_mm, 0.0
-        return self.width_mm(force_n), self.opacity
+        # width_mm inlined: called at every physics step
+        return (self.w0_mm + self.k_mm * (1.0 - math.exp(-(force_n - self.threshold_n)
+                                                         / self.f0_n)), self.opacity)
