@@ -52,6 +52,7 @@ PWM_FULL_SCALE = 885
 FIRMWARE_CYCLE_S = 0.001  # the position loop's cycle the table gains are scaled to [s]
 
 _RPM = 2.0 * np.pi / 60.0  # [rad/s] per rev/min
+_UNLIMITED = 1e30  # a profile limit of 0 (none) [ticks/s, ticks/s^2]
 
 
 @dataclass(frozen=True)
@@ -203,6 +204,8 @@ class ServoFirmware:
                              key="period_s", value=period_s)
         self.period_s = float(period_s)
         self.gains = gains
+        self._cache_key = None
+        self._coeff_key = None
         m = self.models
         self._stall = np.array([x.stall_torque_nm for x in m])
         self._w_noload = np.array([x.no_load_speed_rad_s for x in m])
@@ -214,52 +217,92 @@ class ServoFirmware:
 
     def register(self, name: str) -> np.ndarray:
         """A gain register as a float array (n,)."""
-        value = np.broadcast_to(np.asarray(getattr(self.gains, name), dtype=float), (self.n,))
-        return value
+        return self._registers()[name]
+
+    def _registers(self) -> dict[str, np.ndarray]:
+        # Converted once per FirmwareGains object: assign a new one (or use set_register).
+        if self._cache_key is not self.gains:
+            self._cache = {f.name: np.broadcast_to(np.asarray(getattr(self.gains, f.name),
+                                                              dtype=float), (self.n,))
+                           for f in fields(FirmwareGains)}
+            self._cache_key = self.gains
+        return self._cache
 
     def set_register(self, name: str, value) -> None:
         """Write one gain register (all servos, or an (n,) array)."""
         if name not in {f.name for f in fields(FirmwareGains)}:
             raise unknown_name("firmware register", name, [f.name for f in fields(FirmwareGains)])
         setattr(self.gains, name, np.broadcast_to(np.asarray(value, float), (self.n,)).copy())
+        self._cache_key = None
 
-    def reset(self, present_ticks) -> None:
+    def reset(self, present_ticks, which=None) -> None:
         """Torque on: the desired trajectory starts at rest at the present position, the
-        integral and the error history are cleared (no jump)."""
+        integral and the error history are cleared (no jump). ``which``: a boolean mask (n,)
+        of the servos to reset (default all)."""
         p = np.broadcast_to(np.asarray(present_ticks, dtype=float), (self.n,)).copy()
-        self.profile = _ProfileState(p, np.zeros(self.n), np.zeros(self.n))
-        self._integral = np.zeros(self.n)
-        self._last_error = np.zeros(self.n)
-        self.pwm = np.zeros(self.n)
-        self.current_a = np.zeros(self.n)
+        if which is None or not hasattr(self, "profile"):
+            self.profile = _ProfileState(p, np.zeros(self.n), np.zeros(self.n))
+            self._integral = np.zeros(self.n)
+            self._last_error = np.zeros(self.n)
+            self.pwm = np.zeros(self.n)
+            self.current_a = np.zeros(self.n)
+            return
+        m = np.asarray(which, dtype=bool)
+        self.profile.position[m] = p[m]
+        self.profile.velocity[m] = 0.0
+        self.profile.acceleration[m] = 0.0
+        self._integral[m] = 0.0
+        self._last_error[m] = 0.0
+
+    def _coefficients(self) -> dict[str, np.ndarray]:
+        """The registers in the units the loop uses, once per gains object."""
+        regs = self._registers()
+        if self._coeff_key is regs:
+            return self._coeff
+        dt, cycle = self.period_s, FIRMWARE_CYCLE_S
+        ticks_per_rad = 1.0 / self._rad_per_tick
+        v_max = velocity_units_to_rad_s(regs["profile_velocity"]) * ticks_per_rad
+        a_max = acceleration_units_to_rad_s2(regs["profile_acceleration"]) * ticks_per_rad
+        # 0 means unlimited: a huge finite bound keeps the arithmetic free of inf * 0.
+        v_max = np.where(v_max > 0, v_max, _UNLIMITED)
+        a_max = np.where(a_max > 0, a_max, _UNLIMITED)
+        pwm_limit = np.minimum(regs["pwm_limit"], PWM_FULL_SCALE)
+        kpi = regs["position_i"] / 65536.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = np.where(kpi > 0, pwm_limit / kpi, 0.0)
+            limit = self._kt * self._unit_a * regs["current_limit"]
+        self._coeff = {
+            "v_max": v_max, "a_dt": a_max * dt,
+            "kpp": regs["position_p"] / 128.0, "kpi": kpi,
+            "kpd": regs["position_d"] / 16.0 * (cycle / dt),
+            "kff1": regs["feedforward_1st"] / 4.0 * cycle,
+            "kff2": regs["feedforward_2nd"] / 4.0 * cycle * cycle,
+            "pwm_limit": pwm_limit, "integral_bound": bound,
+            "tau_limit": np.where(np.isnan(limit), np.inf, limit),
+            "duty_torque": self._stall / PWM_FULL_SCALE, "emf": self._stall / self._w_noload,
+        }
+        self._coeff_key = regs
+        return self._coeff
 
     def advance_profile(self, goal_ticks) -> None:
         """One period of the profile generator towards ``goal_ticks`` (module docstring, 1)."""
-        dt = self.period_s
-        goal = np.broadcast_to(np.asarray(goal_ticks, dtype=float), (self.n,))
-        ticks_per_rad = 1.0 / self._rad_per_tick
-        v_max = velocity_units_to_rad_s(self.register("profile_velocity")) * ticks_per_rad
-        a_max = acceleration_units_to_rad_s2(self.register("profile_acceleration")) * ticks_per_rad
-        v_max = np.where(v_max > 0, v_max, np.inf)
-        a_max = np.where(a_max > 0, a_max, np.inf)
+        c = self._coefficients()
+        dt, a_dt = self.period_s, c["a_dt"]
+        goal = np.asarray(goal_ticks, dtype=float)
         p, v = self.profile.position, self.profile.velocity
         error = goal - p
+        distance = np.abs(error)
         # Speed from which braking at a_max stops exactly at the goal one period from now
         # (the discrete braking curve; sqrt(2 a |e|) in the continuous limit).
-        a_safe = np.where(np.isfinite(a_max), a_max, 1.0)
-        brake = np.where(np.isfinite(a_max),
-                         a_safe * dt * (np.sqrt(0.25 + 2.0 * np.abs(error) / (a_safe * dt * dt))
-                                        - 0.5), np.inf)
-        speed = np.minimum(v_max, brake)
-        step_mode = np.isinf(speed)
-        v_target = np.where(step_mode | (error == 0), 0.0, np.sign(error) * np.where(
-            step_mode, 0.0, speed))
-        dv = np.clip(v_target - v, -a_max * dt, a_max * dt)
-        v_new = v + dv
+        # a (sqrt(1/4 + x) - 1/2) = a x / (sqrt(1/4 + x) + 1/2), x = 2 |e| / (a dt^2): no
+        # cancellation when a is unlimited.
+        brake = (2.0 * distance / dt) / (np.sqrt(0.25 + 2.0 * distance / (a_dt * dt)) + 0.5)
+        v_target = np.copysign(np.minimum(c["v_max"], brake), error)
+        v_new = v + np.clip(v_target - v, -a_dt, a_dt)
         step = v_new * dt
-        p_new = np.where(step_mode | (np.abs(step) >= np.abs(error)), goal, p + step)
-        arrived = p_new == goal
-        v_new = np.where(step_mode | (arrived & (np.abs(v_new) <= a_max * dt)), 0.0, v_new)
+        arrived = np.abs(step) >= distance
+        p_new = np.where(arrived, goal, p + step)
+        v_new = np.where(arrived & (np.abs(v_new) <= a_dt), 0.0, v_new)
         self.profile = _ProfileState(p_new, v_new, (v_new - v) / dt)
 
     def torque(self, goal_ticks, present_ticks, present_velocity) -> np.ndarray:
@@ -274,28 +317,16 @@ class ServoFirmware:
             Torque at the output [N m], (n,), after the PWM, voltage and current limits.
         """
         self.advance_profile(goal_ticks)
-        dt, cycle = self.period_s, FIRMWARE_CYCLE_S
+        c = self._coefficients()
         error = self.profile.position - np.asarray(present_ticks, dtype=float)
-        kpp = self.register("position_p") / 128.0
-        kpi = self.register("position_i") / 65536.0
-        kpd = self.register("position_d") / 16.0
-        kff1 = self.register("feedforward_1st") / 4.0
-        kff2 = self.register("feedforward_2nd") / 4.0
-        pwm_limit = np.minimum(self.register("pwm_limit"), PWM_FULL_SCALE)
-        self._integral += error * (dt / cycle)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = np.where(kpi > 0, pwm_limit / kpi, 0.0)
-        self._integral = np.clip(self._integral, -bound, bound)
-        derivative = (error - self._last_error) * (cycle / dt)
+        self._integral = np.clip(self._integral + error * (self.period_s / FIRMWARE_CYCLE_S),
+                                 -c["integral_bound"], c["integral_bound"])
+        derivative = error - self._last_error
         self._last_error = error
-        u = (kpp * error + kpi * self._integral + kpd * derivative
-             + kff1 * self.profile.velocity * cycle
-             + kff2 * self.profile.acceleration * cycle * cycle)
-        self.pwm = np.clip(u, -pwm_limit, pwm_limit)
-        duty = self.pwm / PWM_FULL_SCALE
-        tau = self._stall * (duty - np.asarray(present_velocity, dtype=float) / self._w_noload)
-        limit = self._kt * self._unit_a * self.register("current_limit")
-        limit = np.where(np.isnan(limit), np.inf, limit)
-        tau = np.clip(tau, -limit, limit)
+        u = (c["kpp"] * error + c["kpi"] * self._integral + c["kpd"] * derivative
+             + c["kff1"] * self.profile.velocity + c["kff2"] * self.profile.acceleration)
+        self.pwm = np.clip(u, -c["pwm_limit"], c["pwm_limit"])
+        tau = c["duty_torque"] * self.pwm - c["emf"] * np.asarray(present_velocity, dtype=float)
+        tau = np.clip(tau, -c["tau_limit"], c["tau_limit"])
         self.current_a = tau / self._kt
         return tau

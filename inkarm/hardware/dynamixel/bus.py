@@ -1,0 +1,274 @@
+"""A Protocol 2.0 bus on dynamixel-sdk: the driver side.
+
+* One GroupSyncRead of Present Current, Velocity and Position (addresses 126..135, 10 bytes,
+  contiguous on every X-series) per control period; the status packets' error bytes are kept
+  (the SDK drops them), so a servo's hardware alert is seen in the same transaction.
+* One GroupSyncWrite of the goals per period (no status packets).
+* Configuration goes through acknowledged writes, read back where it matters.
+* Every transaction is tried ``1 + retries`` times; before each try the input buffer is
+  cleared (a late reply from the last try must not pass for this one) and the SDK's
+  ``is_using`` flag released (an interrupted call leaves it set: "port in use" forever).
+* The port is closed on every exit path (:meth:`close` is idempotent; use ``with``).
+
+Failures raise :class:`DynamixelFault`, naming the servo and the fault.
+"""
+
+from __future__ import annotations
+
+import select
+import struct
+import time
+from typing import Self
+
+import dynamixel_sdk as sdk
+import serial
+
+from inkarm.errors import InputError, SimulationError
+from inkarm.hardware.dynamixel import protocol as p
+from inkarm.hardware.dynamixel.tables import COMMON, decode
+
+STATE_ADDRESS, STATE_SIZE = 126, 10  # present current (2), velocity (4), position (4)
+_REG = {r.name: r for r in COMMON}
+POLL_WAIT_S = 0.0005  # longest wait for a byte before the SDK looks at its timeout [s]
+RETRY_QUIET_S = 0.003  # wait before a retry so that late replies are flushed [s]
+
+
+class DynamixelFault(SimulationError):
+    """A fault on the bus or in a servo: ``servo_id`` (None for the bus) and ``kind`` (e.g.
+    "no reply", "corrupt reply", "overload", "watchdog", "disconnected"). A
+    :class:`~inkarm.errors.RunFault` (``watchdog`` "dynamixel") that the drawing loop logs,
+    and a :class:`~inkarm.errors.SimulationError` so that the loop leaves the safe stop to the
+    plant, which has already lifted the pen."""
+
+    def __init__(self, message: str, servo_id: int | None = None, kind: str = ""):
+        super().__init__(message, watchdog="dynamixel")
+        self.servo_id, self.kind = servo_id, kind
+
+
+_COMM_KIND = {sdk.COMM_RX_TIMEOUT: "no reply", sdk.COMM_RX_CORRUPT: "corrupt reply",
+              sdk.COMM_TX_FAIL: "send failed", sdk.COMM_PORT_BUSY: "port busy",
+              sdk.COMM_RX_FAIL: "no reply", sdk.COMM_TX_ERROR: "bad packet"}
+
+
+class _PortHandler(sdk.PortHandler):
+    """The SDK's port, waiting in ``select`` for the next byte instead of spinning on empty
+    reads: the SDK polls its port in a loop, which on a busy machine takes the CPU from the
+    very process (an emulator, a USB driver thread) that has to produce the reply."""
+
+    latency_ms = float(sdk.port_handler.LATENCY_TIMER)
+
+    def setPacketTimeout(self, packet_length):
+        # The SDK's rule (bytes on the wire + twice the USB latency timer + 2 ms) with this
+        # port's latency instead of the module-wide 16 ms.
+        self.packet_start_time = self.getCurrentTime()
+        self.packet_timeout = self.tx_time_per_byte * packet_length + 2.0 * self.latency_ms + 2.0
+
+    def readPort(self, length):
+        ser = self.ser
+        if not ser.in_waiting:
+            select.select([ser.fd], [], [], POLL_WAIT_S)
+        return ser.read(length)
+
+
+class _SyncRead(sdk.GroupSyncRead):
+    """GroupSyncRead that keeps each status packet's error byte (``errors[id]``)."""
+
+    def rxPacket(self):
+        self.last_result = False
+        self.errors = {}
+        result = sdk.COMM_RX_FAIL
+        for dxl_id in self.data_dict:
+            self.data_dict[dxl_id], result, error = self.ph.readRx(self.port, dxl_id,
+                                                                   self.data_length)
+            self.errors[dxl_id] = error
+            self.last_failed = dxl_id
+            if result != sdk.COMM_SUCCESS:
+                return result
+        self.last_result = result == sdk.COMM_SUCCESS
+        return result
+
+
+class DynamixelBus:
+    """The servos on ``port`` at ``baudrate`` [bit/s] (module docstring).
+
+    ``names`` maps servo ids to what they drive, for messages. ``latency_ms``: the USB
+    adapter's latency timer [ms] in the reply timeout (``2 latency + 2 ms`` plus the bytes);
+    dynamixel-sdk assumes 16 (FTDI's default; 1 after ``echo 1 > .../latency_timer``).
+    """
+
+    def __init__(self, port: str, baudrate: int = 1_000_000, retries: int = 2,
+                 names: dict[int, str] | None = None, latency_ms: float | None = None):
+        self.port_name, self.baudrate, self.retries = port, int(baudrate), int(retries)
+        self.names = dict(names or {})
+        self.port = _PortHandler(port)
+        if latency_ms is not None:
+            self.port.latency_ms = float(latency_ms)
+        self.packet = sdk.PacketHandler(2.0)
+        self.stats = {"transactions": 0, "retries": 0}
+        self._open = False
+        try:
+            ok = self.port.openPort() and self.port.setBaudRate(self.baudrate)
+        except (serial.SerialException, OSError, ValueError) as e:
+            raise InputError(f"cannot open {port}: {e}", key="--port", value=port) from None
+        if not ok:
+            raise InputError(f"cannot open {port} at {baudrate} bit/s", key="--port", value=port)
+        self._open = True
+        self._reader = _SyncRead(self.port, self.packet, STATE_ADDRESS, STATE_SIZE)
+        self._last_reader = self._reader
+
+    def close(self) -> None:
+        """Close the port. Idempotent."""
+        if self._open:
+            self._open = False
+            try:
+                self.port.closePort()
+            except (serial.SerialException, OSError):
+                pass
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def who(self, servo_id: int | None) -> str:
+        if servo_id is None:
+            return f"bus {self.port_name}"
+        name = self.names.get(servo_id)
+        return f"servo {servo_id}" + (f" ({name})" if name else "")
+
+    # --- the retry frame ----------------------------------------------------------------------
+    def _try(self, call, servo_id: int | None, what: str):
+        """Run ``call() -> (result, error, value)`` up to 1 + retries times."""
+        if not self._open:
+            raise DynamixelFault(f"{self.who(None)}: the port is closed", None, "disconnected")
+        result = sdk.COMM_TX_FAIL
+        for attempt in range(1 + self.retries):
+            self.stats["transactions"] += 1
+            self.stats["retries"] += attempt > 0
+            self.port.is_using = False
+            try:
+                if attempt:  # let the last try's stragglers arrive, then drop them
+                    time.sleep(RETRY_QUIET_S)
+                self.port.clearPort()
+                result, error, value = call()
+            except (serial.SerialException, OSError, TypeError) as e:
+                raise DynamixelFault(f"{self.who(None)}: serial port disconnected ({e})",
+                                     None, "disconnected") from None
+            except (IndexError, ValueError):  # the SDK's parser on garbage
+                result, error, value = sdk.COMM_RX_CORRUPT, 0, None
+            finally:
+                self.port.is_using = False
+            if result == sdk.COMM_SUCCESS:
+                return error, value
+        kind = _COMM_KIND.get(result, f"communication result {result}")
+        if servo_id == -1:  # a sync read: the servo whose reply failed
+            servo_id = getattr(self._last_reader, "last_failed", None)
+        raise DynamixelFault(f"{self.who(servo_id)}: {kind} to {what} after "
+                             f"{1 + self.retries} tries", servo_id, kind)
+
+    def _checked(self, servo_id: int, error: int, what: str) -> None:
+        if error & 0x7F:
+            raise DynamixelFault(f"{self.who(servo_id)}: {p.error_text(error & 0x7F)} on {what}",
+                                 servo_id, p.error_text(error & 0x7F))
+
+    # --- transactions --------------------------------------------------------------------------
+    def ping(self, servo_id: int) -> tuple[int, int] | None:
+        """(model number, firmware version), or None when nothing answers."""
+        try:
+            _, value = self._try(lambda: _ping(self.packet, self.port, servo_id), servo_id,
+                                 "ping")
+        except DynamixelFault as e:
+            if e.kind == "disconnected":
+                raise
+            return None
+        return value
+
+    def read(self, servo_id: int, name: str) -> int:
+        """An acknowledged read of register ``name``."""
+        reg = _REG[name]
+
+        def call():
+            data, result, error = self.packet.readTxRx(self.port, servo_id, reg.address,
+                                                       reg.size)
+            value = decode(reg, int.from_bytes(bytes(data), "little")) if data else 0
+            return result, error, value
+
+        error, value = self._try(call, servo_id, f"read {name}")
+        self._checked(servo_id, error, f"read {name}")
+        return value
+
+    def write(self, servo_id: int, name: str, value: int) -> None:
+        """An acknowledged write of register ``name``; a status error raises."""
+        reg = _REG[name]
+        data = list((int(value) & ((1 << 8 * reg.size) - 1)).to_bytes(reg.size, "little"))
+
+        def call():
+            result, error = self.packet.writeTxRx(self.port, servo_id, reg.address, reg.size,
+                                                  data)
+            return result, error, None
+
+        error, _ = self._try(call, servo_id, f"write {name} = {value}")
+        self._checked(servo_id, error, f"write {name} = {value}")
+
+    def read_state(self, ids) -> tuple[list[int], list[int], list[int], dict[int, int]]:
+        """One sync read: present positions [ticks], velocities [0.229 rpm], currents [units]
+        and each servo's status error byte, in the order of ``ids``."""
+        reader = self._reader
+        if list(reader.data_dict) != list(ids):
+            reader.clearParam()
+            for i in ids:
+                reader.addParam(i)
+
+        def call():
+            result = reader.txRxPacket()
+            if result == sdk.COMM_SUCCESS and any(len(reader.data_dict[i]) != STATE_SIZE
+                                                  for i in ids):
+                result = sdk.COMM_RX_CORRUPT  # a stray packet of that id: try again
+            return result, 0, None
+
+        self._last_reader = reader
+        self._try(call, -1, "sync read the state")
+        positions, velocities, currents = [], [], []
+        for i in ids:
+            current, velocity, position = struct.unpack("<hii", bytes(reader.data_dict[i]))
+            positions.append(position)
+            velocities.append(velocity)
+            currents.append(current)
+        return positions, velocities, currents, dict(reader.errors)
+
+    def sync_read(self, ids, name: str) -> dict[int, int]:
+        """One register of every servo in ``ids``, in one transaction."""
+        reg = _REG[name]
+        reader = _SyncRead(self.port, self.packet, reg.address, reg.size)
+        for i in ids:
+            reader.addParam(i)
+        def call():
+            result = reader.txRxPacket()
+            if result == sdk.COMM_SUCCESS and any(len(reader.data_dict[i]) != reg.size
+                                                  for i in ids):
+                result = sdk.COMM_RX_CORRUPT
+            return result, 0, None
+
+        self._last_reader = reader
+        self._try(call, -1, f"sync read {name}")
+        return {i: decode(reg, int.from_bytes(bytes(reader.data_dict[i]), "little"))
+                for i in ids}
+
+    def sync_write(self, ids, name: str, values) -> None:
+        """One register of every servo in ``ids`` (no status packets)."""
+        reg = _REG[name]
+        writer = sdk.GroupSyncWrite(self.port, self.packet, reg.address, reg.size)
+        for i, v in zip(ids, values):
+            writer.addParam(i, list((int(v) & ((1 << 8 * reg.size) - 1)).to_bytes(reg.size,
+                                                                                   "little")))
+        self._try(lambda: (writer.txPacket(), 0, None), None, f"sync write {name}")
+
+    def reboot(self, servo_id: int) -> None:
+        self._try(lambda: (*self.packet.reboot(self.port, servo_id), None), servo_id, "reboot")
+
+
+def _ping(packet, port, servo_id):
+    model, result, error = packet.ping(port, servo_id)
+    firmware = 0
+    return result, error, (model, firmware)

@@ -1,0 +1,136 @@
+"""Joint calibration of a Dynamixel arm: where each joint's zero is on its servo, which way it
+turns, and the range it was seen to reach.
+
+A joint's angle from its servo's Present Position ``p`` [ticks]::
+
+    q = direction (p - offset - 4096 k) 2 pi / 4096     [rad]
+
+``offset`` is the reading at the joint's zero mark (0..4095), ``direction`` +1 or -1 (the
+reading grows or falls as the joint turns positive), and the whole turns ``k`` are chosen once
+at start-up so that ``q`` lies in the joint's range: a zero mark near the encoder's wrap
+(4095 -> 0) or a servo that booted a turn away reads the same.
+
+The file lives beside the robot profile, ``<profile>.calibration.toml``::
+
+    robot = "wx250s"
+    [joints.shoulder]
+    offset_ticks = 2048
+    direction = 1
+
+:func:`measure` asks the user to move each joint (torque off) to its zero mark and to a mark
+``+90 deg`` away; ``ask(prompt)`` is :func:`input` on a terminal and a script in tests.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from inkarm.errors import InputError
+from inkarm.io.toml import TomlReader, load_toml
+
+TICKS = 4096
+TOLERANCE_TICKS = 150   # a +90 deg mark must read 1024 +- this many ticks
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Per joint: ``offset_ticks`` (n,), ``direction`` (n,) of +-1."""
+
+    joint_names: tuple[str, ...]
+    offset_ticks: np.ndarray
+    direction: np.ndarray
+
+    @classmethod
+    def identity(cls, joint_names: Sequence[str]) -> Calibration:
+        n = len(joint_names)
+        return cls(tuple(joint_names), np.full(n, 2048.0), np.ones(n))
+
+    def turns(self, ticks, ranges: Sequence[tuple[float, float] | None]) -> np.ndarray:
+        """Whole turns ``k`` per joint putting ``ticks`` inside (or nearest to) each range."""
+        base = self.direction * (np.asarray(ticks, dtype=float) - self.offset_ticks)
+        k = np.zeros(len(base))
+        for j, r in enumerate(ranges):
+            centre = 0.0 if r is None else 0.5 * (r[0] + r[1])
+            k[j] = np.round((base[j] * 2 * np.pi / TICKS - centre) / (2 * np.pi))
+        return k
+
+    def to_rad(self, ticks, turns) -> np.ndarray:
+        return (self.direction * (np.asarray(ticks, float) - self.offset_ticks)
+                - TICKS * np.asarray(turns)) * (2 * np.pi / TICKS)
+
+    def to_ticks(self, q, turns) -> np.ndarray:
+        return self.offset_ticks + self.direction * (
+            np.asarray(q, float) * TICKS / (2 * np.pi) + TICKS * np.asarray(turns))
+
+    def velocity_sign(self) -> np.ndarray:
+        return self.direction
+
+
+def calibration_path(profile) -> Path:
+    """``<profile>.calibration.toml`` beside the profile file."""
+    source = Path(profile.source) if profile.source else Path(f"{profile.name}.toml")
+    return source.with_name(f"{source.stem}.calibration.toml")
+
+
+def load_calibration(path: str | Path, joint_names: Sequence[str]) -> Calibration:
+    """Read a calibration file; every joint must be there (an InputError names what is not)."""
+    data = load_toml(path, "calibration file")
+    rd = TomlReader(str(path))
+    rd.keys(data, ("robot", "joints"), "")
+    joints = rd.table(data.get("joints", {}), "joints")
+    rd.keys(joints, tuple(joint_names), "joints")
+    offsets, directions = [], []
+    for name in joint_names:
+        if name not in joints:
+            raise rd.error(f"joints.{name}", "missing: run `inkarm calibrate` again")
+        j = rd.table(joints[name], f"joints.{name}")
+        rd.keys(j, ("offset_ticks", "direction"), f"joints.{name}")
+        offsets.append(rd.number(j.get("offset_ticks"), f"joints.{name}.offset_ticks", 0,
+                                 maximum=TICKS - 1))
+        direction = rd.integer(j.get("direction"), f"joints.{name}.direction", -1, 1)
+        if direction == 0:
+            raise rd.error(f"joints.{name}.direction", "expected 1 or -1, got 0", value=0)
+        directions.append(direction)
+    return Calibration(tuple(joint_names), np.array(offsets), np.array(directions, float))
+
+
+def save_calibration(calibration: Calibration, path: str | Path, robot: str) -> Path:
+    lines = [f'robot = "{robot}"', ""]
+    for name, off, d in zip(calibration.joint_names, calibration.offset_ticks,
+                            calibration.direction):
+        lines += [f"[joints.{name}]", f"offset_ticks = {round(off)}",
+                  f"direction = {int(d)}", ""]
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.partial")
+    tmp.write_text("\n".join(lines))
+    tmp.replace(path)
+    return path
+
+
+def measure(read_ticks: Callable[[int], int], joint_names: Sequence[str],
+            ask: Callable[[str], str] = input, say: Callable[[str], None] = print) -> Calibration:
+    """Walk the user through each joint (module docstring); ``read_ticks(j)`` reads joint
+    ``j``'s servo [ticks]. Raises InputError when a +90 deg mark is not about 1024 ticks away
+    (a wrong mark, or the servo slipping)."""
+    offsets, directions = [], []
+    for j, name in enumerate(joint_names):
+        ask(f"[{j + 1}/{len(joint_names)}] move {name} to its ZERO mark, then press Enter ")
+        zero = read_ticks(j)
+        ask(f"    now turn {name} +90 deg (its positive direction) to the next mark, then Enter ")
+        quarter = read_ticks(j)
+        delta = (quarter - zero + TICKS // 2) % TICKS - TICKS // 2
+        if abs(abs(delta) - TICKS // 4) > TOLERANCE_TICKS:
+            raise InputError(f"{name}: the +90 deg mark reads {delta:+d} ticks from zero, "
+                             f"expected +-1024 (+-{TOLERANCE_TICKS}); check the marks and "
+                             "that the horn does not slip", key=name, value=delta)
+        direction = 1 if delta > 0 else -1
+        offsets.append(zero % TICKS)
+        directions.append(direction)
+        say(f"    {name}: zero at {zero % TICKS} ticks, direction {direction:+d} "
+            f"({math.degrees(delta * 2 * math.pi / TICKS):+.1f} deg measured)")
+    return Calibration(tuple(joint_names), np.array(offsets, float), np.array(directions, float))

@@ -1,0 +1,394 @@
+"""DynamixelPlant: a Dynamixel X-series arm behind the Plant protocol.
+
+Start-up (refused, naming the difference, when the bus does not match the profile):
+
+1. every servo of ``[backends.dynamixel]`` (joints and shadows) answers PING with the model
+   the profile names; each shadow carries its joint's servo as Secondary ID; no servo reports
+   a hardware error;
+2. torque off; operating mode, return delay and (in position mode) the Min/Max Position
+   Limits written and acknowledged; the PID, feed-forward and profile registers written;
+3. Goal Position := Present Position (no jump at torque-on), torque on, bus watchdog on.
+
+Each period: one sync read (position, velocity, current and the status error bytes) and one
+sync write of the goals. Goals are clamped to the software limits (the joint ranges less a
+margin) and to ``max_step_deg`` per period. A status packet's alert bit makes the plant read
+that servo's Hardware Error Status; every 10th period the bus watchdogs are read.
+
+On any fault: the pen is lifted (the healthy servos get ``q + pen_lift``), then the arm holds
+or goes limp as ``on_fault`` says, the trace is written, and a :class:`DynamixelFault` naming
+the servo and the fault says how long that took. :meth:`close` lifts the pen, parks (or holds,
+or releases) as ``on_close`` says, and always closes the port.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Self
+
+import numpy as np
+
+from inkarm.core.plant import (
+    PlantState,
+    PositionCommand,
+    WallClock,
+    unsupported,
+)
+from inkarm.errors import InputError
+from inkarm.hardware.dynamixel.bus import DynamixelBus, DynamixelFault
+from inkarm.hardware.dynamixel.calibration import Calibration
+from inkarm.hardware.dynamixel.config import DynamixelConfig
+from inkarm.hardware.dynamixel.tables import HARDWARE_ERRORS, MODEL_NAMES
+from inkarm.robots.servo import servo_model, velocity_units_to_rad_s
+
+WATCHDOG_POLL_PERIODS = 10
+PEN_LIFT_S = 0.3
+PARK_TIMEOUT_S = 4.0
+PARK_SPEED_RAD_S = 0.8
+
+
+def hardware_error_text(status: int) -> str:
+    bits = [name for bit, name in HARDWARE_ERRORS.items() if status & (1 << bit)]
+    return ", ".join(bits) or f"status {status:#04x}"
+
+
+class DynamixelPlant:
+    """A Dynamixel arm on ``port`` as ``profile`` describes it (module docstring).
+
+    Args:
+        port: Serial port (``/dev/ttyUSB0``, or an emulator's pty).
+        profile: The robot profile (:class:`inkarm.robots.profile.RobotProfile`).
+        calibration: Joint zeros and directions; the identity (tick 2048 = 0 rad) if None.
+        clock: Where time comes from (a :class:`WallClock` by default).
+        trace_path: Where the trace goes on a fault (.npz); none written if None.
+    """
+
+    senses = frozenset({"current"})
+    commands = frozenset({"position"})
+
+    def __init__(self, port: str, profile, calibration: Calibration | None = None,
+                 clock=None, trace_path: str | Path | None = None):
+        self.profile = profile
+        self.config = cfg = DynamixelConfig.of(profile)
+        self.calibration = calibration or Calibration.identity(profile.joint_names)
+        self.clock = clock or WallClock()
+        self.trace_path = None if trace_path is None else Path(trace_path)
+        self._dt = float(profile.control_period_s)
+        names = {i: n for i, n in zip(cfg.ids, profile.joint_names)}
+        names.update({sid: f"{profile.joint_names[j]} shadow" for j, sid in cfg.shadows.items()})
+        self.names = names
+        margin = np.radians(cfg.limit_margin_deg)
+        lows, highs = [], []
+        for joint in profile.joints:
+            low, high = joint.range if joint.range is not None else (-np.pi, np.pi)
+            lows.append(low + margin)
+            highs.append(high - margin)
+        self.q_min, self.q_max = np.array(lows), np.array(highs)
+        self.max_step = np.radians(cfg.max_step_deg)
+        lift = cfg.pen_lift_deg
+        self.pen_lift = np.zeros(profile.n) if lift is None else np.radians(lift)
+        self.park_q = profile.home_q if cfg.park_deg is None else np.radians(cfg.park_deg)
+        self._current_unit = np.array([  # [A] per unit; NaN where a model senses no current
+            np.nan if servo_model(m).current_unit_ma is None else
+            servo_model(m).current_unit_ma * 1e-3 for m in cfg.models])
+        self.stiffness = self._stiffness()
+        self.trace: list[tuple] = []
+        self.fault: DynamixelFault | None = None
+        self.safe_after_s: float | None = None
+        self._closed = False
+        self._period = 0
+        self._next_tick = 0.0
+        self._goal_q: np.ndarray | None = None
+        self._last: PlantState | None = None
+        self.overruns = 0
+        self.bus = DynamixelBus(port, cfg.baudrate, cfg.retries, names, cfg.latency_ms)
+        try:
+            self._start()
+        except BaseException:
+            self.bus.close()
+            raise
+
+    def _stiffness(self) -> np.ndarray:
+        """Each joint's position-loop stiffness [N m/rad]: P/128 PWM units a tick (e-Manual)
+        x 4096/(2 pi) ticks a radian x stall torque / 885 per servo, summed over its servos;
+        a torque feed-forward becomes the goal offset tau / K that makes the servo push it."""
+        cfg = self.config
+        p_gain = cfg.gains.get("position_p")
+        k = np.zeros(cfg.n)
+        for j, model in enumerate(cfg.models):
+            m = servo_model(model)
+            p_tbl = p_gain[j] if p_gain is not None else m.position_pid_default[2]
+            per_servo = p_tbl / 128.0 * m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
+            k[j] = per_servo * (2 if j in cfg.shadows else 1)
+        return np.maximum(k, 1e-6)
+
+    # --- start-up ------------------------------------------------------------------------------
+    def _start(self) -> None:
+        cfg, bus = self.config, self.bus
+        expected = {**dict(zip(cfg.ids, cfg.models)),
+                    **{sid: cfg.models[j] for j, sid in cfg.shadows.items()}}
+        problems = []
+        for servo_id, model in expected.items():
+            found = bus.ping(servo_id)
+            if found is None:
+                problems.append(f"{bus.who(servo_id)}: no reply (expected a {model})")
+            elif MODEL_NAMES.get(found[0]) != model:
+                name = MODEL_NAMES.get(found[0], f"model number {found[0]}")
+                problems.append(f"{bus.who(servo_id)}: a {name} answers, the profile expects a "
+                                f"{model}")
+        for j, sid in cfg.shadows.items():
+            if not any(sid in p for p in problems):
+                secondary = bus.read(sid, "secondary_id")
+                if secondary != cfg.ids[j]:
+                    problems.append(f"{bus.who(sid)}: Secondary ID is {secondary}, expected "
+                                    f"{cfg.ids[j]} (its joint's servo)")
+        if problems:
+            raise InputError(f"the servos on {bus.port_name} do not match robot "
+                             f"{self.profile.name!r}: " + "; ".join(problems),
+                             file=self.profile.source or None, key="backends.dynamixel")
+        for servo_id in cfg.all_ids:
+            status = bus.read(servo_id, "hardware_error_status")
+            if status:
+                raise DynamixelFault(f"{bus.who(servo_id)}: hardware error "
+                                     f"({hardware_error_text(status)}); power-cycle or reboot "
+                                     "it before starting", servo_id, hardware_error_text(status))
+        joint_of = {**{i: j for j, i in enumerate(cfg.ids)},
+                    **{sid: j for j, sid in cfg.shadows.items()}}
+        eeprom = {"operating_mode": cfg.mode_number, "return_delay_time": cfg.return_delay_us // 2}
+        stale = [(i, name, value) for i in cfg.all_ids for name, value in eeprom.items()
+                 if bus.read(i, name) != value]
+        if stale or cfg.operating_mode == "position":
+            # EEPROM is locked while the torque is on; an arm without brakes sags meanwhile, so
+            # this happens only when something must change.
+            for servo_id in cfg.all_ids:
+                bus.write(servo_id, "torque_enable", 0)
+            for servo_id, name, value in stale:
+                bus.write(servo_id, name, value)
+        for servo_id in cfg.all_ids:
+            j = joint_of[servo_id]
+            for key, values in cfg.gains.items():
+                bus.write(servo_id, _GAIN_REGISTER[key], int(values[j]))
+        positions, *_ = bus.read_state(cfg.ids)
+        self._turns = self.calibration.turns(positions, [(lo, hi) for lo, hi in
+                                                         zip(self.q_min, self.q_max)])
+        if cfg.operating_mode == "position":
+            lo = self.calibration.to_ticks(self.q_min, self._turns)
+            hi = self.calibration.to_ticks(self.q_max, self._turns)
+            for j, servo_id in enumerate(cfg.ids):
+                a, b = sorted((int(lo[j]), int(hi[j])))
+                bus.write(servo_id, "min_position_limit", max(0, a))
+                bus.write(servo_id, "max_position_limit", min(4095, b))
+        for j, servo_id in enumerate(cfg.ids):  # goal := present, acknowledged, before torque
+            bus.write(servo_id, "goal_position", positions[j])
+        for servo_id in cfg.all_ids:
+            bus.write(servo_id, "torque_enable", 1)
+        self._watchdog_armed = False
+        self._goal_q = self.calibration.to_rad(positions, self._turns)
+        self._next_tick = self.clock.now()
+
+    # --- Plant ----------------------------------------------------------------------------------
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    def read(self) -> PlantState:
+        """Joint positions [rad], speeds [rad/s] and currents [A] from one sync read."""
+        self._guard()
+        try:
+            positions, velocities, currents, errors = self.bus.read_state(self.config.ids)
+            for servo_id, error in errors.items():
+                if error & 0x80:
+                    self._hardware_fault(servo_id)
+            self._period += 1
+            if self._watchdog_armed and self._period % WATCHDOG_POLL_PERIODS == 0:
+                for servo_id, value in self.bus.sync_read(self.config.all_ids,
+                                                          "bus_watchdog").items():
+                    if value == -1:
+                        raise DynamixelFault(f"{self.bus.who(servo_id)}: bus watchdog expired "
+                                             "(the servo stopped on its own)", servo_id,
+                                             "watchdog")
+        except DynamixelFault as fault:
+            self._fail(fault)
+        cal = self.calibration
+        q = cal.to_rad(positions, self._turns)
+        qd = cal.direction * velocity_units_to_rad_s(velocities)
+        current = np.asarray(currents, dtype=float) * self._current_unit * cal.direction
+        state = PlantState(time=self.clock.now(), q=q, qd=qd, current=current)
+        self._last = state
+        self.trace.append((state.time, q, qd, current,
+                           self._goal_q if self._goal_q is not None else q))
+        return state
+
+    def command(self, command) -> None:
+        """Goals of a :class:`PositionCommand` [rad], clamped to the software limits and to
+        ``max_step_deg`` from the last goal, in one sync write."""
+        if type(command) is not PositionCommand:
+            raise InputError(unsupported(self, command))
+        self._guard()
+        q = np.asarray(command.q, dtype=float)
+        if q.shape != (self.profile.n,) or not np.isfinite(q).all():
+            raise InputError(f"expected {self.profile.n} finite joint goals, got {q}",
+                             key="command.q")
+        if command.torque is not None:  # no torque input on a servo: lean into the load instead
+            q = q + np.nan_to_num(np.asarray(command.torque, dtype=float)) / self.stiffness
+        q = np.clip(q, self.q_min, self.q_max)
+        last = self._goal_q
+        q = np.clip(q, last - self.max_step, last + self.max_step)
+        try:
+            self._send_goals(q)
+            if not self._watchdog_armed:
+                self._arm_watchdog()
+        except DynamixelFault as fault:
+            self._fail(fault)
+
+    def _arm_watchdog(self) -> None:
+        """The dead-man goes on with the first goal: from then on the host talks every period
+        (planning before it may take longer than the watchdog)."""
+        self._watchdog_armed = True
+        if self.config.watchdog_ms:
+            ids = self.config.all_ids
+            self.bus.sync_write(ids, "bus_watchdog",
+                                [max(1, self.config.watchdog_ms // 20)] * len(ids))
+
+    def brake(self) -> None:
+        """After a fault the servos already hold (or are limp, as ``on_fault`` says)."""
+
+    def step(self) -> None:
+        """Wait for the next period of the clock."""
+        self._next_tick += self._dt
+        now = self.clock.now()
+        if now > self._next_tick:
+            self.overruns += 1
+            self._next_tick = now
+        self.clock.wait_until(self._next_tick)
+
+    def close(self) -> None:
+        """Pen up, then park, hold or release as ``on_close`` says; the port closes always."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            if self.fault is None:
+                self._pen_up()
+                self._settle(PEN_LIFT_S)
+                if self.config.on_close == "park":
+                    self._park()
+                if self.config.on_close in ("park", "torque_off"):
+                    self._torque_off()
+                else:
+                    self._watchdog_off()
+        except DynamixelFault:
+            pass  # the port or a servo is gone: the watchdogs stop the servos
+        finally:
+            self.bus.close()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # --- faults -------------------------------------------------------------------------------
+    def _guard(self) -> None:
+        if self.fault is not None:
+            raise self.fault
+        if self._closed:
+            raise DynamixelFault(f"{self.bus.who(None)}: the plant is closed", None, "closed")
+
+    def _hardware_fault(self, servo_id: int) -> None:
+        status = self.bus.read(servo_id, "hardware_error_status")
+        raise DynamixelFault(f"{self.bus.who(servo_id)}: hardware error: "
+                             f"{hardware_error_text(status)} (torque off by its firmware)",
+                             servo_id, hardware_error_text(status))
+
+    def _fail(self, fault: DynamixelFault):
+        """Make the arm safe (module docstring), keep the trace, raise ``fault``."""
+        detected = time.monotonic()
+        self.fault = fault
+        actions = []
+        try:
+            if fault.kind == "watchdog":
+                self._watchdog_off()
+            self._pen_up(exclude=fault.servo_id)
+            actions.append("pen lifted")
+            if self.config.on_fault == "torque_off":
+                self._torque_off(exclude=fault.servo_id)
+                actions.append("torque off")
+            else:
+                actions.append("arm holding")
+        except DynamixelFault as second:
+            actions.append(f"could not lift the pen ({second.kind}); the servos' bus watchdog "
+                           f"({self.config.watchdog_ms} ms) stops them")
+        self.safe_after_s = time.monotonic() - detected
+        where = ""
+        if self.trace_path is not None:
+            where = f"; trace in {self.save_trace(self.trace_path)}"
+        fault.message = (f"{fault.message}; {', '.join(actions)} "
+                         f"{1000 * self.safe_after_s:.0f} ms after detection{where}")
+        fault.args = (str(fault),)
+        raise fault
+
+    def save_trace(self, path: str | Path) -> Path:
+        """The periods so far: time [s], q [rad], qd [rad/s], current [A], goal [rad]."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        rows = self.trace or [(0.0, *([np.zeros(self.profile.n)] * 4))]
+        columns = [np.array([r[k] for r in rows]) for k in range(5)]
+        np.savez(path, time=columns[0], q=columns[1], qd=columns[2], current=columns[3],
+                 goal=columns[4], fault=str(self.fault or ""))
+        return path
+
+    # --- motions -------------------------------------------------------------------------------
+    def _send_goals(self, q: np.ndarray, exclude: int | None = None) -> None:
+        ticks = np.rint(self.calibration.to_ticks(q, self._turns)).astype(int)
+        ids = [i for i in self.config.ids if i != exclude]
+        values = [t for i, t in zip(self.config.ids, ticks) if i != exclude]
+        self.bus.sync_write(ids, "goal_position", values)
+        self._goal_q = q
+
+    def _pen_up(self, exclude: int | None = None) -> None:
+        base = self._last.q if self._last is not None else self._goal_q
+        q = np.clip(base + self.pen_lift, self.q_min, self.q_max)
+        self._send_goals(q, exclude)
+
+    def _settle(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.bus.read_state(self.config.ids)
+            time.sleep(self._dt)
+
+    def _park(self) -> None:
+        start = self._goal_q.copy()
+        span = float(np.max(np.abs(self.park_q - start)))
+        duration = max(0.5, span / PARK_SPEED_RAD_S)
+        t0 = time.monotonic()
+        while (s := (time.monotonic() - t0) / duration) < 1.0:
+            blend = s * s * (3 - 2 * s)
+            self._send_goals(start + blend * (self.park_q - start))
+            self.bus.read_state(self.config.ids)
+            time.sleep(self._dt)
+        self._send_goals(self.park_q)
+        end = time.monotonic() + PARK_TIMEOUT_S
+        while time.monotonic() < end:
+            positions, *_ = self.bus.read_state(self.config.ids)
+            q = self.calibration.to_rad(positions, self._turns)
+            if np.max(np.abs(q - self.park_q)) < np.radians(2.0):
+                break
+            time.sleep(self._dt)
+
+    def _torque_off(self, exclude: int | None = None) -> None:
+        self._watchdog_off(exclude)
+        ids = [i for i in self.config.all_ids if i != exclude]
+        self.bus.sync_write(ids, "torque_enable", [0] * len(ids))
+
+    def _watchdog_off(self, exclude: int | None = None) -> None:
+        if self.config.watchdog_ms:
+            ids = [i for i in self.config.all_ids if i != exclude]
+            self.bus.sync_write(ids, "bus_watchdog", [0] * len(ids))
+
+
+_GAIN_REGISTER = {"position_p": "position_p_gain", "position_i": "position_i_gain",
+                  "position_d": "position_d_gain", "feedforward_1st": "feedforward_1st_gain",
+                  "feedforward_2nd": "feedforward_2nd_gain",
+                  "profile_velocity": "profile_velocity",
+                  "profile_acceleration": "profile_acceleration"}

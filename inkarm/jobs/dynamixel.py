@@ -1,0 +1,140 @@
+"""The Dynamixel backend: a scenario drawn by a Dynamixel arm, and the MuJoCo twin behind the
+emulator (the wiring of :mod:`inkarm.hardware.dynamixel` and :mod:`inkarm.sim`, which never
+import each other).
+
+:func:`run_dynamixel` runs the same drawing loop as the simulation
+(:func:`inkarm.control.loop.run_drawing`, position commands) on a
+:class:`~inkarm.hardware.dynamixel.plant.DynamixelPlant` and returns the same
+:class:`~inkarm.jobs.run.Run`; a fault returns a failed Run with the log up to the fault.
+
+:func:`twin_emulator` builds the emulator whose servos are the joints of the scenario's
+MuJoCo cell (:class:`TwinJoints`), its pen drawing on an ink canvas, so a hardware-in-the-loop
+run leaves ink and metrics like a simulated one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from inkarm.analysis.metrics import compute_metrics
+from inkarm.control.loop import run_drawing
+from inkarm.core.plant import TorqueCommand
+from inkarm.errors import InkarmError, RunFault
+from inkarm.hardware.dynamixel.calibration import calibration_path, load_calibration
+from inkarm.hardware.dynamixel.config import DynamixelConfig
+from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, Fault, specs_for_profile
+from inkarm.hardware.dynamixel.plant import DynamixelPlant
+from inkarm.ink.canvas import Canvas
+from inkarm.jobs.run import FAILED, INTERRUPTED, OK, Run, RunInterrupted, placed_within_budget
+from inkarm.jobs.scenario import Scenario, load_scenario
+from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
+from inkarm.sim.plant import MujocoPlant
+
+
+class TwinJoints:
+    """The arm joints of a :class:`MujocoPlant` as the emulator's
+    :class:`~inkarm.hardware.dynamixel.physics.JointPhysics` (one physics step a period)."""
+
+    def __init__(self, plant: MujocoPlant):
+        self.plant = plant
+        self.period_s = plant.dt
+
+    def state(self):
+        s = self.plant.read()
+        return s.q, s.qd
+
+    def advance(self, torque) -> None:
+        self.plant.command(TorqueCommand(np.asarray(torque, dtype=float)))
+        self.plant.step()
+
+
+def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: int | None = None,
+                  byte_timing: bool = True) -> DynamixelEmulator:
+    """An emulator of the scenario's robot whose servos move its MuJoCo twin (module
+    docstring); the servos boot holding the home pose with the profile's EEPROM settings.
+    ``emulator.canvas`` is the twin's ink."""
+    if not isinstance(scenario, Scenario):
+        scenario = load_scenario(scenario)
+    cell = Cell(scenario.cell, scenario.robot)
+    profile = scenario.robot
+    cfg = DynamixelConfig.of(profile)
+    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
+                    ink=scenario.ink.make())
+    twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=1)
+    emulator = DynamixelEmulator(specs_for_profile(cfg, profile.n), TwinJoints(twin),
+                                 baudrate=baudrate or cfg.baudrate, faults=faults,
+                                 byte_timing=byte_timing)
+    for servo in emulator.bus.servos:  # as the arm's own setup left them: holding
+        memory = servo.memory
+        memory.set("operating_mode", cfg.mode_number)
+        memory.set("return_delay_time", cfg.return_delay_us // 2)
+        memory.set("torque_enable", 1)
+        emulator.bank.on_write(servo, ["torque_enable"])
+    emulator.canvas = canvas
+    emulator.twin = twin
+    return emulator
+
+
+def twin_canvas(emulator: DynamixelEmulator) -> Canvas:
+    """What :class:`~inkarm.hardware.dynamixel.emulator.EmulatorProcess` brings back."""
+    return emulator.canvas
+
+
+def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
+                  calibration: str | Path | None = None, trace_path: str | Path | None = None,
+                  progress=None) -> Run:
+    """Draw ``scenario`` with the Dynamixel arm on ``port`` (module docstring).
+
+    ``canvas``: where the ink is (an emulated twin's canvas; hardware has none: an empty one).
+    ``calibration``: the calibration file (default: beside the robot profile, when there).
+    """
+    profile = scenario.robot
+    cell = Cell(scenario.cell, profile)
+    try:
+        drawing = placed_within_budget(scenario, cell)
+        believed = kinematic_model(cell)
+        path = Path(calibration) if calibration else calibration_path(profile)
+        cal = load_calibration(path, profile.joint_names) if (calibration or path.is_file()) \
+            else None
+        config = dataclasses.replace(scenario.controller, command="position")
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    notes = () if cal is not None else (f"no calibration file ({path}): tick 2048 is 0 rad",)
+    canvas = canvas if canvas is not None else Canvas(
+        size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make())
+    plant = DynamixelPlant(port, profile, cal, trace_path=trace_path)
+    try:
+        log = run_drawing(drawing, plant, believed, profile.gains, config, progress=progress,
+                          speed_limits=profile.speed_limits)
+    except RunFault as e:  # a DynamixelFault or a watchdog of the loop
+        partial = getattr(e, "log", None)
+        return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e),
+                   notes=notes + (partial.notes if partial is not None else ()))
+    except KeyboardInterrupt as e:
+        partial = getattr(e, "log", None)
+        raise RunInterrupted(Run(scenario, INTERRUPTED, drawing, partial, canvas,
+                                 reason="interrupted by the user (Ctrl-C)")) from None
+    finally:
+        plant.close()
+    metrics = compute_metrics(
+        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+        drawing=log.drawing, q=log.q,
+        joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
+        canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
+    )
+    metrics["bus_overruns"] = plant.overruns
+    return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes + tuple(log.notes))
+
+
+def run_backend(scenario: Scenario, options, progress=None) -> Run:
+    """:mod:`inkarm.jobs.backends` entry: ``options.port``; ``options.extra`` may hold
+    ``calibration`` (a file)."""
+    return run_dynamixel(scenario, options.port,
+                         calibration=options.extra.get("calibration"), progress=progress)
+
+
+__all__ = ["Fault", "TwinJoints", "run_backend", "run_dynamixel", "twin_canvas",
+           "twin_emulator"]
