@@ -8,6 +8,7 @@ One sub-parser per emulated device; to add one, write ``_add_<name>(subparsers)`
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -42,6 +43,12 @@ def _add_grbl(sub) -> None:
                    help="page (width, height) in mm under the pen (default 210,297: A4)")
     p.add_argument("--px-per-mm", type=_positive, default=10.0,
                    help="canvas resolution in px/mm (default 10)")
+    p.add_argument("--pen", choices=("servo", "z"), default="servo",
+                   help="pen mechanism: servo (M3 S>=500 puts it down, 0.12 s to settle; "
+                   "profile servo) or z (touches at Z <= 0; profile z)")
+    p.add_argument("--setting", action="append", default=[], metavar="N=VALUE",
+                   help="a GRBL $ setting, e.g. 110=6000 (X max rate, mm/min) or 22=1 "
+                   "(homing on); repeatable")
     p.add_argument("--fault", action="append", default=[], metavar="KIND:LINE[:CODE]",
                    help="inject a fault at the LINE-th G-code line received: error:LINE[:CODE] "
                    "(reply error:CODE, default 20), alarm:LINE[:CODE] (ALARM:CODE, default 1: "
@@ -76,15 +83,38 @@ def _page(text: str) -> tuple[float, float]:
     return w, h
 
 
+def _setting(text: str) -> tuple[int, float]:
+    from inkarm.hardware.plotter.machine import DEFAULT_SETTINGS
+
+    key, _, value = text.partition("=")
+    try:
+        number, setting = int(key.lstrip("$")), float(value)
+    except ValueError:
+        raise InputError(f"expected N=VALUE (a GRBL $ setting), got {text!r}", key="--setting",
+                         value=text) from None
+    if number not in DEFAULT_SETTINGS:
+        raise InputError(f"${number} is not a GRBL 1.1 setting (expected one of "
+                         f"{', '.join(f'${k}' for k in DEFAULT_SETTINGS)})", key="--setting",
+                         value=text)
+    if not math.isfinite(setting) or setting < 0:
+        raise InputError(f"expected a finite value >= 0, got {text!r}", key="--setting",
+                         value=text)
+    return number, setting
+
+
 def _run_grbl(args: argparse.Namespace) -> int:
     from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator, parse_fault
+    from inkarm.hardware.plotter.machine import PenConfig
     from inkarm.ink.canvas import Canvas
 
     if args.out is not None and Path(args.out).suffix.lower() != ".png":
         raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
     faults = [parse_fault(text) for text in args.fault]
+    settings = tuple(_setting(text) for text in args.setting)
+    pen = PenConfig() if args.pen == "servo" else PenConfig(contact_z_mm=0.0)
     canvas = Canvas(size_mm=_page(args.page), px_per_mm=args.px_per_mm)
-    emulator = GrblEmulator(EmulatorConfig(speedup=args.speedup), canvas=canvas, faults=faults)
+    emulator = GrblEmulator(EmulatorConfig(speedup=args.speedup, settings=settings, pen=pen),
+                            canvas=canvas, faults=faults)
     port = emulator.start()
     print(f"GRBL 1.1 emulator on {port} (speed-up {args.speedup:g}); Ctrl-C to stop", flush=True)
     print(port, flush=True)

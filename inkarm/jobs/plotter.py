@@ -63,6 +63,9 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
         ink_measured(canvas, log)
     notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile {pen.name!r}, "
              f"{len(log)} status reports (the log's rows)"),)
+    if plant.clipped:
+        notes += ((f"plotter: {plant.clipped} pen-down moves slowed to the profile's "
+                  f"max_draw_speed_mm_s = {pen.max_draw_speed_mm_s:g} mm/s"),)
     if own_canvas:
         notes += ("plotter: the canvas inks the measured status positions (5 Hz), not paper",)
     log.notes = notes

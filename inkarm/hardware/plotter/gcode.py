@@ -133,7 +133,8 @@ def _merge(strokes: list[PlotterStroke], merge_mm: float) -> list[PlotterStroke]
 
 
 def resample_stroke(stroke: PlotterStroke, max_line_rate_hz: float) -> PlotterStroke:
-    """The stroke by arc length at ``h = max(max speed / rate, MIN_SEGMENT_MM)`` [mm], each new
+    """The stroke by arc length at about ``h = max(max speed / rate, MIN_SEGMENT_MM)`` [mm]
+    (the whole number of equal chords no shorter than h), each new
     point's speed interpolated along the arc (see the module docstring)."""
     pts = stroke.points
     step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
@@ -142,7 +143,7 @@ def resample_stroke(stroke: PlotterStroke, max_line_rate_hz: float) -> PlotterSt
     if total <= 0:
         return PlotterStroke(pts[:1].copy(), stroke.speed[:1].copy())
     h = max(float(stroke.speed.max()) / max_line_rate_hz, MIN_SEGMENT_MM)
-    n = max(1, math.ceil(total / h - 1e-9))
+    n = max(1, math.floor(total / h + 1e-9))  # spacing >= h: no line shorter than 1/rate
     s = np.linspace(0.0, total, n + 1)
     keep = np.concatenate(([True], step > 0))  # drop repeated points before interpolating
     arc_k, pts_k, v_k = arc[keep], pts[keep], stroke.speed[keep]

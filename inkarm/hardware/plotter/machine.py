@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inkarm.errors import InputError
 from inkarm.hardware.plotter.gcode_parser import MAX_LINE, GcodeError, normalise, parse_block
 from inkarm.hardware.plotter.planner import BLOCK_BUFFER, Planner
 
@@ -38,7 +39,20 @@ DEFAULT_SETTINGS = {
     120: 1500.0, 121: 1500.0, 122: 500.0, 130: 300.0, 131: 300.0, 132: 40.0,
 }
 ALARM_HARD_LIMIT, ALARM_SOFT_LIMIT, ALARM_ABORT_CYCLE = 1, 2, 3
-MAX_SUBSTEP_S = 0.004  # machine time between pen samples on the canvas
+POSITIVE_SETTINGS = (11, 12, 110, 111, 112, 120, 121, 122)  # rates, accelerations, tolerances
+
+
+def setting_error(key: int, value: float) -> str:
+    """Why ``$key=value`` is refused (GRBL's error:3 unknown, error:4 negative; a rate,
+    acceleration or tolerance of 0 is refused too, as it would stall the planner); empty when
+    it is fine."""
+    if key not in DEFAULT_SETTINGS:
+        return "error:3"
+    if not math.isfinite(value) or value < 0 or (key in POSITIVE_SETTINGS and value == 0):
+        return "error:4"
+    return ""
+MAX_SUBSTEP_S = 0.004
+Z_PEN_START_MM = 5.0  # machine time between pen samples on the canvas
 
 
 @dataclass(frozen=True)
@@ -65,7 +79,12 @@ class GrblMachine:
     def __init__(self, settings: dict[int, float] | None = None, pen: PenConfig | None = None,
                  canvas=None, trace: list | None = None):
         self.settings = dict(DEFAULT_SETTINGS)
-        self.settings.update(settings or {})
+        for key, value in (settings or {}).items():
+            if setting_error(key, value):
+                raise InputError(f"${key}={value}: expected a GRBL 1.1 setting with a value "
+                                 ">= 0 (> 0 for rates, accelerations and tolerances)",
+                                 key="settings", value=(key, value))
+            self.settings[key] = value
         self.pen = pen or PenConfig()
         self.canvas = canvas
         self.trace = trace  # (time, x, y, z, touching) per sample, when a list is given
@@ -75,6 +94,8 @@ class GrblMachine:
         self.planned = np.zeros(3)  # where the queued motion ends (GRBL's gc_state.position)
         self.offset = np.zeros(3)  # G92 offset [mm]
         self.lines_done = 0
+        if self.pen.contact_z_mm is not None:  # a Z pen powers up lifted above the page
+            self.position[2] = self.pen.contact_z_mm + Z_PEN_START_MM
         self._build_planner()
         self._power_up()
 
@@ -240,8 +261,9 @@ class GrblMachine:
             except ValueError:
                 self.outbox.append("error:2")
                 return
-            if int(key) not in self.settings:
-                self.outbox.append("error:3")
+            error = setting_error(int(key), number)
+            if error:
+                self.outbox.append(error)
                 return
             if not self.planner.empty:
                 self.outbox.append("error:8")  # GRBL: $ commands only when idle

@@ -57,6 +57,7 @@ class GrblPlant:
         self.settings = read_settings(streamer)
         self.lines: list[str] = []
         self.command_line: list[int] = []  # index of the last line of each command
+        self.clipped = 0  # moves asked faster than the profile's max_draw_speed_mm_s
         self._t0: float | None = None
         self._closed = False
         self._queue(["G20" if profile.units == "in" else "G21", *profile.header])
@@ -86,6 +87,8 @@ class GrblPlant:
                 self._queue([f"G0 X{x:.{p}f} Y{y:.{p}f}"])
             else:
                 speed = float(np.linalg.norm(command.qd[:2])) * 1000.0
+                if speed > self.profile.max_draw_speed_mm_s * 1.0001:
+                    self.clipped += 1
                 speed = min(max(speed, self.profile.min_draw_speed_mm_s),
                             self.profile.max_draw_speed_mm_s)
                 feed = speed * 60.0 / self.profile.unit_mm

@@ -90,7 +90,7 @@ def test_status_reports_and_real_time_hold_resume_reset(emulator):
     # A reset while moving: ALARM:3, G-code locked until $X.
     s.stream(["G1 X0 F3000"])
     time.sleep(0.05)
-    lines = s.wake()
+    s.wake()
     assert "ALARM:3" in emulator.stats.replies
     with pytest.raises(GrblError, match="error:9"):
         s.command("G1 X10 F3000")
@@ -217,7 +217,7 @@ def test_unopenable_port_is_an_input_error():
 def test_emulated_ink_matches_the_plan_and_the_estimate_the_time():
     """The pen's ink within 0.2 mm chamfer of the plan; the planner model's time within 5% of
     the emulator's."""
-    scenario, drawing = placed()
+    _scenario, drawing = placed()
     # 100 lines/s of machine time (1.5 mm chords at 150 mm/s: sagitta < 0.03 mm on the N's
     # curves), so that a loaded test machine still keeps the emulator's planner fed.
     profile = dataclasses.replace(load_profile("servo"), max_line_rate_hz=100.0)

@@ -1,5 +1,6 @@
 """The planner model against GRBL's closed forms: junction speeds, trapezoids, look-ahead."""
 
+import itertools
 import math
 
 import numpy as np
@@ -104,7 +105,7 @@ def test_lookahead_plans_a_stop_at_the_last_block_and_respects_acceleration():
         start = target
     assert planner.full
     blocks = list(planner.blocks)
-    for b, nxt in zip(blocks, blocks[1:], strict=False):
+    for b, nxt in itertools.pairwise(blocks):
         assert nxt.entry_sqr <= b.entry_sqr + 2 * b.accel * b.length + 1e-9
         assert b.entry_sqr <= nxt.entry_sqr + 2 * b.accel * b.length + 1e-9
         assert nxt.entry_sqr <= nxt.max_entry_sqr + 1e-9
