@@ -27,7 +27,7 @@ from inkarm.hardware.plotter.profiles import PenProfile
 from inkarm.hardware.plotter.stream import GrblError, GrblStreamer, StatusReport
 from inkarm.hardware.plotter.timing import Schedule, simulate
 
-SAFE_STOP_S = 3.0  # a failed job is reset, unlocked and its pen lifted within this time
+SAFE_STOP_S = 3.0  # longest wait of each step of a safe stop (reset, unlock, pen up) [s]
 
 
 class GrblPlant:
@@ -197,6 +197,6 @@ def safe_stop(streamer: GrblStreamer, profile: PenProfile, failed: bool) -> None
     with contextlib.suppress(GrblError):  # best effort on the way out: the failure is reported
         if failed:
             streamer.wake(timeout_s=SAFE_STOP_S)
-            streamer.unlock()
+            streamer.command("$X", timeout_s=SAFE_STOP_S)
         for line in profile.pen_lines(False):
             streamer.command(line, timeout_s=SAFE_STOP_S)

@@ -21,13 +21,22 @@ def test_gcode_writes_a_job_and_its_estimate(tmp_path, capsys):
     assert "estimated" in capsys.readouterr().out
 
 
-def test_gcode_reads_an_svg_drawing(tmp_path):
-    svg = tmp_path / "square.svg"
-    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" '
-                   'viewBox="0 0 100 100"><path d="M10,10 L90,10 L90,90 L10,90 Z"/></svg>')
-    out = tmp_path / "square.gcode"
+def test_gcode_reads_vpypes_svg(tmp_path):
+    """vpype writes its layers as Inkscape groups, in CSS pixels (96 per inch) under a
+    millimetre-sized page: 377.953 px is 100 mm; SVG's y points down, the page's up."""
+    svg = tmp_path / "vpype.svg"
+    svg.write_text(
+        '<?xml version="1.0" encoding="utf-8" ?>\n<svg xmlns="http://www.w3.org/2000/svg" '
+        'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" height="297.0mm" '
+        'version="1.1" viewBox="0 0 1122.5197 1122.5197" width="297.0mm"><defs />'
+        '<g id="layer1" inkscape:groupmode="layer" inkscape:label="1" style="fill:none;'
+        'stroke:#0000ff;stroke-width:1"><path d="M377.953,377.953 L755.906,377.953 '
+        'L755.906,755.906" /></g></svg>')
+    out = tmp_path / "vpype.gcode"
     assert main(["gcode", str(svg), "--out", str(out), "--profile", "z"]) == 0
-    assert "G1 Z0 F1200" in out.read_text()
+    text = out.read_text()
+    assert "G1 Z0 F1200" in text
+    assert "G0 X100.000 Y197.000" in text and "G1 X200.000 Y97.000" in text
 
 
 @pytest.mark.parametrize("argv, message", [
