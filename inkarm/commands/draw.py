@@ -168,10 +168,13 @@ def run(args: argparse.Namespace) -> int:
     files = write_run(result, out)
     for note in result.notes:
         print(f"note: {note}")
-    if not result.ok:
+    if not result.finished:
         print(f"inkarm draw: error: the run failed: {result.reason} (partial trace and canvas "
               f"kept in {out}, status in {files['status.json']})", file=sys.stderr)
         return 1
+    if not result.ok:
+        print(f"inkarm draw: warning: the drawing is {result.status}: {result.reason}",
+              file=sys.stderr)
     m = result.metrics
     print(
         f"tracking RMS {m['tracking_rms_mm']:.3f} mm, max {m['tracking_max_mm']:.3f} mm; "

@@ -23,6 +23,7 @@ Units: page [mm] and [s] at this module's surface; the page-to-robot transform
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time as _time
@@ -43,7 +44,7 @@ from inkarm.control.reference import (
 )
 from inkarm.control.sequencing import pen_depth_mm, sequence_pen
 from inkarm.control.watchdog import Watchdog
-from inkarm.core.log import DESCEND, DRAW, LIFT, PHASES, DrawLog
+from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.plant import Plant, PositionCommand, TorqueCommand
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError, RunFault, SimulationError
@@ -222,8 +223,9 @@ def run_drawing(
             ref_row[row] = i
             row += 1
             p = page_ref[i]
-            check(state.time, state.q, state.qd, state.torque, force_f,
-                  math.hypot(tip[0] - p[0], tip[1] - p[1]))
+            # Joint-space moves (approach, home) run far above the sheet: their path is not gated.
+            error = 0.0 if phase in (APPROACH, HOME) else math.hypot(tip[0] - p[0], tip[1] - p[1])
+            check(state.time, state.q, state.qd, state.torque, force_f, error)
             step()
             if progress is not None and row % report_every == 0:
                 progress(i / n_ref, PHASES[phase])
@@ -238,10 +240,11 @@ def run_drawing(
     except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
         stop_from = row
         if state is not None and not isinstance(err, SimulationError):
-            row = _safe_stop(plant, log, ref_row, row, min(i, n_ref - 1), state, normal_q,
-                             config, stop_ticks, torque_mode, update, bias, placement, kin,
-                             senses_tip, torque_saturated=getattr(err, "watchdog", "")
-                             in ("torque_saturated", "joint_speed"))
+            with contextlib.suppress(SimulationError):
+                    row = _safe_stop(plant, log, ref_row, row, min(i, n_ref - 1), state, normal_q,
+                                 config, stop_ticks, torque_mode, update, bias, placement, kin,
+                                 senses_tip, torque_saturated=getattr(err, "watchdog", "")
+                                 in ("torque_saturated", "joint_speed"))
         _brake(plant)
         partial = _with_plan_columns(log, ref, ref_row, row)
         partial.phase[stop_from:] = LIFT

@@ -6,7 +6,7 @@ names itself and the fault (:class:`inkarm.errors.RunFault`), and the loop makes
 * ``force_limit``: the filtered pen force above ``force_limit_n``;
 * ``tracking_limit``: the pen (tip where sensed, else the kinematic model's forward kinematics
   of the measured joints) farther than ``tracking_limit_mm`` from its reference in the page
-  plane for ``watchdog_s``;
+  plane for ``watchdog_s``, near the sheet (not in the joint-space approach and home moves);
 * ``torque_saturated``: a joint torque within 1 % of its limit for ``saturation_s``;
 * ``joint_limit``: a joint outside its range;
 * ``joint_speed``: a joint faster than 1.2 times its speed limit for ``watchdog_s``;

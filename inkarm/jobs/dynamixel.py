@@ -111,7 +111,8 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
                           speed_limits=profile.speed_limits)
     except RunFault as e:  # a DynamixelFault or a watchdog of the loop
         partial = getattr(e, "log", None)
-        return Run(scenario, FAILED, drawing, partial, canvas, reason=str(e),
+        return Run(scenario, FAILED, drawing, partial, canvas,
+                   _metrics(partial, drawing, believed, canvas), reason=str(e),
                    notes=notes + (partial.notes if partial is not None else ()))
     except KeyboardInterrupt as e:
         partial = getattr(e, "log", None)
@@ -119,14 +120,21 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
                                  reason="interrupted by the user (Ctrl-C)")) from None
     finally:
         plant.close()
-    metrics = compute_metrics(
-        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
-        drawing=log.drawing, q=log.q,
-        joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
-        canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
-    )
+    metrics = _metrics(log, drawing, believed, canvas)
     metrics["bus_overruns"] = plant.overruns
+    notes += ("a Dynamixel arm senses no pen force: the force metrics are 0",)
     return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes + tuple(log.notes))
+
+
+def _metrics(log, drawing, believed, canvas) -> dict:
+    """The run's metrics; the pen force, which the servos do not sense, counts as 0."""
+    if log is None or len(log) == 0 or not log.drawing.any():
+        return {}
+    return compute_metrics(
+        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip,
+        force_n=np.nan_to_num(log.force), drawing=log.drawing, q=log.q,
+        joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
+        canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes])
 
 
 def run_backend(scenario: Scenario, options, progress=None) -> Run:

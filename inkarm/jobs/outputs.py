@@ -42,7 +42,7 @@ def write_run(run: Run, out_dir: str | Path, report: bool = True) -> dict[str, P
         if run.log is not None:
             run.log.to_npz(stage / "trace.npz")
         run.canvas.to_png(stage / "canvas.png")
-        if run.ok:
+        if run.finished:
             (stage / "metrics.json").write_text(strict_json(run.metrics))
             if report:
                 from inkarm.plots.report import write_report
@@ -52,7 +52,8 @@ def write_run(run: Run, out_dir: str | Path, report: bool = True) -> dict[str, P
                     stage / "report.png", canvas=run.canvas, times_s=log.time,
                     reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
                     drawing=log.drawing, plan_strokes=[s.pos[:, :2] for s in run.drawing.strokes],
-                    metrics=run.metrics, title=run.scenario.title)
+                    metrics=run.metrics, title=run.scenario.title if run.ok else
+                    f"{run.scenario.title} ({run.status}: {run.reason})")
         status = {"status": run.status, "reason": run.reason, "notes": list(run.notes),
                   "scenario": run.scenario.path, "title": run.scenario.title,
                   "robot": run.scenario.robot.name}

@@ -75,6 +75,11 @@ class Run:
         return self.status == OK
 
     @property
+    def finished(self) -> bool:
+        """The drawing was completed (ok or degraded): its metrics describe all of it."""
+        return self.status in (OK, DEGRADED)
+
+    @property
     def cell(self) -> Cell:
         return Cell(self.scenario.cell, self.scenario.robot)
 

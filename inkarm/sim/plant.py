@@ -94,7 +94,8 @@ class MujocoPlant:
         max_joint_speed: Joint speed in [rad/s] above which the run counts as diverged.
         truth: How the plant differs from the controller's model at run time (the model-level
             differences are in ``model``: :func:`inkarm.sim.perturb.plant_model`).
-        drive_gains: Joint drive gains; with them the plant takes position commands.
+        drive_gains: Joint drive gains for position commands; the robot profile's ``drive``
+            when None.
         firmware: A servo firmware model (``inkarm.robots.servo.ServoFirmware``-like: ``reset``,
             ``torque(goal_q, q, qd)`` in [rad], [rad/s] -> [N m]) used instead of the drive.
     """
@@ -176,6 +177,8 @@ class MujocoPlant:
         self._warning_stats = [self.data.warning[w] for w in _DIVERGENCE_WARNINGS]
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
+        if drive_gains is None and firmware is None:
+            drive_gains = cell.robot.drive
         self._setup_truth(truth or PlantTruth(), drive_gains, firmware)
 
     def _setup_truth(self, truth: PlantTruth, drive_gains, firmware) -> None:
@@ -213,8 +216,9 @@ class MujocoPlant:
         self.firmware = firmware
         self._position_goal: np.ndarray | None = None
         self._motor_torque = np.zeros(n)
+        # Torque commands on an ideal plant go straight to MuJoCo (the per-step work is skipped).
         self._fast = (self.senses_model.ideal and self._delay_steps == 0
-                      and not self.transmission and self.drive is None and firmware is None)
+                      and not self.transmission)
         if not self.senses_model.ideal:
             self.senses_model.record(self._snapshot(self._qpos[self._qpos_adr].copy(),
                                                     self._qvel[self._dof_adr].copy()))
@@ -284,7 +288,9 @@ class MujocoPlant:
         if kind is not TorqueCommand and not (kind is PositionCommand and
                                               "position" in self.commands):
             raise InputError(unsupported(self, command))
-        if self._fast:
+        if self._fast and kind is TorqueCommand:
+            self._position_goal = None
+            self._motor_torque = np.clip(command.torque, -self._limit, self._limit)
             self._ctrl[self._arm_ctrl] = command.torque
             return
         self._queue.append((self._steps + self._delay_steps, command))
@@ -302,7 +308,7 @@ class MujocoPlant:
     def step(self) -> None:
         """Advance one control period; feed the canvas; raise SimulationError on divergence."""
         m, d, canvas = self.model, self.data, self.canvas
-        fast = self._fast
+        fast = self._fast and self._position_goal is None and not self._queue
         for _ in range(self.substeps):
             if not fast:
                 self._actuate()
@@ -420,6 +426,9 @@ class MujocoPlant:
         if self._closed:
             return
         self.data.ctrl[:] = 0.0
+        self._motor_torque = np.zeros(len(self.joint_names))
+        self._position_goal = None
+        self._queue.clear()
         if self._touching and self.canvas is not None:
             self.canvas.lift()
         self._touching = False

@@ -35,6 +35,7 @@ def run_log() -> DrawLog:
     speed = np.abs(ref.qd)
     limits = np.maximum(0.7 * speed[ref.phase == DRAW].max(axis=0),
                         1.1 * speed[~np.isin(ref.phase, [DRAW, APPROACH, HOME])].max(axis=0))
+    limits = np.maximum(limits, 0.01)  # a joint the bar hardly moves keeps a limit
     return run_drawing(drawing, plant, km, robot.gains, config, speed_limits=limits)
 
 

@@ -66,7 +66,8 @@ def test_a_diverging_run_fails_with_a_reason_and_keeps_its_partial_log(tmp_path)
     )
     result = run(scenario)
     assert result.status == "failed" and not result.ok
-    assert result.reason and "diverged" in result.reason
+    # the torque watchdog may fire before the state blows up: either way a named fault
+    assert result.reason.split(":")[0] in ("torque_saturated", "diverged", "joint_speed")
     assert result.metrics == {} and len(result.log.time) > 0
     out = tmp_path / "out"
     out.mkdir()

@@ -47,7 +47,7 @@ def test_built_in_arms_build_with_their_home_and_limits(name):
 
     robot = load_robot(name)
     model = build_model(make_cell(robot=robot))
-    np.testing.assert_allclose(model.key("home").qpos, [*robot.home_q, 0.0])
+    np.testing.assert_allclose(model.key("home").qpos, [*robot.home_q, 0.0, 0.0])  # pen, pad
     np.testing.assert_allclose(model.actuator_ctrlrange[:, 1], robot.torque_limits)
     ranges = joint_ranges(model, robot.joint_names)
     np.testing.assert_allclose(ranges, [j.range for j in robot.joints])

@@ -140,9 +140,23 @@ def test_close_zeroes_torque_and_lifts_an_inking_pen(model):
     assert plant.canvas.calls == [("lift",)]
 
 
-def test_position_commands_are_refused(model):
+def test_position_commands_are_held_by_the_drives(model):
+    plant = MujocoPlant(model)
+    goal = plant.read().q + 0.05
+    for _ in range(150):  # 0.9 s
+        plant.command(PositionCommand(goal))
+        plant.step()
+    np.testing.assert_allclose(plant.read().q, goal, atol=2e-3)
+
+
+def test_a_plant_without_drives_refuses_position_commands(model):
+    class Firmware:  # stands in for servo firmware that was not given
+        pass
+
+    plant = MujocoPlant(model)
+    plant.drive = None
     with pytest.raises(InputError, match="does not take position commands; it takes: torque"):
-        MujocoPlant(model).command(PositionCommand(np.zeros(7)))
+        plant.command(PositionCommand(np.zeros(7)))
 
 
 def test_runaway_speed_is_reported_as_divergence(model):

@@ -91,7 +91,7 @@ class DynamixelPlant:
         self._current_unit = np.array([  # [A] per unit; NaN where a model senses no current
             np.nan if servo_model(m).current_unit_ma is None else
             servo_model(m).current_unit_ma * 1e-3 for m in cfg.models])
-        self.stiffness = self._stiffness()
+        self.stiffness, self.lag_s = self._stiffness()
         self.trace: list[tuple] = []
         self.fault: DynamixelFault | None = None
         self.safe_after_s: float | None = None
@@ -108,19 +108,23 @@ class DynamixelPlant:
             self.bus.close()
             raise
 
-    def _stiffness(self) -> np.ndarray:
-        """Each joint's position-loop stiffness [N m/rad]: P/128 PWM units a tick (e-Manual)
-        x 4096/(2 pi) ticks a radian x stall torque / 885 per servo, summed over its servos;
-        a torque feed-forward becomes the goal offset tau / K that makes the servo push it."""
+    def _stiffness(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each joint's position-loop stiffness K [N m/rad] and damping-to-stiffness ratio
+        D/K [s], from the registers (e-Manual: P/128 PWM units per tick; 885 PWM units give
+        the stall torque) and the back-EMF (stall / no-load speed: the only damping that
+        resists a steady motion, the D term acting on the error), summed over the servos."""
         cfg = self.config
-        p_gain = cfg.gains.get("position_p")
-        k = np.zeros(cfg.n)
+        k, d = np.zeros(cfg.n), np.zeros(cfg.n)
         for j, model in enumerate(cfg.models):
             m = servo_model(model)
-            p_tbl = p_gain[j] if p_gain is not None else m.position_pid_default[2]
-            per_servo = p_tbl / 128.0 * m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
-            k[j] = per_servo * (2 if j in cfg.shadows else 1)
-        return np.maximum(k, 1e-6)
+            gains = {key: cfg.gains[key][j] for key in cfg.gains}
+            p_tbl = gains.get("position_p", m.position_pid_default[2])
+            torque_per_pwm_tick = m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
+            count = 2 if j in cfg.shadows else 1
+            k[j] = count * p_tbl / 128.0 * torque_per_pwm_tick
+            d[j] = count * m.stall_torque_nm / m.no_load_speed_rad_s
+        k = np.maximum(k, 1e-6)
+        return k, d / k
 
     # --- start-up ------------------------------------------------------------------------------
     def _start(self) -> None:
@@ -229,8 +233,12 @@ class DynamixelPlant:
         if q.shape != (self.profile.n,) or not np.isfinite(q).all():
             raise InputError(f"expected {self.profile.n} finite joint goals, got {q}",
                              key="command.q")
-        if command.torque is not None:  # no torque input on a servo: lean into the load instead
+        # A servo takes neither a torque nor a speed: its goal leads by what its loop will lag,
+        # e = (tau_ff + D qd*) / K at steady state (D: back-EMF and the D term).
+        if command.torque is not None:
             q = q + np.nan_to_num(np.asarray(command.torque, dtype=float)) / self.stiffness
+        if command.qd is not None:
+            q = q + np.nan_to_num(np.asarray(command.qd, dtype=float)) * self.lag_s
         q = np.clip(q, self.q_min, self.q_max)
         last = self._goal_q
         q = np.clip(q, last - self.max_step, last + self.max_step)
