@@ -119,7 +119,8 @@ def check_manifest(out: Path, scenario: Scenario) -> None:
             old = None
         if old != digest:
             raise InputError(f"{out} holds a sweep of another scenario (or of this one before "
-                             "it changed); choose another folder", key="--out", value=str(out))
+                             f"it changed: digest {old}, now {digest}); choose another folder",
+                             key="--out", value=str(out))
         return
     out.mkdir(parents=True, exist_ok=True)
     manifest.write_text(strict_json({"scenario": scenario.path, "title": scenario.title,
