@@ -22,7 +22,7 @@ from inkarm.hardware.plotter.plant import GrblPlant
 from inkarm.hardware.plotter.profiles import load_profile
 from inkarm.hardware.plotter.stream import GrblStreamer
 from inkarm.ink.canvas import Canvas
-from inkarm.jobs.run import FAILED, OK, Run
+from inkarm.jobs.run import FAILED, INTERRUPTED, OK, Run, RunInterrupted
 from inkarm.jobs.scenario import Scenario, place, source_drawing
 from inkarm.sim.cell import Cell
 
@@ -55,6 +55,14 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
     try:
         log = run_plotter(drawing, plant, scenario.controller, progress=progress)
         failure = plant.failure
+    except KeyboardInterrupt:
+        # Ctrl-C: stop the machine now (soft reset, unlock, pen up), keep what was measured.
+        plant.streamer.state.failure = plant.streamer.state.failure or "interrupted by the user"
+        plant.close()
+        raise RunInterrupted(Run(scenario, INTERRUPTED, drawing, None, canvas or Canvas(
+            size_mm=size, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make()),
+            reason="interrupted by the user (Ctrl-C); the plotter was reset and its pen "
+            "lifted")) from None
     finally:
         plant.close()
     own_canvas = canvas is None

@@ -4,8 +4,8 @@ sender) to the slave path it prints.
 Two threads share the machine (:class:`inkarm.hardware.plotter.machine.GrblMachine`):
 
 * the *receiver* reads the port as GRBL's serial interrupt does: real-time bytes (``?``
-  status, ``!`` feed hold, ``~`` resume, 0x18 soft reset, 0x80-0xFF overrides) are acted on at
-  once and never buffered; every other byte goes into a 128-byte receive buffer, and a byte
+  status, ``!`` feed hold, ``~`` resume, 0x18 soft reset, 0x80-0xFF overrides of which 0x9E,
+  the spindle stop in a hold, lifts a servo pen) are acted on at once and never buffered; every other byte goes into a 128-byte receive buffer, and a byte
   that finds it full is lost without a word (:attr:`EmulatorStats.bytes_dropped` counts them);
 * the *protocol loop* takes characters out of the buffer into its line only when the machine
   can take a line (not while the planner is full or a dwell or pen change is pending), runs
@@ -28,6 +28,7 @@ import select
 import threading
 import time
 import tty
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Self
 
@@ -35,7 +36,9 @@ from inkarm.errors import InputError
 from inkarm.hardware.plotter.machine import GrblMachine, PenConfig
 
 RX_BUFFER = 128  # GRBL 1.1's serial receive buffer [bytes]
+MAX_REPLIES_KEPT = 10_000
 REALTIME = {ord("?"), ord("!"), ord("~"), 0x18}
+SPINDLE_STOP = 0x9E  # GRBL 1.1's spindle-stop override (extended real-time byte)
 FAULT_KINDS = ("error", "alarm", "disconnect")
 DEFAULT_CODES = {"error": 20, "alarm": 1, "disconnect": 0}
 
@@ -100,7 +103,7 @@ class EmulatorStats:
         machine_time_s: Machine time now [s].
         first_line_s: Machine time when the first line was taken [s] (None before).
         idle_since_s: Machine time when it last became idle with nothing to do [s].
-        replies: Every line written back, in order (status reports excluded).
+        replies: The last lines written back, in order (status reports excluded).
     """
 
     lines: int = 0
@@ -109,7 +112,7 @@ class EmulatorStats:
     machine_time_s: float = 0.0
     first_line_s: float | None = None
     idle_since_s: float = 0.0
-    replies: list[str] | None = None
+    replies: deque[str] | None = None
 
 
 class GrblEmulator:
@@ -122,7 +125,7 @@ class GrblEmulator:
         self.machine = GrblMachine(dict(self.config.settings), self.config.pen, canvas=canvas)
         self.canvas = canvas
         self.faults = {f.line: f for f in faults}
-        self.stats = EmulatorStats(replies=[])
+        self.stats = EmulatorStats(replies=deque(maxlen=MAX_REPLIES_KEPT))
         self._rx = bytearray()
         self._line = bytearray()
         self._realtime: list[int] = []
@@ -232,6 +235,8 @@ class GrblEmulator:
                 machine.feed_hold()
             elif byte == ord("~"):
                 machine.cycle_start()
+            elif byte == SPINDLE_STOP:
+                machine.toggle_spindle_stop()
             elif byte == 0x18:
                 machine.soft_reset()
                 self._rx.clear()

@@ -120,6 +120,9 @@ class GrblMachine:
         self.hold = False
         self.alarm = 0 if not self.settings[22] else -1  # -1: locked until $H or $X
         self.pending_alarm = 0
+        self.spindle_stopped = False  # by the spindle-stop override, in a hold
+        self._pen_before_stop = False
+        self.resume_at: float | None = None  # when a resumed hold starts moving [s]
         self.homing = False
         self.pen_down_target = False
         self.pen_change_at = -math.inf
@@ -164,12 +167,30 @@ class GrblMachine:
             self.hold = True
 
     def cycle_start(self) -> None:
-        if self.hold and self.planner.speed <= 0:
-            self.hold = False
-            self.planner.recalculate()
-        elif self.hold:
-            self.hold = False  # released while still braking: re-plan from the current speed
-            self.planner.recalculate()
+        """``~``: resume from a hold; a pen lifted by the spindle-stop override goes back
+        down first and the motion waits for the servo to settle."""
+        if not self.hold:
+            return
+        if self.spindle_stopped:
+            self.spindle_stopped = False
+            self._pen_command(self._pen_before_stop)
+            self.resume_at = self.time + self.pen.settle_s
+            return
+        self.hold = False  # (released while braking: re-plan from the current speed)
+        self.planner.recalculate()
+
+    def toggle_spindle_stop(self) -> None:
+        """0x9E, GRBL 1.1's spindle-stop override: only in a finished hold (Hold:0), it stops
+        the spindle, which lifts a servo pen; ``~`` restores it before the motion resumes."""
+        if not (self.hold and self.planner.speed <= 0 and self.resume_at is None):
+            return
+        if not self.spindle_stopped:
+            self._pen_before_stop = self.pen_down_target
+            self.spindle_stopped = True
+            self._pen_command(False)
+        else:
+            self.spindle_stopped = False
+            self._pen_command(self._pen_before_stop)
 
     def soft_reset(self) -> None:
         """0x18: kill motion (ALARM:3 when it was moving), spindle off, flush, banner."""
@@ -432,6 +453,10 @@ class GrblMachine:
                 pos = self.planner.position()
                 self.position = pos if pos is not None else self.planner.last_target.copy()
             self.time += step
+            if self.resume_at is not None and self.time >= self.resume_at:
+                self.resume_at = None
+                self.hold = False
+                self.planner.recalculate()
             self._ink()
             if self.hold and self.planner.speed <= 0 and self.pending_alarm:
                 code, self.pending_alarm = self.pending_alarm, 0

@@ -121,6 +121,14 @@ class GrblPlant:
 
     # -- streaming -----------------------------------------------------------------------------
 
+    def pause(self, lift: bool = True):
+        """Feed hold, then lift a servo pen (GRBL's spindle-stop override); the last status."""
+        return self.streamer.pause(lift)
+
+    def resume(self) -> None:
+        """Pen back down where it was, then continue."""
+        self.streamer.resume()
+
     @property
     def failure(self) -> str:
         return self.streamer.state.failure

@@ -179,7 +179,26 @@ class GrblStreamer:
         self.realtime(b"!")
 
     def resume(self) -> None:
+        """``~``: resume (a pen lifted by :meth:`pause` goes down first, where it left)."""
         self.realtime(b"~")
+
+    def pause(self, lift: bool = True, timeout_s: float = 10.0) -> StatusReport | None:
+        """Feed hold (``!``) until the device stops (Hold:0), then, with ``lift``, GRBL 1.1's
+        spindle-stop override (0x9E) that lifts a servo pen; :meth:`resume` puts it back down
+        and continues from the same position. Returns the last status."""
+        self.feed_hold()
+        end = self.clock() + timeout_s
+        while not self.state.failure and self.clock() < end:
+            self.realtime(b"?")
+            for line in self._read_lines():
+                self._answer(line)
+            s = self.last_status
+            if s is not None and s.state == "Hold:0":
+                if lift:
+                    self.realtime(b"\x9e")
+                return s
+            time.sleep(0.05)
+        return self.last_status
 
     def close(self) -> None:
         try:

@@ -251,3 +251,30 @@ def test_scenario_and_word_on_the_emulated_plotter_give_the_arm_metrics(path):
     assert len(run.log) > 10 and run.log.drawing.any()
     assert set(np.unique(run.log.stroke[run.log.drawing])) == set(range(len(run.drawing.strokes)))
     assert np.all(np.diff(run.log.time) > 0)
+
+
+def test_pause_lifts_the_pen_and_resume_continues_where_it_left():
+    canvas = Canvas((210, 297), 10)
+    with GrblEmulator(EmulatorConfig(speedup=10), canvas=canvas) as emu:
+        s = connect(emu)
+        # (M5 waits for the motion before its ok, so stream() would wait for the end.)
+        s.queue(["G21 G90", "G0 X20 Y50", "M3 S1000", "G4 P0.15", "G1 X180 Y50 F1200", "M5"])
+        end = time.monotonic() + 0.4
+        while time.monotonic() < end:
+            s.pump()
+        held = s.pause(lift=True)
+        assert held.state == "Hold:0" and 20 < held.mpos[0] < 180
+        time.sleep(0.1)  # 1 s of machine time: the servo is up
+        assert not emu.machine.pen_touching and not canvas.in_contact
+        assert emu.machine.position[0] == pytest.approx(held.mpos[0], abs=1e-3)
+        s.resume()
+        while not s.done:
+            s.pump()
+        s.wait_idle(10)
+        assert s.last_status.mpos[:2] == pytest.approx((180.0, 50.0))
+        s.close()
+    ink = canvas.ink_points_mm(0.5)
+    assert ink_chamfer_mm(canvas.image, 10, [np.array([[20.0, 50.0], [180.0, 50.0]])]) < 0.1
+    # No gap where it paused: every millimetre of the line has ink.
+    assert np.all(np.isin(np.arange(21, 180), np.round(ink[:, 0]).astype(int)))
+    assert canvas.n_strokes == 2  # lifted once in the middle
