@@ -112,7 +112,8 @@ def update(scenarios) -> int:
             continue
         comparison = compare(result, old, name)
         write_baseline(result, folder)
-        changes = [m for m in comparison.checks if m.gated and m.new != m.baseline]
+        changes = [m for m in comparison.checks
+                   if m.gated and _fmt(m.new) != _fmt(m.baseline)]
         if not changes:
             print(f"updated {name}: no metric changed")
         else:
