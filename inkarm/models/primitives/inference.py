@@ -142,16 +142,26 @@ def forward_backward(log_h: np.ndarray, log_stay: np.ndarray, log_advance: np.nd
         np.add(hb[:, 0], log_advance[-1], out=moved[:, -1])
         np.logaddexp(stay, moved, out=lb[t - 1])
     log_z = np.logaddexp.reduce(la[T - 1], axis=-1)
-    gamma = np.exp(la + lb - log_z[:, None])
-    gamma *= mask[..., None]
+    K = log_h.shape[-1]
     if T > 1:
         # xi_t(i -> i+1) for the transition from t-1 to t, both inside the sequence
-        log_xi = la[:-1] + log_advance + np.roll(log_h[1:] + lb[1:], -1, axis=-1) - log_z[:, None]
+        ahead = np.add(log_h[1:], lb[1:])
+        log_xi = np.empty_like(ahead)
+        np.add(ahead[..., 1:], log_advance[:-1], out=log_xi[..., :-1])
+        np.add(ahead[..., 0], log_advance[-1], out=log_xi[..., -1])
+        log_xi += la[:-1]
+        log_xi -= log_z[:, None]
+        np.exp(log_xi, out=log_xi)
         inside = mask[1:, :, None]
-        advance_counts = np.where(inside, np.exp(log_xi), 0.0).sum(axis=(0, 1))
-        occupancy = (gamma[:-1] * inside).sum(axis=(0, 1))
+        log_xi *= inside
+        advance_counts = log_xi.sum(axis=(0, 1))
     else:
-        advance_counts = occupancy = np.zeros(log_h.shape[-1])
+        advance_counts = np.zeros(K)
+    gamma = np.add(la, lb, out=la)
+    gamma -= log_z[:, None]
+    np.exp(gamma, out=gamma)
+    gamma *= mask[..., None]
+    occupancy = (gamma[:-1] * mask[1:, :, None]).sum(axis=(0, 1)) if T > 1 else np.zeros(K)
     return ChainPosterior(gamma, log_h, log_z, advance_counts, occupancy)
 
 
@@ -197,7 +207,7 @@ def e_step(model: PrimitiveModel, batch: Batch, start: Posterior | None = None,
     log_stay, log_adv = model.log_transitions()
     with np.errstate(divide="ignore"):
         log_start = np.log(model.start)
-    mean = np.einsum("mtbk,mkd->tbd", post.expectations, model.W)
+    mean = sum(c.gamma @ model.W[m] for m, c in enumerate(post.chains))
     sweeps = 0
     for sweeps in range(1, max_sweeps + 1):
         change = 0.0
