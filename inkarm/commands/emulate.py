@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
 import time
 from pathlib import Path
@@ -102,6 +103,10 @@ def _setting(text: str) -> tuple[int, float]:
     return number, setting
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def _run_grbl(args: argparse.Namespace) -> int:
     from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator, parse_fault
     from inkarm.hardware.plotter.machine import PenConfig
@@ -115,6 +120,9 @@ def _run_grbl(args: argparse.Namespace) -> int:
     canvas = Canvas(size_mm=_page(args.page), px_per_mm=args.px_per_mm)
     emulator = GrblEmulator(EmulatorConfig(speedup=args.speedup, settings=settings, pen=pen),
                             canvas=canvas, faults=faults)
+    signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops it as Ctrl-C does
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:  # started in the background by a shell
+        signal.signal(signal.SIGINT, _interrupt)
     port = emulator.start()
     print(f"GRBL 1.1 emulator on {port} (speed-up {args.speedup:g}); Ctrl-C to stop", flush=True)
     print(port, flush=True)
