@@ -21,15 +21,16 @@ import numpy as np
 
 from inkarm.analysis.metrics import compute_metrics
 from inkarm.control.loop import run_drawing
-from inkarm.core.plant import TorqueCommand
+from inkarm.core.plant import PositionCommand, TorqueCommand
 from inkarm.errors import InkarmError, RunFault
 from inkarm.hardware.dynamixel.calibration import calibration_path, load_calibration
 from inkarm.hardware.dynamixel.config import DynamixelConfig
 from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, Fault, specs_for_profile
-from inkarm.hardware.dynamixel.plant import DynamixelPlant
+from inkarm.hardware.dynamixel.plant import DynamixelPlant, servo_goal, servo_stiffness
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.run import FAILED, INTERRUPTED, OK, Run, RunInterrupted, placed_within_budget
 from inkarm.jobs.scenario import Scenario, load_scenario
+from inkarm.robots.servo import FirmwareGains, ServoFirmware, rad_to_ticks
 from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
 from inkarm.sim.plant import MujocoPlant
 
@@ -144,5 +145,115 @@ def run_backend(scenario: Scenario, options, progress=None) -> Run:
                          calibration=options.extra.get("calibration"), progress=progress)
 
 
-__all__ = ["Fault", "TwinJoints", "run_backend", "run_dynamixel", "twin_canvas",
-           "twin_emulator"]
+
+
+class JointFirmware:
+    """The profile's servos (:class:`inkarm.robots.servo.ServoFirmware` with the registers of
+    ``[backends.dynamixel]``) as a :class:`MujocoPlant` firmware in joint units: goals are
+    rounded to whole ticks as the bus writes them, a shadowed joint gets both servos' torque.
+    The pure simulation of the arm the emulator serves."""
+
+    def __init__(self, profile, period_s: float):
+        cfg = DynamixelConfig.of(profile)
+        gains = FirmwareGains(**{k: np.asarray(v, dtype=float) for k, v in cfg.gains.items()})
+        self.firmware = ServoFirmware(cfg.models, gains, period_s)
+        self.count = np.array([2.0 if j in cfg.shadows else 1.0 for j in range(cfg.n)])
+        self._started = False
+
+    def reset(self, q) -> None:
+        self.firmware.reset(rad_to_ticks(q))
+        self._started = True
+
+    def torque(self, goal_q, q, qd) -> np.ndarray:
+        if not self._started:
+            self.reset(q)
+        goal = np.rint(rad_to_ticks(goal_q))
+        return self.count * self.firmware.torque(goal, rad_to_ticks(q), qd)
+
+
+class ServoGoals:
+    """A plant whose position goals pass through :func:`servo_goal` first, as
+    :class:`DynamixelPlant` sends them (every other call goes to ``plant``)."""
+
+    def __init__(self, plant, profile):
+        self._plant = plant
+        self.stiffness, self.lead_s = servo_stiffness(DynamixelConfig.of(profile), plant.dt)
+
+    def __getattr__(self, name):
+        return getattr(self._plant, name)
+
+    def command(self, command) -> None:
+        if isinstance(command, PositionCommand):
+            command = PositionCommand(servo_goal(command, self.stiffness, self.lead_s))
+        self._plant.command(command)
+
+
+def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
+    """The scenario on the MuJoCo arm driven by the same servo firmware, registers and goal
+    shaping as the Dynamixel backend, without a bus: the pure simulation a hardware-in-the-loop
+    run is compared with."""
+    profile = scenario.robot
+    cell = Cell(scenario.cell, profile)
+    drawing = placed_within_budget(scenario, cell)
+    believed = kinematic_model(cell)
+    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
+                    ink=scenario.ink.make())
+    substeps = max(1, round(profile.control_period_s / scenario.cell.timestep))
+    twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=substeps,
+                       firmware=JointFirmware(profile, scenario.cell.timestep))
+    config = dataclasses.replace(scenario.controller, command="position")
+    try:
+        log = run_drawing(drawing, ServoGoals(twin, profile), believed, profile.gains, config,
+                          progress=progress, speed_limits=profile.speed_limits)
+    except RunFault as e:
+        partial = getattr(e, "log", None)
+        return Run(scenario, FAILED, drawing, partial, canvas,
+                   _metrics(partial, drawing, believed, canvas), reason=str(e))
+    finally:
+        twin.close()
+    return Run(scenario, OK, drawing, log, canvas, _metrics(log, drawing, believed, canvas))
+
+
+def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
+            latency_ms: float | None = None, progress=None) -> Run:
+    """A whole hardware-in-the-loop run on this machine: the twin emulator in a child process
+    on a pty, :func:`run_dynamixel` through dynamixel-sdk, the twin's canvas brought back and
+    the metrics computed on its ink. ``latency_ms`` overrides the profile's USB latency timer
+    (a loaded machine answers late)."""
+    import functools
+
+    from inkarm.hardware.dynamixel.emulator import EmulatorProcess
+
+    if latency_ms is not None:
+        backends = dict(scenario.robot.backends)
+        backends["dynamixel"] = {**backends["dynamixel"], "latency_ms": latency_ms}
+        robot = dataclasses.replace(scenario.robot, backends=backends)
+        scenario = dataclasses.replace(scenario, robot=robot)
+    emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults)),
+                               twin_canvas)
+    port = emulator.start()
+    try:
+        result = run_dynamixel(scenario, port, trace_path=trace_path, progress=progress)
+    finally:
+        canvas = emulator.stop()
+    if canvas is None:
+        return result
+    cell = Cell(scenario.cell, scenario.robot)
+    metrics = _metrics(result.log, result.drawing, kinematic_model(cell), canvas)
+    if "bus_overruns" in result.metrics:
+        metrics["bus_overruns"] = result.metrics["bus_overruns"]
+    return dataclasses.replace(result, canvas=canvas, metrics=metrics)
+
+
+__all__ = [
+    "Fault",
+    "JointFirmware",
+    "ServoGoals",
+    "TwinJoints",
+    "hil_run",
+    "run_backend",
+    "run_dynamixel",
+    "simulate_servo_arm",
+    "twin_canvas",
+    "twin_emulator",
+]

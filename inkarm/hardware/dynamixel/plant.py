@@ -47,6 +47,36 @@ PARK_TIMEOUT_S = 4.0
 PARK_SPEED_RAD_S = 0.8
 
 
+def servo_stiffness(config: DynamixelConfig, period_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each joint's position-loop stiffness K [N m/rad] and goal lead [s], from its servos'
+    registers: K = P/128 PWM units a tick (e-Manual) x 4096 / (2 pi) ticks a radian x stall
+    torque / 885 PWM units, summed over the joint's servos; the lead is the back-EMF's damping
+    over K (stall / no-load speed: the only damping that resists a steady motion, the D term
+    acting on the error) plus one period (the goal waits on the bus before a servo acts)."""
+    k, d = np.zeros(config.n), np.zeros(config.n)
+    for j, model in enumerate(config.models):
+        m = servo_model(model)
+        p_tbl = config.gains["position_p"][j] if "position_p" in config.gains else \
+            m.position_pid_default[2]
+        count = 2 if j in config.shadows else 1
+        k[j] = count * p_tbl / 128.0 * m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
+        d[j] = count * m.stall_torque_nm / m.no_load_speed_rad_s
+    k = np.maximum(k, 1e-6)
+    return k, d / k + period_s
+
+
+def servo_goal(command: PositionCommand, stiffness: np.ndarray, lead_s: np.ndarray) -> np.ndarray:
+    """The goal [rad] a servo needs to follow ``command``: it takes neither a torque nor a
+    speed, so its goal leads by what its loop will lag, ``(tau_ff + D qd*) / K``
+    (:func:`servo_stiffness`)."""
+    q = np.asarray(command.q, dtype=float)
+    if command.torque is not None:
+        q = q + np.nan_to_num(np.asarray(command.torque, dtype=float)) / stiffness
+    if command.qd is not None:
+        q = q + np.nan_to_num(np.asarray(command.qd, dtype=float)) * lead_s
+    return q
+
+
 def hardware_error_text(status: int) -> str:
     bits = [name for bit, name in HARDWARE_ERRORS.items() if status & (1 << bit)]
     return ", ".join(bits) or f"status {status:#04x}"
@@ -91,7 +121,7 @@ class DynamixelPlant:
         self._current_unit = np.array([  # [A] per unit; NaN where a model senses no current
             np.nan if servo_model(m).current_unit_ma is None else
             servo_model(m).current_unit_ma * 1e-3 for m in cfg.models])
-        self.stiffness, self.lag_s = self._stiffness()
+        self.stiffness, self.lead_s = servo_stiffness(cfg, self._dt)
         self.trace: list[tuple] = []
         self.fault: DynamixelFault | None = None
         self.safe_after_s: float | None = None
@@ -107,24 +137,6 @@ class DynamixelPlant:
         except BaseException:
             self.bus.close()
             raise
-
-    def _stiffness(self) -> tuple[np.ndarray, np.ndarray]:
-        """Each joint's position-loop stiffness K [N m/rad] and damping-to-stiffness ratio
-        D/K [s], from the registers (e-Manual: P/128 PWM units per tick; 885 PWM units give
-        the stall torque) and the back-EMF (stall / no-load speed: the only damping that
-        resists a steady motion, the D term acting on the error), summed over the servos."""
-        cfg = self.config
-        k, d = np.zeros(cfg.n), np.zeros(cfg.n)
-        for j, model in enumerate(cfg.models):
-            m = servo_model(model)
-            gains = {key: cfg.gains[key][j] for key in cfg.gains}
-            p_tbl = gains.get("position_p", m.position_pid_default[2])
-            torque_per_pwm_tick = m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
-            count = 2 if j in cfg.shadows else 1
-            k[j] = count * p_tbl / 128.0 * torque_per_pwm_tick
-            d[j] = count * m.stall_torque_nm / m.no_load_speed_rad_s
-        k = np.maximum(k, 1e-6)
-        return k, d / k
 
     # --- start-up ------------------------------------------------------------------------------
     def _start(self) -> None:
@@ -233,12 +245,7 @@ class DynamixelPlant:
         if q.shape != (self.profile.n,) or not np.isfinite(q).all():
             raise InputError(f"expected {self.profile.n} finite joint goals, got {q}",
                              key="command.q")
-        # A servo takes neither a torque nor a speed: its goal leads by what its loop will lag,
-        # e = (tau_ff + D qd*) / K at steady state (D: back-EMF and the D term).
-        if command.torque is not None:
-            q = q + np.nan_to_num(np.asarray(command.torque, dtype=float)) / self.stiffness
-        if command.qd is not None:
-            q = q + np.nan_to_num(np.asarray(command.qd, dtype=float)) * self.lag_s
+        q = servo_goal(command, self.stiffness, self.lead_s)
         q = np.clip(q, self.q_min, self.q_max)
         last = self._goal_q
         q = np.clip(q, last - self.max_step, last + self.max_step)
