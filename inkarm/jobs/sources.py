@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from inkarm.core.trajectory import Drawing, Trajectory
+from inkarm.errors import InputError
 from inkarm.io.toml import TomlReader
 
 
@@ -181,9 +182,44 @@ class TraceSource:
         return restyle(load_trace(self.file), RestyleConfig(**options)).drawing
 
 
-Source = PlanSource | TrajectorySource | TextSource | TagSource | TraceSource
+@dataclass(frozen=True)
+class PrimitivesSource:
+    """A scribble of the motor-primitive fHMM (seed 004 Fig. 8, :mod:`inkarm.models.primitives`):
+    the ``model`` file (.npz from ``inkarm primitives learn``; default the shipped model of the
+    letter a) run generatively for ``duration_s`` [s] from the scenario's seed, one stroke."""
+
+    model: Path | None = None
+    duration_s: float = 4.0
+    kind: ClassVar[str] = "primitives"
+
+    @classmethod
+    def parse(cls, rd: TomlReader, table: dict, base_dir: Path) -> PrimitivesSource:
+        kw: dict[str, Any] = {}
+        if "model" in table:
+            file = base_dir / rd.text(table["model"], "source.model")
+            if not file.is_file():
+                raise rd.error("source.model", f"no such file: {file}", value=table["model"])
+            kw["model"] = file.resolve()
+        if "duration_s" in table:
+            kw["duration_s"] = rd.number(table["duration_s"], "source.duration_s", 0.0,
+                                         strict=True, maximum=600.0)
+        return cls(**kw)
+
+    def drawing(self, seed: int, where: str) -> Drawing:
+        from inkarm.models.primitives import PrimitiveModel
+        from inkarm.models.primitives.generate import SHIPPED_MODEL, scribble
+
+        try:
+            model = PrimitiveModel.load(self.model or SHIPPED_MODEL)
+        except InputError as e:
+            raise e.within(key="source.model") from None
+        return Drawing([scribble(model, self.duration_s, seed=seed)[0]])
+
+
+Source = PlanSource | TrajectorySource | TextSource | TagSource | TraceSource | PrimitivesSource
 SOURCES: dict[str, type] = {
-    cls.kind: cls for cls in (PlanSource, TrajectorySource, TextSource, TagSource, TraceSource)
+    cls.kind: cls for cls in (PlanSource, TrajectorySource, TextSource, TagSource, TraceSource,
+                              PrimitivesSource)
 }
 
 
