@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+from inkarm.commands._dynamixel import add_emulate_parser
 from inkarm.errors import InputError
 
 
@@ -57,7 +58,7 @@ def _add_grbl(sub) -> None:
     p.set_defaults(_emulate=_run_grbl)
 
 
-EMULATORS = {"grbl": _add_grbl}
+EMULATORS = {"grbl": _add_grbl, "dynamixel": add_emulate_parser}
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -99,8 +99,17 @@ def _run_plotter(scenario: Scenario, options: BackendOptions, progress: Progress
                                 progress=progress)
 
 
+def _run_dynamixel(scenario: Scenario, options: BackendOptions, progress: Progress) -> Run:
+    from inkarm.jobs.dynamixel import run_dynamixel
+
+    # --profile names the arm's calibration file (default: beside the robot profile)
+    return run_dynamixel(scenario, options.port, calibration=options.profile, progress=progress)
+
+
 register(Backend("sim", "the MuJoCo arm of the scenario (default)", False, _run_sim))
 register(Backend("plotter", "a GRBL 1.1 pen plotter on a serial port", True, _run_plotter))
+register(Backend("dynamixel", "a Dynamixel X-series arm (Protocol 2.0) on a serial port", True,
+                 _run_dynamixel))
 
 __all__ = ["Backend", "BackendOptions", "backend_names", "get_backend", "register",
            "run_backend"]

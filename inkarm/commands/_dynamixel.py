@@ -1,0 +1,101 @@
+"""``inkarm emulate dynamixel``: the Protocol 2.0 emulator of a robot's servos on a
+pseudo-terminal (registered in :mod:`inkarm.commands.emulate`)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+from pathlib import Path
+
+from inkarm.errors import InputError
+
+
+def add_emulate_parser(sub) -> None:
+    p = sub.add_parser(
+        "dynamixel",
+        help="a Dynamixel X-series arm on a Protocol 2.0 bus (the MuJoCo twin or simple joints)",
+        description="Emulate the Dynamixel servos of a robot profile on a pseudo-terminal: "
+        "Protocol 2.0 (CRC, stuffing, every instruction, status return level, EEPROM lock, "
+        "bus watchdog, hardware errors), byte timing at the baud rate, the servos' firmware "
+        "moving the robot's MuJoCo twin in real time, its pen drawing on an ink canvas. "
+        "Prints the port for `inkarm draw --backend dynamixel --port PORT`; Ctrl-C stops it.",
+    )
+    p.add_argument("--robot", default="wx250s", metavar="NAME|FILE.toml",
+                   help="robot profile with a [backends.dynamixel] table (default wx250s)")
+    p.add_argument("--scenario", default=None, metavar="FILE.toml",
+                   help="scenario whose cell, paper and ink the twin uses (default: the "
+                   "robot's default job)")
+    p.add_argument("--simple", action="store_true",
+                   help="no twin: each joint a damped rotor (no gravity, no paper, no ink)")
+    p.add_argument("--baudrate", type=int, default=None,
+                   help="bit/s for the byte timing (default: the profile's)")
+    p.add_argument("--no-byte-timing", action="store_true",
+                   help="answer at once (no wire or return-delay time)")
+    p.add_argument("--fault", action="append", default=[], metavar="KIND:ID:SECONDS",
+                   help="inject a fault SECONDS after the first torque-on: silent, crc, late, "
+                   "overload, overheat, watchdog, disconnect (e.g. overload:4:2.5); repeatable")
+    p.add_argument("--out", metavar="FILE.png", default=None,
+                   help="write the twin's ink canvas here on exit")
+    p.set_defaults(_emulate=run_emulate)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def run_emulate(args: argparse.Namespace) -> int:
+    from inkarm.hardware.dynamixel.config import DynamixelConfig
+    from inkarm.hardware.dynamixel.emulator import (
+        DynamixelEmulator,
+        SimpleJoints,
+        parse_fault,
+        specs_for_profile,
+    )
+    from inkarm.jobs.dynamixel import twin_emulator
+    from inkarm.jobs.scenario import load_scenario
+
+    if args.out is not None and Path(args.out).suffix.lower() != ".png":
+        raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
+    faults = [parse_fault(text) for text in args.fault]
+    scenario = load_scenario(args.scenario)
+    key = "robot.file" if args.robot.endswith(".toml") else "robot.name"
+    robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
+    scenario = scenario.with_overrides({"robot": {}, key: robot})
+    profile = scenario.robot
+    if args.simple:
+        cfg = DynamixelConfig.of(profile)
+        emulator = DynamixelEmulator(specs_for_profile(cfg, profile.n),
+                                     SimpleJoints.at(profile.home_q, inertia=0.02, damping=0.5),
+                                     baudrate=args.baudrate or cfg.baudrate, faults=faults,
+                                     byte_timing=not args.no_byte_timing)
+    else:
+        emulator = twin_emulator(scenario, faults, args.baudrate,
+                                 byte_timing=not args.no_byte_timing)
+    signal.signal(signal.SIGTERM, _interrupt)
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _interrupt)
+    port = emulator.start()
+    ids = ", ".join(str(s.id) for s in emulator.bus.servos)
+    print(f"Dynamixel Protocol 2.0 emulator of {profile.name} (servos {ids}) at "
+          f"{emulator.baudrate} bit/s on {port}; Ctrl-C to stop", flush=True)
+    print(port, flush=True)
+    try:
+        while emulator.running:
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        emulator.stop()
+        canvas = getattr(emulator, "canvas", None)
+        if args.out is not None and canvas is not None:
+            print(f"canvas: {canvas.to_png(args.out)}", file=sys.stderr)
+    s = emulator.stats
+    print(f"{s.packets} packets, {s.replies} replies, {s.bytes_skipped} bytes skipped, "
+          f"{s.dropped_s:.3f} s of physics dropped; faults: {', '.join(s.faults) or 'none'}",
+          file=sys.stderr)
+    if emulator.error is not None and not isinstance(emulator.error, OSError):
+        print(f"inkarm emulate: error: {emulator.error}", file=sys.stderr)
+        return 1
+    return 0
