@@ -40,13 +40,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--viewer", action="store_true",
                    help="open MuJoCo's viewer on the finished run (needs a display)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--backend", default="sim", metavar="{sim,plotter,...}",
+    p.add_argument("--backend", default="sim", metavar="{sim,plotter,dynamixel}",
                    help="where to draw: sim (the MuJoCo arm, default) or a device on --port "
                    "(plotter: GRBL 1.1; see inkarm.jobs.backends)")
     p.add_argument("--port", default=None,
                    help="serial port of the device (a pseudo-terminal from `inkarm emulate`)")
     p.add_argument("--profile", metavar="NAME|FILE.toml", default=None,
-                   help="device profile: for a plotter, the pen profile (servo, z) or a file")
+                   help="device profile: for a plotter, the pen profile (servo, z) or a file; for a "
+                   "Dynamixel arm, its calibration file (default: beside the robot profile)")
     p.add_argument("--time-scale", type=float, default=1.0,
                    help="device seconds per wall second: an emulator's --speedup (default 1)")
     p.add_argument("--check", action="store_true",
