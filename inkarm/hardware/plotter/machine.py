@@ -255,7 +255,7 @@ class GrblMachine:
 
     def _system(self, line: str) -> None:
         if line == "$$":
-            self.outbox.extend(f"${k}={_fmt(v)}" for k, v in sorted(self.settings.items()))
+            self.outbox.extend(f"${k}={_fmt(k, v)}" for k, v in sorted(self.settings.items()))
         elif line == "$I":
             self.outbox.extend([f"[VER:{VERSION}.20190825:]", "[OPT:V,15,128]"])
         elif line == "$G":
@@ -476,6 +476,6 @@ class GrblMachine:
             self.canvas.lift()
 
 
-def _fmt(value: float) -> str:
-    return f"{value:.3f}" if isinstance(value, float) and value != int(value) else \
-        f"{value:.3f}" if isinstance(value, float) else str(value)
+def _fmt(key: int, value: float) -> str:
+    """A setting as ``$$`` prints it: whole-number settings as integers, others to 3 places."""
+    return str(int(value)) if isinstance(DEFAULT_SETTINGS.get(key), int) else f"{value:.3f}"
