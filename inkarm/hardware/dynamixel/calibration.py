@@ -134,3 +134,37 @@ def measure(read_ticks: Callable[[int], int], joint_names: Sequence[str],
         say(f"    {name}: zero at {zero % TICKS} ticks, direction {direction:+d} "
             f"({math.degrees(delta * 2 * math.pi / TICKS):+.1f} deg measured)")
     return Calibration(tuple(joint_names), np.array(offsets, float), np.array(directions, float))
+
+
+def calibrate_arm(port: str, profile, path: str | Path | None = None,
+                  ask: Callable[[str], str] = input, say: Callable[[str], None] = print) -> Path:
+    """Measure the arm on ``port`` (:func:`measure`, the servos' torque off so the joints move
+    by hand) and write the calibration file (default :func:`calibration_path`). Refuses, as
+    :class:`~inkarm.hardware.dynamixel.plant.DynamixelPlant` does, servos that do not match
+    the profile."""
+    from inkarm.hardware.dynamixel.bus import DynamixelBus
+    from inkarm.hardware.dynamixel.config import DynamixelConfig
+    from inkarm.hardware.dynamixel.tables import MODEL_NAMES
+
+    cfg = DynamixelConfig.of(profile)
+    path = Path(path) if path is not None else calibration_path(profile)
+    names = dict(zip(cfg.ids, profile.joint_names))
+    with DynamixelBus(port, cfg.baudrate, cfg.retries, names, cfg.latency_ms) as bus:
+        problems = []
+        for servo_id, model in zip(cfg.ids, cfg.models):
+            found = bus.ping(servo_id)
+            if found is None or MODEL_NAMES.get(found[0]) != model:
+                what = "no reply" if found is None else \
+                    f"a {MODEL_NAMES.get(found[0], found[0])} answers"
+                problems.append(f"{bus.who(servo_id)}: {what} (expected a {model})")
+        if problems:
+            raise InputError(f"the servos on {port} do not match robot {profile.name!r}: "
+                             + "; ".join(problems), key="backends.dynamixel")
+        say("torque off: the arm goes limp; support it.")
+        for servo_id in cfg.all_ids:
+            bus.write(servo_id, "torque_enable", 0)
+        calibration = measure(lambda j: bus.read(cfg.ids[j], "present_position"),
+                              profile.joint_names, ask, say)
+    saved = save_calibration(calibration, path, profile.name)
+    say(f"calibration: {saved}")
+    return saved
