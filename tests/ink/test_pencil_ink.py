@@ -125,3 +125,18 @@ def test_scenario_sets_the_grade_and_names_a_bad_one(tmp_path):
     job.write_text("[source]\nkind = 'tag'\n[ink]\nmodel = 'pencil'\ngrade = '9B'\n")
     with pytest.raises(InputError, match=r"job.toml: ink.grade: unknown pencil grade '9B'"):
         load_scenario(job)
+
+
+@pytest.mark.parametrize("points", [
+    [(10.0, 10.0)],  # a single touch: a dot
+    [(10.0, 10.0)] * 50,  # the pen resting
+    [(10.0, 10.0 + 1e-4 * k) for k in range(50)],  # all but resting
+    [(0.0, 0.0), (0.05, 0.0)],  # on the page's corner
+])
+def test_dots_and_rests_get_a_textured_mark_in_range(points):
+    canvas = Canvas(size_mm=(20.0, 20.0), px_per_mm=10.0, ink=PencilInk(grade="8B"))
+    _stroke(canvas, points, [1.0] * len(points))
+    image = canvas.image
+    assert 0.0 < image.max() <= 1.0 and image.min() >= 0.0
+    near = canvas.ink_points_mm(threshold=1e-3) - np.asarray(points[0])
+    assert np.all(np.linalg.norm(near, axis=1) <= PencilInk(grade="8B").line_width_mm + 0.3)
