@@ -11,11 +11,17 @@ showing pressure.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 from inkarm.models.primitives.model import PrimitiveModel
+
+SHIPPED_MODEL = Path(__file__).resolve().parents[2] / "data" / "primitives_a.npz"
+"""A model shipped with inkarm: 20 primitives of 9 samples learned from 200 LQT samples of the
+letter a in five handstyles (``inkarm primitives learn letter:a``)."""
 
 
 def sample_states(model: PrimitiveModel, n_samples: int, rng: np.random.Generator) -> np.ndarray:
@@ -82,3 +88,21 @@ def scribble(model: PrimitiveModel, duration_s: float, seed: int = 0,
     rng = np.random.default_rng(seed)
     Y, states = sample(model, n, rng, noise=noise)
     return pen_path(model, Y), states
+
+
+def reconstruct(model: PrimitiveModel, expectations: np.ndarray) -> np.ndarray:
+    """(T, B, D) the expected output sum_m W^m <S_t^m> (eq. 3) under a posterior's (M, T, B, K)
+    expectations: the reconstruction of the data from the timing code."""
+    return np.einsum("mtbk,mkd->tbd", expectations, model.W)
+
+
+def reconstruction_error_mm(model: PrimitiveModel, Y: np.ndarray, mask: np.ndarray,
+                            expectations: np.ndarray) -> np.ndarray:
+    """(B,) mean distance [mm] between each sequence's pen path and its reconstruction's, both
+    integrated from the same start (channels ``dx``, ``dy``)."""
+    recon = reconstruct(model, expectations)
+    names = list(model.channels)
+    ix = [names.index("dx"), names.index("dy")] if "dx" in names else [0, 1]
+    steps = (Y - recon)[..., ix] * model.scale[ix] * mask[..., None]
+    drift = np.linalg.norm(np.cumsum(steps, axis=0), axis=-1)          # (T, B)
+    return (drift * mask).sum(axis=0) / mask.sum(axis=0)
