@@ -81,6 +81,7 @@ def _read(f, path: Path) -> PenRecording:
         raise InputError(f"line 1: {what}; expected t,x,y[,pressure]", file=str(path),
                          key=unknown[0] if unknown else None)
     rows: list[list[float]] = []
+    linenos: list[int] = []
     limit = STEPS.value
     for number, row in enumerate(reader, start=2):
         if not row or all(not c.strip() for c in row):
@@ -102,6 +103,7 @@ def _read(f, path: Path) -> PenRecording:
                                  f"[{low:g}, {bound:g}]", file=str(path), key=name, value=value)
             values.append(value)
         rows.append(values)
+        linenos.append(number)
         if len(rows) > limit:
             require(len(rows), STEPS, "rows of a pen recording", file=str(path))
     if not rows:
@@ -111,8 +113,8 @@ def _read(f, path: Path) -> PenRecording:
     steps = np.diff(t)
     if np.any(steps <= 0):
         bad = int(np.argmax(steps <= 0))
-        raise InputError(f"line {bad + 3}, column t: {t[bad + 1]!r} does not come after "
-                         f"{t[bad]!r}; times must increase", file=str(path), key="t")
+        raise InputError(f"line {linenos[bad + 1]}, column t: {float(t[bad + 1])!r} does not come "
+                         f"after {float(t[bad])!r}; times must increase", file=str(path))
     pos = data[:, [names.index("x"), names.index("y")]]
     pressure = data[:, names.index("pressure")] if "pressure" in names else None
     return PenRecording(path, t, pos, pressure)
