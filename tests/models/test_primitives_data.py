@@ -29,7 +29,7 @@ def test_letter_samples_vary_across_styles_and_draws():
 
 
 def test_multi_stroke_letters_travel_pen_up():
-    (t, pos, pressure), = letter_paths("i", 1, styles=("faithful",))[0]
+    (_t, pos, pressure), = letter_paths("i", 1, styles=("faithful",))[0]
     assert pressure[0] == 1.0 and pressure[-1] == 1.0 and 0.0 in pressure
     assert np.max(np.linalg.norm(np.diff(pos, axis=0), axis=1)) < 2.0  # no jumps
 
