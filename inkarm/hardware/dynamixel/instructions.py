@@ -97,10 +97,13 @@ class EmulatedBus:
     # --- helpers -------------------------------------------------------------------------------
     @staticmethod
     def _reply(servo: EmulatedServo | None, instruction: int, error: int = 0,
-               params: bytes = b"") -> list[Reply]:
+               params: bytes = b"", level: int | None = None) -> list[Reply]:
+        """The status packet of ``servo``, if its Status Return Level (``level``: as it was
+        before this packet's write) answers ``instruction``."""
         if servo is None:
             return []
-        level = servo.memory.get("status_return_level")
+        if level is None:
+            level = servo.memory.get("status_return_level")
         if instruction != p.PING and (level == 0 or (level == 1 and instruction not in READS)):
             return []
         return [(servo, servo.status(error, params))]
@@ -149,8 +152,9 @@ class EmulatedBus:
                 if not s.silent:
                     self._write(s, address, data)
             return []
+        level = target.memory.get("status_return_level") if target is not None else None
         error = self._write_with_shadows(packet.servo_id, address, data, target)
-        return self._reply(target, p.WRITE, error)
+        return self._reply(target, p.WRITE, error, level=level)
 
     def reg_write(self, packet, target):
         if len(packet.params) < 3:
