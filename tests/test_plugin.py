@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from inkarm.jobs.scenario import load_scenario
+
 pytest_plugins = ["pytester"]
 
 SCENARIOS = Path(__file__).parents[1] / "scenarios"
@@ -27,8 +29,8 @@ def _copy_quick(folder: Path, extra: str = "") -> None:
 def test_the_plugin_passes_a_scenario_and_fails_a_regression_naming_metric_and_amount(pytester):
     _copy_quick(pytester.path / "good")
     (pytester.path / "good" / "no_baseline.toml").write_text("title = 'not collected'\n")
-    _copy_quick(pytester.path / "detuned",
-                "\n[robot.gains]\nkp = [2000, 2000, 750, 750, 125, 75, 50]\n")
+    kd = [float(k) / 2 for k in load_scenario(SCENARIOS / "quick_stroke.toml").robot.gains.kd]
+    _copy_quick(pytester.path / "detuned", f"\n[robot.gains]\nkd = {kd}\n")
     result = pytester.runpytest("--inkarm-regress", "-p", "no:cacheprovider", "-v", "good",
                                 "detuned")
     result.assert_outcomes(passed=1, failed=1)

@@ -18,7 +18,8 @@ Runs are deterministic: MuJoCo steps the same state to the same bits on one buil
 random choice is seeded by the scenario, and the controller sees simulated time, never the
 clock, so a slower machine draws the same page. The tolerances leave room for a different
 build of NumPy, SciPy or MuJoCo (other BLAS kernels, other summation order), not for noise.
-A run whose status is not "ok" fails with its reason, whatever its metrics.
+A run whose status is not "ok" fails with its reason, whatever its metrics; one that finished
+(e.g. "degraded") is measured too, so the failure also names every metric that got worse.
 """
 
 from __future__ import annotations
@@ -141,10 +142,10 @@ class Comparison:
         return self.status == "ok" and not self.regressions
 
     def failure_message(self) -> str:
-        """Why it failed, one line per metric; empty when it passed."""
-        if self.status != "ok":
-            return f"the run {self.status}: {self.reason}"
-        return "\n".join(c.describe() for c in self.regressions)
+        """Why it failed: the run's status and reason when it is not ok, then one line per
+        metric that got worse; empty when it passed."""
+        lines = [f"the run {self.status}: {self.reason}"] if self.status != "ok" else []
+        return "\n".join(lines + [c.describe() for c in self.regressions])
 
 
 def _fmt(value: float | None) -> str:
@@ -205,7 +206,7 @@ def compare(run: Run, baseline: Baseline, name: str = "") -> Comparison:
     wall_s = run.log.wall_s if run.log is not None else 0.0
     common = {"scenario": run.scenario, "px_per_mm": baseline.px_per_mm,
               "base_grey": baseline.grey, "wall_s": wall_s, "versions": baseline.versions}
-    if not run.ok:
+    if not run.metrics:  # it did not finish: nothing to measure
         return Comparison(name, status=run.status, reason=run.reason, checks=(),
                           new_grey=page_grey(run), **common)
     new_grey = page_grey(run)
@@ -223,7 +224,7 @@ def compare(run: Run, baseline: Baseline, name: str = "") -> Comparison:
         tolerance = baseline.tolerances.get(metric, rule.tolerance)
         checks.append(check_metric(metric, reference.get(metric), measured.get(metric), rule,
                                    tolerance, set_point=run.scenario.controller.force_n))
-    return Comparison(name, status=run.status, reason="", checks=tuple(checks),
+    return Comparison(name, status=run.status, reason=run.reason, checks=tuple(checks),
                       new_grey=new_grey, **common)
 
 
