@@ -50,6 +50,9 @@ def test_without_the_option_scenarios_are_not_collected(pytester):
 
 
 @pytest.mark.slow
-def test_the_plugin_runs_every_shipped_scenario(pytester):
-    result = pytester.runpytest("--inkarm-regress", "-p", "no:cacheprovider", str(SCENARIOS))
-    result.assert_outcomes(passed=len(list(SCENARIOS.glob("*.toml"))))
+def test_the_plugin_runs_every_shipped_scenario_and_each_matches_its_baseline(pytester):
+    result = pytester.runpytest("--inkarm-regress", "-p", "no:cacheprovider", "-rf",
+                                str(SCENARIOS))
+    shipped = sorted(SCENARIOS.glob("*.toml"))
+    assert len(shipped) >= 9
+    result.assert_outcomes(passed=len(shipped))
