@@ -24,5 +24,7 @@ def test_every_shipped_scenario_has_a_baseline():
 def test_the_quick_scenario_matches_its_shipped_baseline(capsys):
     assert main(["regress", str(SCENARIOS / "quick_stroke.toml")]) == 0, capsys.readouterr().out
 
+
 # Every shipped scenario against its baseline, through the pytest plugin (the same comparison):
-# tests/test_plugin.py::test_the_plugin_runs_every_shipped_scenario (slow).
+# tests/test_plugin.py::test_the_plugin_runs_every_shipped_scenario_and_each_matches_its_baseline
+# (slow).
