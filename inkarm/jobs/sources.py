@@ -212,7 +212,7 @@ class PrimitivesSource:
         try:
             model = PrimitiveModel.load(self.model or SHIPPED_MODEL)
         except InputError as e:
-            raise e.within(key="source.model") from None
+            raise e.within(key="model") from None  # source_drawing adds "source."
         return Drawing([scribble(model, self.duration_s, seed=seed)[0]])
 
 
