@@ -22,7 +22,7 @@ from inkarm.hardware.plotter.plant import GrblPlant
 from inkarm.hardware.plotter.profiles import load_profile
 from inkarm.hardware.plotter.stream import GrblStreamer
 from inkarm.ink.canvas import Canvas
-from inkarm.jobs.run import FAILED, INTERRUPTED, OK, Run, RunInterrupted
+from inkarm.jobs.run import DEGRADED, FAILED, INTERRUPTED, OK, Run, RunInterrupted, judge
 from inkarm.jobs.scenario import Scenario, place, source_drawing
 from inkarm.sim.cell import Cell
 
@@ -88,7 +88,11 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
         wall_time_s=max(log.wall_s, 1e-9), canvas=canvas,
         plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
         contact_threshold_n=scenario.controller.contact_threshold_n)
-    return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes)
+    # The arm's quality bounds; a plotter's tracking error is its distance from the firmware's
+    # own plan at the status reports' times (see inkarm.control.plotter).
+    shortfalls = judge(metrics, scenario.controller.force_n)
+    return Run(scenario, DEGRADED if shortfalls else OK, drawing, log, canvas, metrics,
+               reason="; ".join(shortfalls), notes=notes)
 
 
 def ink_measured(canvas: Canvas, log: DrawLog) -> None:

@@ -159,9 +159,40 @@ class GrblPlant:
 
     def schedule(self) -> tuple[np.ndarray, Schedule]:
         """Per command, the device time [s] its lines should have ended; and the planner
-        model's run of the whole job (with samples of where the pen should be)."""
+        model's run of the whole job (``samples``: where the pen should be when), on the
+        device's clock.
+
+        The model assumes a device that is never kept waiting; a real link sometimes does,
+        and the delays would add up over a job. So the model is re-anchored at every dwell
+        (``G4``, after each pen change): GRBL answers it when the dwell ends, a moment the
+        model knows exactly, and from each such ``ok`` on, model times are shifted by its
+        measured lateness."""
         plan = simulate(self.lines, self.settings, samples=True)
-        return plan.line_end_s[np.asarray(self.command_line, dtype=int)], plan
+        warp = self._clock_warp(plan.line_end_s)
+        ends = warp(plan.line_end_s)[np.asarray(self.command_line, dtype=int)]
+        samples = plan.samples.copy()
+        samples[:, 0] = warp(samples[:, 0])
+        forward = np.concatenate(([True], samples[1:, 0] > np.maximum.accumulate(
+            samples[:-1, 0])))
+        return ends, Schedule(plan.seconds, warp(plan.line_end_s), samples[forward])
+
+    def _clock_warp(self, line_end_s: np.ndarray):
+        """Model time -> device time, shifted at each answered dwell (see :meth:`schedule`)."""
+        acks = self.streamer.state.ack_times
+        anchors = [(line_end_s[i], (acks[i + 1] - self._t0) * self.time_scale)
+                   for i, line in enumerate(self.lines)
+                   if line.startswith("G4") and (i + 1) in acks and self._t0 is not None]
+        if not anchors:
+            return lambda t: np.asarray(t, dtype=float)
+        model = np.array([a[0] for a in anchors])
+        shift = np.array([a[1] - a[0] for a in anchors])
+
+        def warp(t):
+            t = np.asarray(t, dtype=float)
+            k = np.searchsorted(model, t, side="right") - 1
+            return t + np.where(k >= 0, shift[np.maximum(k, 0)], 0.0)
+
+        return warp
 
     def _queue(self, lines: list[str]) -> None:
         self.lines.extend(lines)

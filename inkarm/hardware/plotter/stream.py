@@ -86,6 +86,7 @@ class StreamState:
 
     Attributes:
         sent: Lines written so far; acked: lines answered ``ok``.
+        ack_times: When each line's ``ok`` arrived, by line number [s, streamer clock].
         failure: Why the stream stopped early (``error:N`` / ``ALARM:N`` at line L, or a
             disconnect), empty while it is healthy.
         failed_line: The 1-based line the failure is about (0 when none).
@@ -95,6 +96,7 @@ class StreamState:
 
     sent: int = 0
     acked: int = 0
+    ack_times: dict[int, float] = field(default_factory=dict)
     failure: str = ""
     failed_line: int = 0
     statuses: list[StatusReport] = field(default_factory=list)
@@ -289,9 +291,10 @@ class GrblStreamer:
             return
         if line == "ok":
             if self._in_flight:
-                _, n = self._in_flight.popleft()
+                number, n = self._in_flight.popleft()
                 self._bytes -= n
                 self.state.acked += 1
+                self.state.ack_times[number] = self.clock()
                 self._last_ok_time = self.clock()
             return
         if line.startswith("error:"):
