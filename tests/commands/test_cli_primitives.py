@@ -91,3 +91,47 @@ def test_errors_are_one_line_and_name_the_input(tmp_path, capsys, small_model, a
     assert len(err) == 1
     assert __import__("re").search(message, err[0]), err[0]
     assert not (tmp_path / "m.npz").exists() and not (tmp_path / "s").exists()
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+def test_the_simulated_arm_draws_a_scribble(small_model, tmp_path, capsys):
+    import json
+
+    job = tmp_path / "scribble.toml"
+    job.write_text(f"""seed = 4
+[source]
+kind = "primitives"
+model = "{small_model}"
+duration_s = 1.5
+[placement]
+centre_mm = [105.0, 148.5]
+height_mm = 20.0
+[controller]
+go_home = false
+[ink]
+px_per_mm = 4.0
+""")
+    out = tmp_path / "run"
+    assert main(["draw", str(job), "--quiet", "--out", str(out)]) == 0, capsys.readouterr()
+    status = json.loads((out / "status.json").read_text())
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert status["status"] == "ok"
+    assert metrics["ink_chamfer_mm"] < 1.0 and metrics["tracking_rms_mm"] < 1.0
+
+
+def test_scribble_source_errors(tmp_path):
+    from inkarm.errors import InputError
+    from inkarm.jobs.scenario import load_scenario, source_drawing
+
+    job = tmp_path / "s.toml"
+    job.write_text('[source]\nkind = "primitives"\nmodel = "none.npz"\n')
+    with pytest.raises(InputError, match="source.model: no such file"):
+        load_scenario(job)
+    job.write_text('[source]\nkind = "primitives"\nduration_s = 0\n')
+    with pytest.raises(InputError, match="source.duration_s"):
+        load_scenario(job)
+    (tmp_path / "bad.npz").write_text("x")
+    job.write_text('[source]\nkind = "primitives"\nmodel = "bad.npz"\n')
+    with pytest.raises(InputError, match="bad.npz: source.model: not a primitives model"):
+        source_drawing(load_scenario(job))
