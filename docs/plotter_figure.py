@@ -1,7 +1,7 @@
 """The default scenario and a written word, drawn by the simulated arm and by the emulated
 GRBL plotter, side by side with the same metrics: docs/img/arm_vs_plotter.png.
 
-    python docs/plotter_figure.py [--speedup 2] [--out docs/img/arm_vs_plotter.png]
+    python docs/plotter_figure.py [--speedup 1] [--out docs/img/arm_vs_plotter.png]
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def panel(label: str, run) -> BackendPanel:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--speedup", type=float, default=2.0)
+    parser.add_argument("--speedup", type=float, default=1.0)
     parser.add_argument("--out", default=str(ROOT / "docs" / "img" / "arm_vs_plotter.png"))
     args = parser.parse_args()
     rows = []

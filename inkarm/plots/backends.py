@@ -27,9 +27,10 @@ class BackendPanel:
 
 def _summary(panel: BackendPanel) -> str:
     m = panel.metrics
-    if panel.status != "ok" or not m:
+    if not m:
         return f"{panel.label}: {panel.status}"
-    return (f"{panel.label}\nink chamfer {m['ink_chamfer_mm']:.3f} mm, tracking RMS "
+    status = "" if panel.status == "ok" else f" ({panel.status})"
+    return (f"{panel.label}{status}\nink chamfer {m['ink_chamfer_mm']:.3f} mm, tracking RMS "
             f"{m['tracking_rms_mm']:.2f} mm,\ngaps {m['gap_mm']:.1f} mm")
 
 
