@@ -262,3 +262,12 @@ def test_batch_errors():
         Batch.of([np.zeros((3, 2)), np.full((3, 2), np.inf)])
     with pytest.raises(InputError, match=r"sequences\[0\]: empty sequence"):
         Batch.of([np.zeros((0, 2))])
+
+
+def test_memory_is_budgeted_before_any_work(monkeypatch):
+    from inkarm.core.budget import BudgetError
+
+    monkeypatch.setenv("INKARM_MAX_MEMORY_MB", "1")
+    seqs = [np.zeros((2000, 3))] * 10
+    with pytest.raises(BudgetError, match="memory of EM on 10 sequences of up to 2000 samples"):
+        fit(seqs, PrimitivesConfig(n_chains=10, n_states=10))

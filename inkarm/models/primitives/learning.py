@@ -35,6 +35,7 @@ from functools import partial
 
 import numpy as np
 
+from inkarm.core.budget import require_memory
 from inkarm.errors import InputError
 from inkarm.models.primitives.inference import Batch, Posterior, e_step, lower_bound
 from inkarm.models.primitives.model import PrimitiveModel, PrimitivesConfig
@@ -152,11 +153,22 @@ def fit(sequences, config: PrimitivesConfig | None = None, *, seed: int = 0,
     if isinstance(restarts, bool) or not isinstance(restarts, (int, np.integer)) or restarts < 1:
         raise InputError(f"expected an integer >= 1, got {restarts!r}", key="restarts",
                          value=restarts)
+    require_memory(em_bytes(batch, config), f"memory of EM on {len(batch.lengths)} sequences "
+                   f"of up to {batch.Y.shape[0]} samples, M = {config.n_chains}, K = "
+                   f"{config.n_states}", key="sequences")
     runs = []
     for restart in range(1 if model is not None else int(restarts)):
         runs.append(_fit_once(batch, config, seed + restart, model, scale, rate_hz, channels,
                               None if progress is None else partial(progress, restart)))
     return max(runs, key=lambda r: r.final_bound)
+
+
+def em_bytes(batch: Batch, config: PrimitivesConfig) -> float:
+    """Bytes EM holds at once: per chain <S> and log h over the padded (T, B) grid, one chain's
+    forward-backward tables, the M-step's design matrix, the data."""
+    T, B, D = batch.Y.shape
+    M, K = config.n_chains, config.n_states
+    return 8.0 * T * B * (2 * M * K + 6 * K + M * (K - 1) + 3 * D)
 
 
 def _fit_once(batch, config, seed, model, scale, rate_hz, channels, progress) -> FitResult:
