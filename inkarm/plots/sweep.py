@@ -23,6 +23,13 @@ def _positions(values: Sequence) -> tuple[np.ndarray, list, bool]:
     return np.array([index[v] for v in values], float), levels, False
 
 
+def _label(value) -> str:
+    """A parameter value for a legend or tick: numbers to 4 significant digits."""
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
 def _as_float(values: Sequence) -> np.ndarray:
     return np.array([np.nan if v is None else float(v) for v in values])
 
@@ -45,12 +52,12 @@ def plot_metric_lines(x: Sequence, y: Sequence, *, group: Sequence | None = None
         mean = np.array([c.mean() if c.size else np.nan for c in finite])
         low = np.array([c.min() if c.size else np.nan for c in finite])
         high = np.array([c.max() if c.size else np.nan for c in finite])
-        label = None if g is None else f"{group_label} = {g}"
+        label = None if g is None else f"{group_label} = {_label(g)}"
         line, = ax.plot(xs, mean, "o-", ms=3, label=label)
         if any(c.size > 1 for c in finite):
             ax.fill_between(xs, low, high, color=line.get_color(), alpha=0.2, lw=0)
     if not numeric:
-        ax.set_xticks(range(len(levels)), [str(v) for v in levels])
+        ax.set_xticks(range(len(levels)), [_label(v) for v in levels])
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     if group is not None:
@@ -84,9 +91,9 @@ def plot_metric_heatmap(x: Sequence, y: Sequence, z: Sequence, *, xlabel: str = 
         mesh = ax.scatter(px, py, c=values, cmap="viridis", s=25)
     figure_of(ax).colorbar(mesh, ax=ax, label=zlabel)
     if not xnum:
-        ax.set_xticks(range(len(xlevels)), [str(v) for v in xlevels])
+        ax.set_xticks(range(len(xlevels)), [_label(v) for v in xlevels])
     if not ynum:
-        ax.set_yticks(range(len(ylevels)), [str(v) for v in ylevels])
+        ax.set_yticks(range(len(ylevels)), [_label(v) for v in ylevels])
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     return figure_of(ax)
