@@ -59,7 +59,8 @@ def plot_primitives(model: PrimitiveModel, expectations: np.ndarray | None = Non
                   else np.arange(min(6, model.n_chains)))
     chains = list(chains)
     rows = 3 if expectations is not None else 2
-    fig = fig if fig is not None else new_figure((2.4 * len(chains) + 0.6, 2.2 * rows))
+    fig = fig if fig is not None else new_figure((2.4 * len(chains) + 0.6, 2.2 * rows),
+                                                 layout="constrained")
     axes = np.array(fig.subplots(rows, len(chains), squeeze=False))
     onsets = onset_times(expectations, mask, model.rate_hz) if expectations is not None else None
     for col, m in enumerate(chains):
@@ -96,12 +97,13 @@ def plot_timing(model: PrimitiveModel, Y: np.ndarray, expectations: np.ndarray,
     Left: the timing code, P(primitive m active) against time, onsets (state 1 most likely)
     marked with triangles. Right: the sequence (grey) and its reconstruction sum_m W^m <S^m>
     (black) in pen space, each primitive's onset marked on the reconstruction."""
-    fig = fig if fig is not None else new_figure((11.0, 4.0))
+    fig = fig if fig is not None else new_figure((11.0, 4.0), layout="constrained")
     left, right = fig.subplots(1, 2, width_ratios=(1.3, 1.0))
     T = len(Y)
     t = np.arange(T) / model.rate_hz
     active = 1.0 - expectations[:, :T, 0]
     left.imshow(active, aspect="auto", origin="lower", cmap="Greys", vmin=0, vmax=1,
+                interpolation="nearest",
                 extent=(0, T / model.rate_hz, -0.5, model.n_chains - 0.5))
     onsets = []
     for m in range(model.n_chains):
