@@ -36,6 +36,7 @@ RANGES = {
     "saturation_s": _R(0.0, 10.0, "s"),
     "stop_s": _R(0.0, 10.0, "s", open_low=True),
     "friction_adaptation": _R(0.0, 1e9, "N m/(rad s)"),
+    "lookahead_s": _R(0.0, 1.0, "s"),
 }
 
 
@@ -76,6 +77,8 @@ class LoopConfig:
         watchdog_s: How long the tracking and joint-speed limits may be exceeded.
         saturation_s: Watchdog: ... when a joint torque stays at its limit this long.
         stop_s: Duration of the safe stop's lift after a fault.
+        lookahead_s: The plant's actuation latency, as far as it is known [s]: commands lead
+            the plan by it.
         friction_adaptation: Rate gamma of the Coulomb friction estimate's adaptation
             (:mod:`inkarm.control.friction`); 0 keeps the model's friction.
         speed_limits: What to do when the planned joint speed exceeds a joint's limit in the
@@ -91,7 +94,7 @@ class LoopConfig:
     travel_speed_mm_s: float = 150.0
     joint_speed_rad_s: float = 0.8
     nib_friction: float | None = None
-    force_gain_mm_per_ns: float = 40.0
+    force_gain_mm_per_ns: float = 100.0
     correction_limit_mm: float = 10.0
     settle_tol_n: float = 0.05
     settle_s: float = 0.03
@@ -109,7 +112,8 @@ class LoopConfig:
     watchdog_s: float = 0.05
     saturation_s: float = 0.1
     stop_s: float = 0.06
-    friction_adaptation: float = 2e5
+    friction_adaptation: float = 2e4
+    lookahead_s: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):

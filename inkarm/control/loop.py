@@ -43,6 +43,7 @@ from inkarm.control.reference import (
     plan_joint_reference,
 )
 from inkarm.control.sequencing import pen_depth_mm, sequence_pen
+from inkarm.control.surface import SurfaceEstimate
 from inkarm.control.watchdog import Watchdog
 from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.plant import Plant, PositionCommand, TorqueCommand
@@ -169,17 +170,32 @@ def run_drawing(
     friction = FrictionCompensation(kin.model.dof_frictionloss[kin.dof_adr], dt,
                                     config.friction_adaptation)
 
-    z_corr = 0.0  # force-loop correction along the normal, [m] (positive = deeper)
+    z_corr = 0.0  # force integrator's correction along the normal, [m] (positive = deeper)
+    surface = SurfaceEstimate()  # the paper's height along the normal, learnt while drawing
     force_f = 0.0  # low-passed sensed force [N]
+    lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
+    lookahead_rows = int(lookahead_rows)
+    commanded = np.zeros(len(log), dtype=np.intp)  # reference row commanded at each log row
+    ref_blend = np.zeros(len(log))  # fraction of the way to the next commanded row
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
     state = None
+    t_first = None
     try:
         while i < n_ref:
             state = read()
+            if t_first is None:
+                t_first = state.time
             phase = phases[i]
             holding = hold_at[i]
             tip = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            # A reading is as old as the plant's sensing delay: compare it with the plan row
+            # that was current when it was taken (and the fraction of the way to the next).
+            commanded[row] = i
+            lag = max(0.0, (t_first + row * dt - state.time) / dt)
+            back, frac = int(lag), lag - int(lag)
+            seen = commanded[max(row - back - (frac > 0), 0)]
+            ref_blend[row] = blend = 1.0 - frac if frac > 0 else 0.0
             if senses_force:
                 force = state.force
                 force_f += smoothing * (force - force_f)
@@ -197,32 +213,47 @@ def run_drawing(
                                 f"{config.correction_limit_mm:g} mm beyond where the model puts "
                                 f"the paper, at t = {state.time:.3f} s",
                                 watchdog="paper_not_found", time_s=state.time)
+                    if (phase == DRAW or holding) and abs(force_f - f_star) < settle_tol:
+                        x, y = page_ref[i, 0] / 1000.0, page_ref[i, 1] / 1000.0
+                        before = surface.height(x, y)
+                        surface.add(x, y, before + z_corr)
+                        z_corr -= surface.height(x, y) - before  # the same depth, shared anew
             else:
                 force = np.nan
+            # The command leads the plan by the actuation latency the user stated (the goal
+            # interpolated between plan rows; the feed-forward of the nearer row).
+            c = min(i + lookahead_rows, n_ref - 1)
             pressing = phase == DRAW or (holding and waited > 0)
-            q_goal = q_ref[i] + z_corr * normal_q[i]
+            x, y = page_ref[c, 0], page_ref[c, 1]
+            depth = z_corr + surface.height(x / 1000.0, y / 1000.0)
+            q_goal = q_ref[c] + depth * normal_q[c]
+            if lookahead_frac and c + 1 < n_ref:
+                q_goal = q_goal + lookahead_frac * (q_ref[c + 1] - q_ref[c])
             if torque_mode:
-                feedforward = bias(state.q, state.qd) + inertia[i]
+                feedforward = bias(state.q, state.qd) + inertia[c]
                 if pressing:
-                    feedforward += contact_tau[i]
-                tau = update(q_goal, state.q, state.qd, qd_ref[i], feedforward)
+                    feedforward += contact_tau[c]
+                tau = update(q_goal, state.q, state.qd, qd_ref[c], feedforward)
                 command(TorqueCommand(tau))
             else:
-                feedforward = bias(q_ref[i], qd_ref[i]) + inertia[i] + friction.torque(
-                    qd_ref[i], q_goal - state.q)
+                q_then = q_ref[seen] + depth * normal_q[seen]
+                if blend:
+                    q_then = q_then + blend * (q_ref[min(seen + 1, n_ref - 1)] - q_ref[seen])
+                feedforward = bias(q_ref[c], qd_ref[c]) + inertia[c] + friction.torque(
+                    qd_ref[c], q_then - state.q)
                 if pressing:
-                    feedforward += contact_tau[i]
+                    feedforward += contact_tau[c]
                 tau = state.torque if state.torque is not None else nan_torque
-                command(PositionCommand(q_goal, qd_ref[i], qdd_ref[i], feedforward))
+                command(PositionCommand(q_goal, qd_ref[c], qdd_ref[c], feedforward))
             log_time[row] = state.time
             log_q[row] = state.q
             log_qd[row] = state.qd
             log_torque[row] = tau
             log_tip[row] = tip
             log_force[row] = force
-            ref_row[row] = i
+            ref_row[row] = seen
             row += 1
-            p = page_ref[i]
+            p = page_ref[seen]
             # Joint-space moves (approach, home) run far above the sheet: their path is not gated.
             error = 0.0 if phase in (APPROACH, HOME) else math.hypot(tip[0] - p[0], tip[1] - p[1])
             check(state.time, state.q, state.qd, state.torque, force_f, error)
@@ -246,13 +277,13 @@ def run_drawing(
                                  senses_tip, torque_saturated=getattr(err, "watchdog", "")
                                  in ("torque_saturated", "joint_speed"))
         _brake(plant)
-        partial = _with_plan_columns(log, ref, ref_row, row)
+        partial = _with_plan_columns(log, ref, ref_row, row, ref_blend)
         partial.phase[stop_from:] = LIFT
         partial.wall_s = _time.perf_counter() - wall0
         partial.notes = notes
         err.log = partial
         raise
-    result = _with_plan_columns(log, ref, ref_row, row)
+    result = _with_plan_columns(log, ref, ref_row, row, ref_blend)
     result.wall_s = _time.perf_counter() - wall0
     result.notes = notes
     if progress is not None:
@@ -297,11 +328,16 @@ def _brake(plant) -> None:
         brake()
 
 
-def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: np.ndarray, k: int) -> DrawLog:
+def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: np.ndarray, k: int,
+                       blend: np.ndarray | None = None) -> DrawLog:
     """The first ``k`` rows of ``log``, with the reference, phase and stroke of the plan rows
-    ``ref_row`` filled in."""
+    ``ref_row`` filled in; the reference ``blend`` of the way to the next plan row."""
     rows = ref_row[:k]
     log.reference[:k] = ref.page_mm[rows]
+    if blend is not None and blend[:k].any():
+        after = np.minimum(rows + 1, len(ref) - 1)
+        w = blend[:k, None]
+        log.reference[:k] += w * (ref.page_mm[after] - ref.page_mm[rows])
     log.phase[:k] = ref.phase[rows]
     log.stroke[:k] = ref.stroke[rows]
     return log.truncated(k)

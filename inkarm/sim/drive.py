@@ -13,7 +13,11 @@ the exact one, or, from a device without a velocity sensor, the difference of su
 measurements through a first-order low-pass of time constant ``velocity_filter_s`` (a raw
 difference of a quantised encoder jumps by one tick per step: 1.5 mrad / 2 ms = 0.77 rad/s at
 4096 ticks/rev). The integrator is bounded by ``integral_limit`` [N m] (anti-windup) and sheds
-dry friction and model errors; it is reset when the drive is (re)enabled.
+dry friction and model errors.
+
+On a joint with series elasticity the P and D terms act on the motor's own encoder (collocated:
+stable whatever the spring, as arm drives with motor-side encoders do) and the integral on the
+link's error, so that the spring's static deflection tau / k is taken out slowly.
 """
 
 from __future__ import annotations
@@ -64,11 +68,16 @@ class JointDrive:
         self.q_prev = q_measured.copy()
         return self.v
 
-    def torque(self, q_measured: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """One physics step of the loop: the motor torque [N m]."""
-        error = self.q_goal + self.qd_goal * self.since - q_measured
+    def torque(self, q_measured: np.ndarray, v: np.ndarray,
+               q_link: np.ndarray | None = None) -> np.ndarray:
+        """One physics step of the loop: the motor torque [N m]. ``q_measured`` and ``v`` are
+        the motors'; ``q_link`` the links' where they differ (elastic joints)."""
+        goal = self.q_goal + self.qd_goal * self.since
+        error = goal - q_measured
+        link_error = error if q_link is None else goal - q_link
         self.since += self.h
-        self.integral = np.clip(self.integral + self.ki * error * self.h, -self.limit, self.limit)
+        self.integral = np.clip(self.integral + self.ki * link_error * self.h, -self.limit,
+                                self.limit)
         return self.tau_ff + self.kp * error + self.integral + self.kd * (self.qd_goal - v)
 
     @property

@@ -27,8 +27,6 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None) -> mujoco.MjModel:
     changes = {}
     if truth.paper_stiffness_n_per_mm is not None:
         changes["paper_stiffness_n_per_mm"] = truth.paper_stiffness_n_per_mm
-    if truth.paper_timeconst_s is not None:
-        changes["contact_timeconst"] = truth.paper_timeconst_s
     if truth.nib_friction is not None:
         changes["friction"] = truth.nib_friction
     if changes:
@@ -36,6 +34,11 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None) -> mujoco.MjModel:
     spec = build_spec(cell)
     _move_paper(spec, truth)
     model = spec.compile()
+    if truth.paper_timeconst_s is not None:
+        # The sheet's side of the contact only; the nib (a felt) keeps its own, and MuJoCo
+        # mixes the two geoms' settings.
+        paper = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, PAPER)
+        model.geom_solref[paper, 0] = max(truth.paper_timeconst_s, 2.0 * model.opt.timestep)
     _change_links(model, cell, truth)
     return model
 

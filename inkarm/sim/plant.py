@@ -199,7 +199,9 @@ class MujocoPlant:
             mujoco.mj_setConst(m, d)
             mujoco.mj_forward(m, d)
             # The link side sees tau_c held over a step: keep sqrt(k / J_link) h <= 1.
-            link_inertia = d.qM[m.dof_Madr[loose]]
+            dense = np.zeros((m.nv, m.nv))
+            mujoco.mj_fullM(m, dense, d.qM) if hasattr(d, "qM") else mujoco.mj_fullM(m, d, dense)
+            link_inertia = np.diag(dense)[loose]
             omega = float(np.max(np.sqrt(self.transmission.k / np.maximum(link_inertia, 1e-9))))
             split = max(1, int(np.ceil(omega * m.opt.timestep)))
             if split > 1:
@@ -345,14 +347,18 @@ class MujocoPlant:
         if self._position_goal is not None:
             senses = self.senses_model
             q_meas = senses.position(q_true.copy())
-            if trans:  # damping acts on the rotor: the drives' velocity is the motors'
+            q_link = None
+            if trans:  # the drives' encoders are on the motors (see JointDrive)
+                q_link = q_meas
+                q_meas = q_meas.copy()
+                q_meas[trans.joints] = trans.theta
                 qd_motor = qd_true.copy()
                 qd_motor[trans.joints] = trans.omega
             else:
                 qd_motor = qd_true
             if self.drive is not None:
                 v = self.drive.velocity(q_meas, None if senses.differences else qd_motor)
-                tau = self.drive.torque(q_meas, v)
+                tau = self.drive.torque(q_meas, v, q_link)
             else:
                 tau = self.firmware.torque(self._position_goal, q_meas, qd_motor)
             self._motor_torque = np.clip(tau, -self._limit, self._limit)
