@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import select
 import struct
+import termios
 import time
 from typing import Self
 
@@ -75,11 +76,13 @@ class _SyncRead(sdk.GroupSyncRead):
 
     def rxPacket(self):
         self.last_result = False
-        self.errors = {}
+        self.errors, self.wait_s = {}, {}
         result = sdk.COMM_RX_FAIL
         for dxl_id in self.data_dict:
+            t0 = time.monotonic()
             self.data_dict[dxl_id], result, error = self.ph.readRx(self.port, dxl_id,
                                                                    self.data_length)
+            self.wait_s[dxl_id] = time.monotonic() - t0
             self.errors[dxl_id] = error
             self.last_failed = dxl_id
             if result != sdk.COMM_SUCCESS:
@@ -106,6 +109,9 @@ class DynamixelBus:
         self.packet = sdk.PacketHandler(2.0)
         self.stats = {"transactions": 0, "retries": 0}
         self._open = False
+        self.last_attempts = 1      # tries the last successful transaction took
+        self.last_failed = None     # the servo whose reply failed the last retried sync read
+        self.last_waits: dict[int, float] = {}  # per servo: wait for its reply [s], last read
         try:
             ok = self.port.openPort() and self.port.setBaudRate(self.baudrate)
         except (serial.SerialException, OSError, ValueError) as e:
@@ -143,6 +149,7 @@ class DynamixelBus:
         if not self._open:
             raise DynamixelFault(f"{self.who(None)}: the port is closed", None, "disconnected")
         result = sdk.COMM_TX_FAIL
+        first_failed = None  # a late servo makes the retries fail at whoever answers first
         for attempt in range(1 + self.retries):
             self.stats["transactions"] += 1
             self.stats["retries"] += attempt > 0
@@ -152,7 +159,7 @@ class DynamixelBus:
                     time.sleep(RETRY_QUIET_S)
                 self.port.clearPort()
                 result, error, value = call()
-            except (serial.SerialException, OSError, TypeError) as e:
+            except (serial.SerialException, OSError, TypeError, termios.error) as e:
                 raise DynamixelFault(f"{self.who(None)}: serial port disconnected ({e})",
                                      None, "disconnected") from None
             except (IndexError, ValueError):  # the SDK's parser on garbage
@@ -160,10 +167,14 @@ class DynamixelBus:
             finally:
                 self.port.is_using = False
             if result == sdk.COMM_SUCCESS:
+                self.last_attempts = attempt + 1
                 return error, value
+            if servo_id == -1 and first_failed is None:
+                first_failed = getattr(self._last_reader, "last_failed", None)
+                self.last_failed = first_failed
         kind = _COMM_KIND.get(result, f"communication result {result}")
-        if servo_id == -1:  # a sync read: the servo whose reply failed
-            servo_id = getattr(self._last_reader, "last_failed", None)
+        if servo_id == -1:  # a sync read: the servo whose reply failed first
+            servo_id = first_failed
         raise DynamixelFault(f"{self.who(servo_id)}: {kind} to {what} after "
                              f"{1 + self.retries} tries", servo_id, kind)
 
@@ -235,6 +246,7 @@ class DynamixelBus:
             positions.append(position)
             velocities.append(velocity)
             currents.append(current)
+        self.last_waits = dict(reader.wait_s)
         return positions, velocities, currents, dict(reader.errors)
 
     def sync_read(self, ids, name: str) -> dict[int, int]:

@@ -274,8 +274,9 @@ class DynamixelEmulator:
         t = t_arrival + len(packet.raw) * self.byte_s
         for servo, reply in replies:
             if self.byte_timing:
-                t += servo.memory.get("return_delay_time") * 2e-6 + servo.late_s
-                t += len(reply) * self.byte_s
+                t += servo.memory.get("return_delay_time") * 2e-6 + len(reply) * self.byte_s
+            t += servo.late_s
+            if self.byte_timing or servo.late_s:
                 _sleep_until(t)
             os.write(self._master, reply)
             self.stats.replies += 1

@@ -42,6 +42,7 @@ from inkarm.hardware.dynamixel.tables import HARDWARE_ERRORS, MODEL_NAMES
 from inkarm.robots.servo import servo_model, velocity_units_to_rad_s
 
 WATCHDOG_POLL_PERIODS = 10
+LATE_READS = 3  # consecutive state reads needing a retry that make a fault
 PEN_LIFT_S = 0.3
 PARK_TIMEOUT_S = 4.0
 PARK_SPEED_RAD_S = 0.8
@@ -131,6 +132,8 @@ class DynamixelPlant:
         self._goal_q: np.ndarray | None = None
         self._last: PlantState | None = None
         self.overruns = 0
+        self._retried = 0
+        self._late_s = (2.0 * cfg.latency_ms + 2.0) / 1000.0  # the SDK's reply timeout [s]
         self.bus = DynamixelBus(port, cfg.baudrate, cfg.retries, names, cfg.latency_ms)
         try:
             self._start()
@@ -143,9 +146,11 @@ class DynamixelPlant:
         cfg, bus = self.config, self.bus
         expected = {**dict(zip(cfg.ids, cfg.models)),
                     **{sid: cfg.models[j] for j, sid in cfg.shadows.items()}}
-        problems = []
+        problems, missing = [], set()
         for servo_id, model in expected.items():
             found = bus.ping(servo_id)
+            if found is None or MODEL_NAMES.get(found[0]) != model:
+                missing.add(servo_id)
             if found is None:
                 problems.append(f"{bus.who(servo_id)}: no reply (expected a {model})")
             elif MODEL_NAMES.get(found[0]) != model:
@@ -153,7 +158,7 @@ class DynamixelPlant:
                 problems.append(f"{bus.who(servo_id)}: a {name} answers, the profile expects a "
                                 f"{model}")
         for j, sid in cfg.shadows.items():
-            if not any(sid in p for p in problems):
+            if sid not in missing:
                 secondary = bus.read(sid, "secondary_id")
                 if secondary != cfg.ids[j]:
                     problems.append(f"{bus.who(sid)}: Secondary ID is {secondary}, expected "
@@ -212,6 +217,16 @@ class DynamixelPlant:
         self._guard()
         try:
             positions, velocities, currents, errors = self.bus.read_state(self.config.ids)
+            # Late replies still arrive (after retries, or queued behind the next request):
+            # LATE_READS slow state reads in a row make a fault, blamed on the slowest servo.
+            waits = self.bus.last_waits
+            slow = self.bus.last_attempts > 1 or sum(waits.values()) > self._late_s
+            self._retried = self._retried + 1 if slow else 0
+            if self._retried >= LATE_READS:
+                servo_id = max(waits, key=waits.get) if waits else self.bus.last_failed
+                raise DynamixelFault(f"{self.bus.who(servo_id)}: late replies ({LATE_READS} "
+                                     "state reads in a row slower than the reply timeout)",
+                                     servo_id, "late reply")
             for servo_id, error in errors.items():
                 if error & 0x80:
                     self._hardware_fault(servo_id)
@@ -322,8 +337,10 @@ class DynamixelPlant:
         self.fault = fault
         actions = []
         try:
-            if fault.kind == "watchdog":
-                self._watchdog_off()
+            # First the watchdogs off: one that fired (the retries alone may outlast it)
+            # refuses goals, and one left on would freeze the lift half-way once the host
+            # stops streaming.
+            self._watchdog_off(exclude=fault.servo_id)
             self._pen_up(exclude=fault.servo_id)
             actions.append("pen lifted")
             if self.config.on_fault == "torque_off":

@@ -1,0 +1,125 @@
+"""DynamixelPlant on the emulator: start-up checks, goals, limits, faults and safe stops."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import pytest
+
+from inkarm.core.plant import PenCommand, PositionCommand
+from inkarm.errors import InputError
+from inkarm.hardware.dynamixel.bus import DynamixelFault
+from inkarm.hardware.dynamixel.emulator import FAULT_KINDS
+from inkarm.hardware.dynamixel.plant import DynamixelPlant
+
+pytestmark = pytest.mark.hardware_emulated
+
+
+def eventually(check, timeout=2.0):
+    """``check()`` becomes true within ``timeout`` [s] (writes without replies land later)."""
+    end = time.monotonic() + timeout
+    while not check():
+        if time.monotonic() > end:
+            return False
+        time.sleep(0.005)
+    return True
+
+
+def with_backend(profile, **changes):
+    backends = dict(profile.backends)
+    backends["dynamixel"] = {**backends["dynamixel"], **changes}
+    return dataclasses.replace(profile, backends=backends)
+
+
+def test_refuses_a_bus_that_does_not_match_naming_each_difference(wx250s, arm_emulator):
+    emu = arm_emulator(wx250s)
+    with emu:
+        emu.servo(5).silent = True                         # the elbow's shadow is missing
+        emu.servo(3).memory.set("secondary_id", 9)         # the shoulder's shadow is misset
+        wrong = with_backend(wx250s, models=["XM430-W350"] * 5 + ["XM540-W270"])
+        with pytest.raises(InputError) as info:
+            DynamixelPlant(emu.port, wrong)
+    message = str(info.value)
+    assert "servo 8 (wrist_rotate): a XL430-W250 answers, the profile expects a XM540-W270" \
+        in message
+    assert "servo 5 (elbow shadow): no reply" in message
+    assert "servo 3 (shoulder shadow): Secondary ID is 9, expected 2" in message
+
+
+def test_torque_on_at_the_present_position_without_a_jump(wx250s, arm_emulator):
+    with arm_emulator(wx250s) as emu:
+        for s in emu.bus.servos:
+            s.memory.set("goal_position", 3000)            # stale goals from an earlier session
+        plant = DynamixelPlant(emu.port, wx250s)
+        q0 = plant.read().q
+        time.sleep(0.2)
+        q1 = plant.read().q
+        plant.close()
+        assert eventually(lambda: all(s.memory.get("torque_enable") == 0
+                                      for s in emu.bus.servos))  # on_close: park, torque off
+    np.testing.assert_allclose(q0, wx250s.home_q, atol=2e-3)
+    np.testing.assert_allclose(q1, q0, atol=3e-3)
+
+
+def test_goals_are_clamped_to_the_step_and_the_software_limits(wx250s, arm_emulator):
+    with arm_emulator(wx250s) as emu:
+        plant = DynamixelPlant(emu.port, wx250s)
+        start = plant.read().q
+        far = start + np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        plant.command(PositionCommand(far))
+        step = round(2048 + np.radians(3.0) * 4096 / (2 * np.pi))
+        assert eventually(lambda: abs(emu.servo(1).memory.get("goal_position") - step) <= 1)
+        with pytest.raises(InputError, match="does not take pen commands"):
+            plant.command(PenCommand(True))
+        with pytest.raises(InputError, match="6 finite joint goals"):
+            plant.command(PositionCommand(np.full(6, np.nan)))
+        for _ in range(200):  # walk the elbow far past its range: stops at the margin
+            plant.command(PositionCommand(start + np.array([0, 0, 5.0, 0, 0, 0])))
+        elbow_high = np.radians(92.0 - 2.0)
+        assert plant._goal_q[2] == pytest.approx(elbow_high)
+        plant.close()
+
+
+@pytest.mark.parametrize("kind", FAULT_KINDS)
+def test_each_fault_ends_in_pen_up_and_a_safe_arm_within_50_ms(kind, wx250s, arm_emulator,
+                                                                tmp_path):
+    trace = tmp_path / "trace.npz"
+    with arm_emulator(wx250s) as emu:
+        plant = DynamixelPlant(emu.port, wx250s, trace_path=trace)
+        q = plant.read().q
+        for _ in range(12):
+            plant.read()
+            plant.command(PositionCommand(q))
+            plant.step()
+        emu.inject(kind, 4)                               # the elbow
+        with pytest.raises(DynamixelFault) as info:
+            for _ in range(40):
+                plant.read()
+                plant.command(PositionCommand(q))
+                plant.step()
+        fault = info.value
+        lifted = np.degrees(plant._goal_q - q)
+        plant.close()
+        shoulder = round(2048 + (q[1] + np.radians(-6.0)) * 4096 / (2 * np.pi))
+        lifted_on_bus = eventually(
+            lambda: abs(emu.servo(2).memory.get("goal_position") - shoulder) <= 2)
+        on_bus = emu.servo(2).memory.get("goal_position")
+    message = str(fault)
+    if kind == "disconnect":
+        assert "serial port disconnected" in message and "bus watchdog" in message
+    else:
+        assert "servo 4 (elbow)" in message
+        expected = {"silent": ("no reply",), "late": ("no reply", "late replies"),
+                    "crc": ("corrupt reply",), "overload": ("hardware error: overload",),
+                    "overheat": ("hardware error: overheating",),
+                    "watchdog": ("bus watchdog expired",)}[kind]
+        assert any(words in message for words in expected), message
+        assert "pen lifted" in message and "arm holding" in message
+        assert plant.safe_after_s < 0.05
+        np.testing.assert_allclose(lifted, [0, -6.0, 0, 0, 0, 0], atol=0.01)
+        assert lifted_on_bus, (on_bus, shoulder)
+    assert trace.is_file()
+    saved = np.load(trace)
+    assert len(saved["time"]) >= 12 and saved["q"].shape[1] == 6
