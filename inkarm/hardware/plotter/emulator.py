@@ -4,11 +4,13 @@ sender) to the slave path it prints.
 Two threads share the machine (:class:`inkarm.hardware.plotter.machine.GrblMachine`):
 
 * the *receiver* reads the port as GRBL's serial interrupt does: real-time bytes (``?``
-  status, ``!`` feed hold, ``~`` resume, 0x18 soft reset, 0x80-0xFF overrides of which 0x9E,
-  the spindle stop in a hold, lifts a servo pen) are acted on at once and never buffered; every other byte goes into a 128-byte receive buffer, and a byte
+  status, ``!`` feed hold, ``~`` resume, 0x18 soft reset, and 0x80-0xFF, GRBL's overrides, of
+  which 0x9E, the spindle stop in a hold, lifts a servo pen and the rest are ignored) are acted
+  on at once and never buffered; every other byte goes into a 128-byte receive buffer, and a byte
   that finds it full is lost without a word (:attr:`EmulatorStats.bytes_dropped` counts them);
 * the *protocol loop* takes characters out of the buffer into its line only when the machine
-  can take a line (not while the planner is full or a dwell or pen change is pending), runs
+  can take a line (``\n`` and ``\r`` each end one, and an empty line is answered ``ok``, as
+  GRBL does: send ``\n`` alone) (not while the planner is full or a dwell or pen change is pending), runs
   the machine against the clock, and writes replies.
 
 Machine time runs ``speedup`` times faster than the wall clock; the buffers, the sender's round
@@ -274,8 +276,6 @@ class GrblEmulator:
             del self._rx[: newline + 1]
             text = self._line.decode("ascii", "replace")
             self._line.clear()
-            if not text.strip() and (not text or text.isspace()):
-                continue  # GRBL ignores empty lines (a CR LF pair is one line end)
             self._line_received(machine, text)
             machine.pump()
 

@@ -219,7 +219,7 @@ class GrblMachine:
 
     def status_report(self) -> str:
         mask = int(self.settings[10])
-        x, y, z = self.position
+        x, y, z = self.position / (25.4 if self.settings[13] else 1.0)  # $13: report inches
         fields = [self.state, f"MPos:{x:.3f},{y:.3f},{z:.3f}"]
         if mask & 2:
             fields.append(f"Bf:{BLOCK_BUFFER - len(self.planner.blocks)},128")

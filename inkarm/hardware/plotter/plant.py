@@ -206,7 +206,7 @@ class GrblPlant:
 
     def _state(self, s: StatusReport) -> PlantState:
         t = (s.time - (self._t0 if self._t0 is not None else s.time)) * self.time_scale
-        mpos = np.array(s.mpos, dtype=float) * self.profile.unit_mm / 1.0
+        mpos = np.array(s.mpos, dtype=float) * (25.4 if self.settings.get(13) else 1.0)
         down = s.spindle_on if not self._z_pen else mpos[2] <= 1e-3
         return PlantState(
             time=t, q=mpos[:2] / 1000.0, qd=np.zeros(2),

@@ -281,3 +281,16 @@ def test_pause_lifts_the_pen_and_resume_continues_where_it_left():
     # No gap where it paused: every millimetre of the line has ink.
     assert np.all(np.isin(np.arange(21, 180), np.round(ink[:, 0]).astype(int)))
     assert canvas.n_strokes == 2  # lifted once in the middle
+
+
+def test_empty_lines_are_answered_and_status_in_inches_with_setting_13(emulator):
+    s = connect(emulator)
+    s.stream(["", "(a comment)", "G21 G90 G0 X25.4 Y50.8"])
+    assert s.state.acked == 3
+    s.wait_idle(5)
+    s.command("$13=1")  # (settings only while idle: error:8 otherwise)
+    s.realtime(b"?")
+    time.sleep(0.05)
+    s.pump(poll=False)
+    assert s.last_status.mpos[:2] == pytest.approx((1.0, 2.0))
+    s.close()
