@@ -1,7 +1,8 @@
 """Figures of the motor-primitive fHMM (seed 004 Fig. 4, 5 and 8).
 
 * :func:`plot_primitives` (Fig. 4): chosen primitives in velocity space (each channel against
-  the state), in pen space (integrated from (0, 0), line width showing pressure), and the
+  the state), in pen space (integrated from (0, 0), line width showing pressure from a
+  mid-level), and the
   distribution of their onsets over the training sequences.
 * :func:`plot_timing` (Fig. 5): one sequence's timing code (when each primitive is active, onsets
   marked) beside the sequence and its reconstruction from that code, in pen space.
@@ -73,7 +74,7 @@ def plot_primitives(model: PrimitiveModel, expectations: np.ndarray | None = Non
         if col == 0:
             ax.set_ylabel("normalised velocity")
             ax.legend(fontsize=7)
-        path = pen_path(model, model.W[m, 1:])
+        path = pen_path(model, model.W[m, 1:], pressure0=0.5)  # a change of pressure shows
         ax = axes[1, col]
         _pressure_line(ax, path)
         ax.plot(0.0, 0.0, "o", color="tab:red", ms=3)

@@ -56,12 +56,13 @@ def sample(model: PrimitiveModel, n_samples: int, rng: np.random.Generator,
     return outputs(model, states, rng if noise else None), states
 
 
-def pen_path(model: PrimitiveModel, Y: np.ndarray, start=(0.0, 0.0)) -> Trajectory:
+def pen_path(model: PrimitiveModel, Y: np.ndarray, start=(0.0, 0.0),
+             pressure0: float = 0.0) -> Trajectory:
     """The pen path [mm, s] whose normalised first differences are ``Y`` (T, D).
 
     Channels named ``dx``, ``dy`` give the position (the first two channels otherwise); a
-    ``dp`` channel gives the pressure, its level integrated from pen-up (0) and clipped to
-    [0, 1].
+    ``dp`` channel gives the pressure, its level integrated from ``pressure0`` (pen up: 0) and
+    clipped to [0, 1].
     """
     Y = np.asarray(Y, dtype=float)
     names = list(model.channels)
@@ -72,7 +73,7 @@ def pen_path(model: PrimitiveModel, Y: np.ndarray, start=(0.0, 0.0)) -> Trajecto
     t = np.arange(len(pos)) / model.rate_hz
     pressure = None
     if "dp" in names:
-        level = np.concatenate([[0.0], np.cumsum(steps[:, names.index("dp")])])
+        level = pressure0 + np.concatenate([[0.0], np.cumsum(steps[:, names.index("dp")])])
         pressure = np.clip(level, 0.0, 1.0)
     return Trajectory(t=t, pos=pos, pressure=pressure)
 
