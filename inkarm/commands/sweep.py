@@ -95,6 +95,12 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise InputError(f"expected --workers >= 1, got {args.workers}", key="--workers",
                          value=args.workers)
+    if args.ray is not None:
+        try:
+            import ray  # noqa: F401  (checked before any work)
+        except ImportError:
+            raise InputError("Ray is not installed: pip install 'inkarm[ray]'",
+                             key="--ray") from None
     scenario = load_scenario(args.scenario)
     keys, points = build_points(args, scenario)
     executor = "ray" if args.ray is not None else "process"

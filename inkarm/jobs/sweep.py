@@ -18,6 +18,7 @@ columns (``wall_s``, ``realtime_factor``).
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import multiprocessing
 import os
@@ -42,6 +43,8 @@ INK_DIR = "ink"
 FIGURES_DIR = "figures"
 EXECUTORS = ("process", "ray")
 TIMING_COLUMNS = ("wall_s", "realtime_factor")  # the machine's, not the run's
+IN_FLIGHT_PER_WORKER = 4  # tasks handed to the process pool ahead of its workers
+RAY_IN_FLIGHT = 1000  # tasks submitted to Ray ahead of the results
 
 
 @dataclass(frozen=True)
@@ -142,9 +145,15 @@ def process_results(scenario: Scenario, points: list[Point],
         context = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint,
                                mp_context=context)
-    pending = {pool.submit(run_point, scenario, p) for p in points}
+    queue = iter(points)
+    pending: set = set()
     try:
-        while pending:
+        while True:
+            # a few tasks per worker in flight: a long sweep never holds every task at once
+            for p in itertools.islice(queue, max(0, IN_FLIGHT_PER_WORKER * workers - len(pending))):
+                pending.add(pool.submit(run_point, scenario, p))
+            if not pending:
+                break
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
                 try:
@@ -172,8 +181,12 @@ def ray_results(scenario: Scenario, points: list[Point],
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(run_point)
         shared = ray.put(scenario)
-        pending = {task.remote(shared, p): p for p in points}
-        while pending:
+        queue = iter(points)
+        while True:
+            room = max(0, RAY_IN_FLIGHT - len(pending))
+            pending.update({task.remote(shared, p): p for p in itertools.islice(queue, room)})
+            if not pending:
+                break
             ready, _ = ray.wait(list(pending), num_returns=1)
             for ref in ready:
                 point = pending.pop(ref)
