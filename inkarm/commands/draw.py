@@ -139,6 +139,13 @@ def run(args: argparse.Namespace) -> int:
         robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
         scenario = scenario.with_overrides({"robot": {}, key: robot})
     out = check_out_dir(args.out, inputs=scenario_inputs(scenario), names=RUN_FILES)
+    if args.check and args.backend != "sim":
+        from inkarm.jobs.backends import BackendOptions, check_backend
+
+        summary = check_backend(args.backend, scenario, BackendOptions(profile=args.profile))
+        if summary is not None:  # (else the arm's own check below)
+            print(summary)
+            return 0
     if args.check:
         from inkarm.jobs.run import check
 
