@@ -99,6 +99,7 @@ def test_inkarm_calibrate_refuses_a_port_it_cannot_open(tmp_path):
     profile = _copy_profile(tmp_path)
     result = subprocess.run(
         [sys.executable, "-m", "inkarm.cli", "calibrate", "--port", "/dev/null-no-such-port",
-         "--robot", str(profile.source)], capture_output=True, text=True, timeout=60)
+         "--robot", str(profile.source)], capture_output=True, text=True, timeout=60,
+        check=False)
     assert result.returncode == 2
     assert "cannot open /dev/null-no-such-port" in result.stderr
