@@ -50,6 +50,8 @@ class Backend:
     help: str
     needs_port: bool
     run: Callable[[Scenario, BackendOptions, Progress], Run]
+    check: Callable[[Scenario, BackendOptions], str] | None = None
+    """Everything ``run`` checks before it opens the port; returns a one-line summary."""
 
 
 _BACKENDS: dict[str, Backend] = {}
@@ -85,6 +87,15 @@ def run_backend(name: str, scenario: Scenario, options: BackendOptions | None = 
     return backend.run(scenario, options, progress)
 
 
+def check_backend(name: str, scenario: Scenario,
+                  options: BackendOptions | None = None) -> str | None:
+    """What backend ``name`` checks before it moves anything, without a device (``draw
+    --check``): its one-line summary; None for a backend without a check of its own (an arm
+    is checked as the simulated one is: source, budgets, sheet, reach)."""
+    backend = get_backend(name)
+    return None if backend.check is None else backend.check(scenario, options or BackendOptions())
+
+
 def _run_sim(scenario: Scenario, options: BackendOptions, progress: Progress) -> Run:
     from inkarm.jobs.run import run
 
@@ -107,9 +118,16 @@ def _run_dynamixel(scenario: Scenario, options: BackendOptions, progress: Progre
 
 
 register(Backend("sim", "the MuJoCo arm of the scenario (default)", False, _run_sim))
-register(Backend("plotter", "a GRBL 1.1 pen plotter on a serial port", True, _run_plotter))
+def _check_plotter(scenario: Scenario, options: BackendOptions) -> str:
+    from inkarm.jobs.plotter import check_plotter_scenario
+
+    return check_plotter_scenario(scenario, profile=options.profile)
+
+
+register(Backend("plotter", "a GRBL 1.1 pen plotter on a serial port", True, _run_plotter,
+                 _check_plotter))
 register(Backend("dynamixel", "a Dynamixel X-series arm (Protocol 2.0) on a serial port", True,
                  _run_dynamixel))
 
-__all__ = ["Backend", "BackendOptions", "backend_names", "get_backend", "register",
-           "run_backend"]
+__all__ = ["Backend", "BackendOptions", "backend_names", "check_backend", "get_backend",
+           "register", "run_backend"]

@@ -17,7 +17,7 @@ import numpy as np
 from inkarm.analysis.metrics import compute_metrics
 from inkarm.control.plotter import run_plotter
 from inkarm.core.log import DrawLog
-from inkarm.errors import InkarmError
+from inkarm.errors import InkarmError, InputError
 from inkarm.hardware.plotter.plant import GrblPlant
 from inkarm.hardware.plotter.profiles import load_profile
 from inkarm.hardware.plotter.stream import GrblStreamer
@@ -93,6 +93,32 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
     shortfalls = judge(metrics, scenario.controller.force_n)
     return Run(scenario, DEGRADED if shortfalls else OK, drawing, log, canvas, metrics,
                reason="; ".join(shortfalls), notes=notes)
+
+
+def check_plotter_scenario(scenario: Scenario, profile: str | None = None) -> str:
+    """Everything a plotter run checks before it opens the port (profile, source, placement on
+    the sheet), and the job's G-code and time estimate on GRBL's planner with its default
+    settings; a one-line summary. Nothing is sent."""
+    from inkarm.hardware.plotter.gcode import drawing_to_gcode
+    from inkarm.hardware.plotter.timing import estimate_seconds
+
+    try:
+        pen = load_profile(profile)
+        size = page_size_mm(scenario)
+        drawing = place(source_drawing(scenario), scenario.placement, size)
+        lo, hi = drawing.bounds()
+        if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
+            raise InputError(f"the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
+                             f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet "
+                             "(the plotter's origin is the sheet's lower-left corner)",
+                             key="placement")
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    job = drawing_to_gcode(drawing, pen)
+    return (f"ok: {scenario.title!r}, {len(drawing.strokes)} strokes on the sheet; "
+            f"{len(job.lines)} G-code lines for pen profile {pen.name!r}, about "
+            f"{estimate_seconds(job.lines):.1f} s on GRBL's planner (default settings); "
+            "nothing sent")
 
 
 def ink_measured(canvas: Canvas, log: DrawLog) -> None:

@@ -108,3 +108,15 @@ def test_emulate_grbl_prints_its_port_and_writes_its_canvas_on_ctrl_c(tmp_path):
         _, err = proc.communicate(timeout=10)
     assert proc.returncode == 0, err
     assert out.is_file() and "received 6 lines, 0 bytes lost" in err
+
+
+def test_draw_check_on_the_plotter_sends_nothing(tmp_path, capsys):
+    assert main(["draw", "--backend", "plotter", "--check", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "G-code lines for pen profile 'servo'" in out and "nothing sent" in out
+    scenario = tmp_path / "off.toml"
+    scenario.write_text('[source]\nkind = "text"\ntext = "hi"\n[placement]\n'
+                        'centre_mm = [5.0, 5.0]\nheight_mm = 40.0\n')
+    assert main(["draw", str(scenario), "--backend", "plotter", "--check", "--out",
+                 str(tmp_path / "o")]) == 2
+    assert "beyond the 210 x 297 mm sheet" in capsys.readouterr().err
