@@ -63,7 +63,7 @@ def _r(name, address, size, access, area, default=0, minimum=0, maximum=None, un
 
 COMMON: tuple[Register, ...] = (
     _r("model_number", 0, 2, R, EEPROM),
-    _r("model_information", 4, 4, R, EEPROM),
+    _r("model_information", 2, 4, R, EEPROM),
     _r("firmware_version", 6, 1, R, EEPROM, 46),
     _r("id", 7, 1, RW, EEPROM, 1, 0, 252),
     _r("baud_rate", 8, 1, RW, EEPROM, 1, 0, 7),
