@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 
 from inkarm.errors import InputError
@@ -53,7 +55,7 @@ def test_control_tables_agree_with_the_sdk_addresses_and_the_servo_models():
         assert (t["goal_position"].address, t["present_position"].address) == (116, 132)
         assert t["bus_watchdog"].address == 98 and t["bus_watchdog"].signed
         registers = sorted(t.registers, key=lambda r: r.address)
-        for a, b in zip(registers, registers[1:]):
+        for a, b in itertools.pairwise(registers):
             assert a.address + a.size <= b.address, (model, a.name, b.name)
     assert "current_limit" not in table("XL430-W250") and "present_load" in table("XL430-W250")
     assert table("XM540-W270")["current_limit"].maximum == 2047
