@@ -31,6 +31,19 @@ def page_size_mm(scenario: Scenario) -> tuple[float, float]:
     return Cell(scenario.cell, scenario.robot).paper_size_mm
 
 
+def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
+    """The scenario's drawing placed on the sheet; refused when any of it lies off the sheet
+    (the machine's space starts at the sheet's lower-left corner)."""
+    drawing = place(source_drawing(scenario), scenario.placement, size)
+    lo, hi = drawing.bounds()
+    if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
+        raise InputError(f"the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
+                         f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet "
+                         "(the plotter's origin is the sheet's lower-left corner)",
+                         key="placement")
+    return drawing
+
+
 def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str | None = None,
                          baudrate: int = 115200, time_scale: float = 1.0, progress=None,
                          canvas: Canvas | None = None, dt: float = 0.01) -> Run:
@@ -40,7 +53,7 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
     try:
         pen = load_profile(profile)
         size = page_size_mm(scenario)
-        drawing = place(source_drawing(scenario), scenario.placement, size)
+        drawing = placed_on_sheet(scenario, size)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     streamer = GrblStreamer(port, baudrate, time_scale=time_scale)
@@ -105,13 +118,7 @@ def check_plotter_scenario(scenario: Scenario, profile: str | None = None) -> st
     try:
         pen = load_profile(profile)
         size = page_size_mm(scenario)
-        drawing = place(source_drawing(scenario), scenario.placement, size)
-        lo, hi = drawing.bounds()
-        if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
-            raise InputError(f"the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
-                             f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet "
-                             "(the plotter's origin is the sheet's lower-left corner)",
-                             key="placement")
+        drawing = placed_on_sheet(scenario, size)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     job = drawing_to_gcode(drawing, pen)
