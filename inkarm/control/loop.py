@@ -139,7 +139,7 @@ def run_drawing(
     settle_ticks = round(config.settle_s / dt)
     timeout_ticks = round(config.settle_timeout_s / dt)
     stop_ticks = max(1, round(config.stop_s / dt))
-    log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + stop_ticks + 2, kin.n)
+    log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + 2 * stop_ticks + 2, kin.n)
     k_force = config.force_gain_mm_per_ns / 1000.0 * dt  # [m/N] per period
     search_step = config.search_speed_mm_s / 1000.0 * dt  # [m] per period
     z_limit = config.correction_limit_mm / 1000.0
@@ -275,7 +275,8 @@ def run_drawing(
                     row = _safe_stop(plant, log, ref_row, row, min(i, n_ref - 1), state, normal_q,
                                  config, stop_ticks, torque_mode, update, bias, placement, kin,
                                  senses_tip, torque_saturated=getattr(err, "watchdog", "")
-                                 in ("torque_saturated", "joint_speed"))
+                                 in ("torque_saturated", "joint_speed"),
+                                 travel_mm=model.pen_travel_mm)
         _brake(plant)
         partial = _with_plan_columns(log, ref, ref_row, row, ref_blend)
         partial.phase[stop_from:] = LIFT
@@ -292,17 +293,19 @@ def run_drawing(
 
 
 def _safe_stop(plant, log, ref_row, row, i, state, normal_q, config, ticks, torque_mode,
-               update, bias, placement, kin, senses_tip, torque_saturated) -> int:
-    """After a fault: lift the pen ``hover_mm`` along the paper normal from where the arm is,
-    over ``stop_s`` (logged as a lift); an arm whose torques saturated is braked at once.
-    Returns the next log row."""
+               update, bias, placement, kin, senses_tip, torque_saturated,
+               travel_mm: float) -> int:
+    """After a fault: lift the pen by ``hover_mm`` plus its travel along the paper normal from
+    where the arm is, over ``stop_s``, and hold there for half as long again (commands may be
+    late); logged as a lift. An arm whose torques saturated is braked at once. Returns the next
+    log row."""
     if torque_saturated:
         return row
     q0 = np.asarray(state.q, dtype=float)
-    lift = -config.hover_mm / 1000.0 * normal_q[i]
+    lift = -(config.hover_mm + travel_mm) / 1000.0 * normal_q[i]
     zero = np.zeros_like(q0)
-    for k in range(1, ticks + 1):
-        s = k / ticks
+    for k in range(1, ticks + ticks // 2 + 1):
+        s = min(k / ticks, 1.0)
         goal = q0 + (10 * s**3 - 15 * s**4 + 6 * s**5) * lift
         state = plant.read()
         if torque_mode:
