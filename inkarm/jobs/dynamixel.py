@@ -215,18 +215,18 @@ def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
 
 
 def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
-            latency_ms: float | None = None, progress=None) -> Run:
+            progress=None, **backend) -> Run:
     """A whole hardware-in-the-loop run on this machine: the twin emulator in a child process
     on a pty, :func:`run_dynamixel` through dynamixel-sdk, the twin's canvas brought back and
-    the metrics computed on its ink. ``latency_ms`` overrides the profile's USB latency timer
-    (a loaded machine answers late)."""
+    the metrics computed on its ink. ``backend`` overrides keys of the profile's
+    ``[backends.dynamixel]`` (``latency_ms``, ``watchdog_ms``: a loaded machine answers late)."""
     import functools
 
     from inkarm.hardware.dynamixel.emulator import EmulatorProcess
 
-    if latency_ms is not None:
+    if backend:
         backends = dict(scenario.robot.backends)
-        backends["dynamixel"] = {**backends["dynamixel"], "latency_ms": latency_ms}
+        backends["dynamixel"] = {**backends["dynamixel"], **backend}
         robot = dataclasses.replace(scenario.robot, backends=backends)
         scenario = dataclasses.replace(scenario, robot=robot)
     emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults)),
