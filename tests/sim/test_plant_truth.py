@@ -1,0 +1,145 @@
+"""The plant's truth apart from the controller's belief: parsing, draws, and what each field
+does to the plant (each checked against what the physics must give)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from inkarm.errors import InputError, ScenarioError
+from inkarm.jobs.scenario import load_scenario
+from inkarm.sim.cell import PAPER_ORIGIN, kinematic_model, make_cell, page_placement
+from inkarm.sim.imperfections import PlantTruth
+from inkarm.sim.perturb import plant_model
+from inkarm.sim.plant import MujocoPlant
+from inkarm.sim.senses import Senses
+from inkarm.sim.transmission import Transmission
+
+
+def test_a_nominal_truth_is_the_model():
+    assert PlantTruth().is_nominal and PlantTruth(seed=5).is_nominal
+    assert not PlantTruth(paper_height_mm=1.0).is_nominal
+
+
+def test_random_fields_are_drawn_within_their_ranges_from_the_seed():
+    truth = PlantTruth(random={"mass_scale": (0.8, 1.2), "paper_height_mm": (-5.0, 5.0)})
+    draws = [truth.realised(seed) for seed in range(50)]
+    masses = np.array([d.mass_scale for d in draws])
+    assert masses.min() >= 0.8 and masses.max() <= 1.2 and masses.std() > 0.05
+    assert all(d.random == {} for d in draws)
+    assert truth.realised(7) == truth.realised(7)  # one seed, one plant
+    assert truth.realised(7) != truth.realised(8)
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"velocity": "guessed"}, r"velocity: expected one of exact, differences, got 'guessed'"),
+    ({"mass_scale": 0.0}, r"mass_scale: expected a number in \[0.1, 10\]"),
+    ({"sensing_delay_ms": -1.0}, r"sensing_delay_ms: expected a number in \[0, 1000\] ms"),
+    ({"coulomb_nm": (1.0, float("nan"))}, r"coulomb_nm: expected finite numbers"),
+    ({"random": {"mass_scal": (0.9, 1.1)}}, r"'mass_scal' cannot be drawn at random \(did you "
+                                            r"mean 'mass_scale'\?\)"),
+    ({"random": {"mass_scale": (1.2, 0.8)}}, r"random.mass_scale: expected finite low <= high"),
+    ({"random": {"mass_scale": (0.0, 2.0)}}, r"random.mass_scale: expected a range within"),
+    ({"seed": 1.5}, r"seed: expected a whole number >= 0"),
+])
+def test_bad_truths_are_refused_naming_the_field(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        PlantTruth(**kwargs)
+
+
+def test_per_joint_fields_take_one_number_or_one_per_joint():
+    assert PlantTruth(coulomb_nm=2.0).per_joint("coulomb_nm", 3).tolist() == [2.0, 2.0, 2.0]
+    with pytest.raises(InputError, match=r"coulomb_nm: expected 1 or 7 numbers \(one per "
+                                         r"joint\), got 2"):
+        PlantTruth(coulomb_nm=(1.0, 2.0)).per_joint("coulomb_nm", 7)
+
+
+def test_the_scenario_plant_table_parses_and_round_trips():
+    base = load_scenario()
+    s = base.with_overrides({"plant.coulomb_nm": [5, 5, 3, 3, 2, 1, 1], "plant.seed": 4,
+                             "plant.random.mass_scale": [0.9, 1.1]})
+    assert s.plant.coulomb_nm == (5.0, 5.0, 3.0, 3.0, 2.0, 1.0, 1.0) and s.plant.seed == 4
+    again = base.with_overrides({"plant": s.to_dict()["plant"]})
+    assert again.plant == s.plant
+    with pytest.raises(ScenarioError, match=r"plant.mass_scal: unknown key \(did you mean "
+                                            r"'mass_scale'\?\)"):
+        base.with_overrides({"plant.mass_scal": 1.0})
+
+
+@pytest.mark.sim
+def test_model_level_truth_changes_only_the_plant():
+    cell = make_cell()
+    nominal = kinematic_model(cell).model
+    truth = PlantTruth(mass_scale=1.2, paper_height_mm=-4.0, payload_kg=0.5,
+                       coulomb_nm=(5, 5, 3, 3, 2, 1, 1), paper_tilt_deg=2.0)
+    model = plant_model(cell, truth)
+    arm = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"link{i}") for i in range(1, 8)]
+    moving = nominal.body_mass[arm].sum()
+    # every link 20 % heavier, plus the payload on the last one
+    assert model.body_mass[arm].sum() == pytest.approx(1.2 * moving + 0.5)
+    np.testing.assert_allclose(model.dof_frictionloss[:7], [5, 5, 3, 3, 2, 1, 1])
+    page = page_placement(model)
+    believed = page_placement(nominal)
+    origin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, PAPER_ORIGIN)
+    assert origin >= 0
+    # the sheet's normal is tilted by 2 degrees; its centre is 4 mm lower
+    tilt = np.degrees(np.arccos(page.rotation[:, 2] @ believed.rotation[:, 2]))
+    assert tilt == pytest.approx(2.0, abs=1e-6)
+    centre = page.to_robot([105.0, 148.5, 0.0])
+    assert (centre - believed.to_robot([105.0, 148.5, 0.0]))[2] == pytest.approx(-0.004, abs=1e-6)
+    # the controller's model is untouched
+    assert kinematic_model(cell).model.body_mass[arm].sum() == pytest.approx(moving)
+
+
+def test_a_point_payload_moves_the_centre_of_mass_by_the_lever_rule():
+    cell = make_cell()
+    base, loaded = plant_model(cell), plant_model(cell, PlantTruth(payload_kg=1.2))
+    body = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_BODY, "link7")
+    site = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_SITE, "flange")
+    m0, c0, p = base.body_mass[body], base.body_ipos[body], base.site_pos[site]
+    np.testing.assert_allclose(loaded.body_ipos[body], (m0 * c0 + 1.2 * p) / (m0 + 1.2))
+
+
+def test_encoders_quantise_and_velocity_comes_from_differences():
+    senses = Senses(PlantTruth(encoder_ticks_per_rev=4096, velocity="differences"), 2, 0.002)
+    tick = 2 * np.pi / 4096
+    q = senses.position(np.array([0.3 * tick, 10.6 * tick]))
+    np.testing.assert_allclose(q, [0.0, 11 * tick])
+    assert senses.velocity(q, np.zeros(2)).tolist() == [0.0, 0.0]
+    v = senses.velocity(q + tick, np.zeros(2))
+    np.testing.assert_allclose(v, tick / 0.002)
+
+
+def test_a_backlash_passes_no_torque_inside_the_gap():
+    gap = np.radians(0.2)
+    trans = Transmission(np.array([0.0]), np.array([gap]), np.array([0.01]), 0.002)
+    trans.reset(np.zeros(1), np.zeros(1))
+    trans.theta[:] = 0.4 * gap  # inside half the play
+    assert trans.coupling(np.zeros(1), np.zeros(1))[0] == 0.0
+    trans.theta[:] = 0.5 * gap + 1e-3
+    assert trans.coupling(np.zeros(1), np.zeros(1))[0] == pytest.approx(trans.k[0] * 1e-3)
+
+
+@pytest.mark.sim
+def test_an_actuation_delay_holds_back_a_command_by_whole_steps():
+    from inkarm.core.plant import TorqueCommand
+
+    truth = PlantTruth(actuation_delay_ms=4.0)
+    plant = MujocoPlant(plant_model(make_cell(), truth), truth=truth, substeps=1)
+    tau = np.full(7, 1.0)
+    plant.command(TorqueCommand(tau))
+    plant.step()
+    plant.step()
+    assert np.all(plant.read().torque == 0.0)  # 2 steps = 4 ms: not yet
+    plant.step()
+    np.testing.assert_array_equal(plant.read().torque, tau)
+
+
+@pytest.mark.sim
+def test_a_sensing_delay_returns_readings_that_old():
+    truth = PlantTruth(sensing_delay_ms=6.0)
+    plant = MujocoPlant(plant_model(make_cell(), truth), truth=truth, substeps=1)
+    for _ in range(10):
+        plant.step()
+    assert plant.read().time == pytest.approx(plant.data.time - 0.006)
