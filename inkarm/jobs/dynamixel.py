@@ -104,6 +104,7 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     notes = () if cal is not None else (f"no calibration file ({path}): tick 2048 is 0 rad",)
+    canvas_given = canvas is not None
     canvas = canvas if canvas is not None else Canvas(
         size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make())
     plant = DynamixelPlant(port, profile, cal, trace_path=trace_path)
@@ -123,12 +124,15 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
         plant.close()
     metrics = _metrics(log, drawing, believed, canvas)
     metrics["bus_overruns"] = plant.overruns
-    notes += ("a Dynamixel arm senses no pen force: the force metrics are 0",)
+    notes += ("a Dynamixel arm senses no pen force (no force metrics)",)
+    if not canvas_given:
+        notes += ("the ink is on the paper, not on this run's canvas",)
     return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes + tuple(log.notes))
 
 
 def _metrics(log, drawing, believed, canvas) -> dict:
-    """The run's metrics; the pen force, which the servos do not sense, counts as 0."""
+    """The run's metrics; the pen force, which the servos do not sense, counts as 0 (so the
+    force metrics are empty)."""
     if log is None or len(log) == 0 or not log.drawing.any():
         return {}
     return compute_metrics(

@@ -224,7 +224,10 @@ class DynamixelEmulator:
         if behind > MAX_CATCH_UP_S:
             self.stats.dropped_s += behind - MAX_CATCH_UP_S
             behind = MAX_CATCH_UP_S
-        for _ in range(int(behind / period)):
+        for k in range(int(behind / period)):
+            # catching up: stop for a packet that arrives meanwhile (the rest next time)
+            if k and k % 4 == 0 and select.select([self._master], [], [], 0)[0]:
+                break
             self.bank.step()
         self.bus.now = self.now()
         self.bank.check_watchdogs(self.now())
@@ -235,18 +238,18 @@ class DynamixelEmulator:
             while self._running:
                 readable, _, _ = select.select([self._master], [], [], self.physics.period_s)
                 with self.lock:
-                    self._advance()
                     self._due_faults()
                     if not self._running:
                         break
-                    if not readable:
-                        continue
-                    t_arrival = time.monotonic()
-                    data = os.read(self._master, 4096)
-                    self.stats.bytes_in += len(data)
-                    for packet in reader.feed(data):
-                        self._answer(packet, t_arrival)
-                    self.stats.bytes_skipped = reader.skipped
+                    if readable:  # answer first: the host is waiting, the physics is not
+                        t_arrival = time.monotonic()
+                        self.bus.now = self.now()
+                        data = os.read(self._master, 4096)
+                        self.stats.bytes_in += len(data)
+                        for packet in reader.feed(data):
+                            self._answer(packet, t_arrival)
+                        self.stats.bytes_skipped = reader.skipped
+                    self._advance()
         except OSError as e:  # the other end went away
             self.error = e
         except BaseException as e:  # keep the failure for the owner to see
