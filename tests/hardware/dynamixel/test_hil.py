@@ -53,3 +53,31 @@ def test_emulate_dynamixel_prints_a_port_that_answers(tmp_path):
         _, err = proc.communicate(timeout=20)
     assert proc.returncode == 0, err
     assert "packets" in err
+
+
+@pytest.mark.slow
+@pytest.mark.sim
+def test_a_faulted_draw_fails_loudly_with_pen_up_and_its_trace_kept(tmp_path):
+    """`inkarm draw --backend dynamixel` against `inkarm emulate dynamixel` with an overload
+    injected mid-drawing: exit 1, status failed naming the servo, partial trace on disk."""
+    emulator = subprocess.Popen(
+        [sys.executable, "-m", "inkarm.cli", "emulate", "dynamixel", "--robot", "wx250s",
+         "--simple", "--fault", "overload:4:2.0"], stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True)
+    try:
+        emulator.stdout.readline()
+        port = emulator.stdout.readline().strip()
+        out = tmp_path / "run"
+        draw = subprocess.run(
+            [sys.executable, "-m", "inkarm.cli", "draw", str(SCENARIO), "--backend", "dynamixel",
+             "--port", port, "--out", str(out), "--quiet"], capture_output=True, text=True,
+            timeout=120, check=False)
+    finally:
+        emulator.send_signal(signal.SIGTERM)
+        emulator.communicate(timeout=20)
+    assert draw.returncode == 1, draw.stderr
+    assert "servo 4 (elbow): hardware error: overload" in draw.stderr
+    assert "pen lifted" in draw.stderr
+    status = (out / "status.json").read_text()
+    assert '"status": "failed"' in status and "overload" in status
+    assert (out / "trace.npz").is_file()
