@@ -33,9 +33,9 @@ ROWS = {
 QUICK = {"paper -5 mm", "hard paper, nib friction 0.3"}
 
 
-def draw(plant: dict, scenario=None):
+def draw(plant: dict, scenario=None, knows_latency: bool = True):
     over = {f"plant.{k}": v for k, v in plant.items()}
-    if plant.get("actuation_delay_ms"):  # the controller knows its latency
+    if knows_latency and plant.get("actuation_delay_ms"):  # the controller knows its latency
         over["controller.lookahead_s"] = plant["actuation_delay_ms"] / 1000.0
     return run((scenario or load_scenario()).with_overrides(over))
 
@@ -113,7 +113,7 @@ BEYOND = {
     pytest.param(n, marks=() if n == "paper 30 mm lower" else pytest.mark.slow) for n in BEYOND])
 def test_beyond_reach_the_run_fails_safe_within_100_ms(name):
     plant, watchdog = BEYOND[name]
-    result = draw(plant)
+    result = draw(plant, knows_latency=False)
     assert result.status == "failed" and result.reason.startswith(f"{watchdog}: "), result.reason
     fault = float(re.search(r"at t = ([0-9.]+) s", result.reason).group(1))
     log = result.log
