@@ -42,16 +42,16 @@ BAUD = 1_000_000
 class _SdkLoop:
     """The reference: the SDK's own PortHandler, GroupSyncRead and GroupSyncWrite."""
 
-    def __init__(self, port_name: str, ids):
+    def __init__(self, port_name: str, ids, goals):
         self.port = sdk.PortHandler(port_name)
         self.port.openPort()
         self.port.setBaudRate(BAUD)
         ph = sdk.PacketHandler(2.0)
         self.reader = sdk.GroupSyncRead(self.port, ph, 126, 10)
         self.writer = sdk.GroupSyncWrite(self.port, ph, 116, 4)
-        for i in ids:
+        for i, goal in zip(ids, goals):
             self.reader.addParam(i)
-            self.writer.addParam(i, [0, 8, 0, 0])
+            self.writer.addParam(i, list(int(goal).to_bytes(4, "little", signed=True)))
 
     def period(self) -> bool:
         return (self.reader.txRxPacket() == sdk.COMM_SUCCESS
@@ -71,7 +71,8 @@ def measure(periods: int) -> list[tuple[str, float]]:
         plant = DynamixelPlant(emulator.port, profile)   # writes Return Delay Time 0
         q = plant.read().q
         bus, ids = plant.bus, cfg.ids
-        reference = _SdkLoop(emulator.port, ids)
+        hold = bus.read_state(ids)[0]   # the same goals from every row: no tug of war
+        reference = _SdkLoop(emulator.port, ids, hold)
         times = {"sdk": [], "bus": [], "plant": []}
         for _ in range(periods):  # interleaved, so that load on the machine hits all alike
             t = time.perf_counter()
@@ -80,7 +81,7 @@ def measure(periods: int) -> list[tuple[str, float]]:
             times["plant"].append(time.perf_counter() - t)
             t = time.perf_counter()
             bus.read_state(ids)
-            bus.sync_write(ids, "goal_position", [2048] * len(ids))
+            bus.sync_write(ids, "goal_position", hold)
             times["bus"].append(time.perf_counter() - t)
             t = time.perf_counter()
             ok = reference.period()

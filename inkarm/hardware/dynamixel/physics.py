@@ -228,7 +228,9 @@ class ServoBank:
 
     def _protect(self) -> None:
         dt = self.physics.period_s
-        heating = (self.firmware.current_a ** 2) * 2.0  # [K/s per A^2], a coarse winding model
+        # [K/s per A^2], a coarse winding model: about 20 s at stall from 30 to 80 degC, a
+        # 300 s cooling time constant (holding at 0.5 A settles near 70 degC)
+        heating = (self.firmware.current_a ** 2) * 0.5
         self.temperature += dt * (heating - (self.temperature - AMBIENT_C) / 300.0)
         full = np.abs(self.firmware.pwm) >= 0.98 * PWM_FULL_SCALE
         self._full_duty_s = np.where(full & self._enabled, self._full_duty_s + dt, 0.0)
