@@ -29,8 +29,8 @@ def _copy_quick(folder: Path, extra: str = "") -> None:
 def test_the_plugin_passes_a_scenario_and_fails_a_regression_naming_metric_and_amount(pytester):
     _copy_quick(pytester.path / "good")
     (pytester.path / "good" / "no_baseline.toml").write_text("title = 'not collected'\n")
-    kd = [float(k) / 2 for k in load_scenario(SCENARIOS / "quick_stroke.toml").robot.gains.kd]
-    _copy_quick(pytester.path / "detuned", f"\n[robot.gains]\nkd = {kd}\n")
+    kp = [float(k) * 0.8 for k in load_scenario(SCENARIOS / "quick_stroke.toml").robot.gains.kp]
+    _copy_quick(pytester.path / "detuned", f"\n[robot.gains]\nkp = {kp}\n")
     result = pytester.runpytest("--inkarm-regress", "-p", "no:cacheprovider", "-v", "good",
                                 "detuned")
     result.assert_outcomes(passed=1, failed=1)
