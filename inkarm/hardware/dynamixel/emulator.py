@@ -11,7 +11,8 @@ and its access rules), :mod:`.instructions` (what each instruction does and who 
   physics is advanced to now (at most :data:`MAX_CATCH_UP_S` at once; the rest is dropped
   and counted); a packet is answered from the latest state.
 * Faults on command (:class:`Fault`, from when the first servo's torque went on):
-  ``silent`` (no replies), ``crc`` (corrupt CRC), ``late`` (replies 100 ms late),
+  ``silent`` (no replies), ``crc`` (corrupt CRC), ``late`` (each reply 100 ms late, sent
+  while the bus goes on),
   ``overload`` and ``overheat`` (hardware errors: torque off, alert bit), ``watchdog`` (the
   servo's bus watchdog fires), ``disconnect`` (the port closes).
 """
@@ -133,6 +134,7 @@ class DynamixelEmulator:
         self._running = False
         self._t0 = 0.0
         self._torque_on_at: float | None = None
+        self._late: list[tuple[float, bytes]] = []  # (due [monotonic s], reply)
         self.port = ""
         self.error: BaseException | None = None
 
@@ -238,6 +240,9 @@ class DynamixelEmulator:
             while self._running:
                 readable, _, _ = select.select([self._master], [], [], self.physics.period_s)
                 with self.lock:
+                    while self._late and self._late[0][0] <= time.monotonic():
+                        os.write(self._master, self._late.pop(0)[1])
+                        self.stats.replies += 1
                     self._due_faults()
                     if not self._running:
                         break
@@ -276,10 +281,11 @@ class DynamixelEmulator:
                 self.bank.reboot(s)
         t = t_arrival + len(packet.raw) * self.byte_s
         for servo, reply in replies:
+            if servo.late_s:  # sent later, while the bus goes on (on a real bus: a collision)
+                self._late.append((time.monotonic() + servo.late_s, reply))
+                continue
             if self.byte_timing:
                 t += servo.memory.get("return_delay_time") * 2e-6 + len(reply) * self.byte_s
-            t += servo.late_s
-            if self.byte_timing or servo.late_s:
                 _sleep_until(t)
             os.write(self._master, reply)
             self.stats.replies += 1
