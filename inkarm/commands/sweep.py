@@ -40,12 +40,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "the scenario's seed")
     p.add_argument("--out", required=True, help="output folder (resumed when it holds this "
                    "sweep)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes of the local pool (default: the CPUs available)")
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
-                   help="run on a Ray cluster at ADDRESS (default: a local one); needs "
-                   "pip install 'inkarm[ray]'")
-    p.add_argument("--metric", dest="metrics", action="append", default=None,
+                   help="run on a Ray cluster at ADDRESS (default: a local one); write "
+                   "--ray=ADDRESS, or --ray last, so that it does not take the scenario as its "
+                   "address; needs pip install 'inkarm[ray]'")
+    p.add_argument("--metric", dest="metrics", action="append", default=None, metavar="NAME",
                    help=f"metric to plot (repeatable; default {', '.join(DEFAULT_METRICS)})")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
