@@ -30,7 +30,7 @@ from inkarm.hardware.dynamixel.plant import DynamixelPlant, servo_goal, servo_st
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.run import FAILED, INTERRUPTED, OK, Run, RunInterrupted, placed_within_budget
 from inkarm.jobs.scenario import Scenario, load_scenario
-from inkarm.robots.servo import FirmwareGains, ServoFirmware, rad_to_ticks
+from inkarm.robots.servo import FirmwareGains, JointServos
 from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
 from inkarm.sim.plant import MujocoPlant
 
@@ -151,28 +151,14 @@ def run_backend(scenario: Scenario, options, progress=None) -> Run:
 
 
 
-class JointFirmware:
+def joint_firmware(profile, period_s: float) -> JointServos:
     """The profile's servos (:class:`inkarm.robots.servo.ServoFirmware` with the registers of
-    ``[backends.dynamixel]``) as a :class:`MujocoPlant` firmware in joint units: goals are
-    rounded to whole ticks as the bus writes them, a shadowed joint gets both servos' torque.
-    The pure simulation of the arm the emulator serves."""
-
-    def __init__(self, profile, period_s: float):
-        cfg = DynamixelConfig.of(profile)
-        gains = FirmwareGains(**{k: np.asarray(v, dtype=float) for k, v in cfg.gains.items()})
-        self.firmware = ServoFirmware(cfg.models, gains, period_s)
-        self.count = np.array([2.0 if j in cfg.shadows else 1.0 for j in range(cfg.n)])
-        self._started = False
-
-    def reset(self, q) -> None:
-        self.firmware.reset(rad_to_ticks(q))
-        self._started = True
-
-    def torque(self, goal_q, q, qd) -> np.ndarray:
-        if not self._started:
-            self.reset(q)
-        goal = np.rint(rad_to_ticks(goal_q))
-        return self.count * self.firmware.torque(goal, rad_to_ticks(q), qd)
+    ``[backends.dynamixel]``, shadows doubling their joints) in joint units: the firmware of
+    the pure simulation of the arm the emulator serves."""
+    cfg = DynamixelConfig.of(profile)
+    gains = FirmwareGains(**{k: np.asarray(v, dtype=float) for k, v in cfg.gains.items()})
+    counts = [2.0 if j in cfg.shadows else 1.0 for j in range(cfg.n)]
+    return JointServos(cfg.models, gains, period_s, counts)
 
 
 class ServoGoals:
@@ -204,7 +190,7 @@ def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
                     ink=scenario.ink.make())
     substeps = max(1, round(profile.control_period_s / scenario.cell.timestep))
     twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=substeps,
-                       firmware=JointFirmware(profile, scenario.cell.timestep))
+                       firmware=joint_firmware(profile, scenario.cell.timestep))
     config = dataclasses.replace(scenario.controller, command="position")
     try:
         log = run_drawing(drawing, ServoGoals(twin, profile), believed, profile.gains, config,
@@ -251,10 +237,10 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
 
 __all__ = [
     "Fault",
-    "JointFirmware",
     "ServoGoals",
     "TwinJoints",
     "hil_run",
+    "joint_firmware",
     "run_backend",
     "run_dynamixel",
     "simulate_servo_arm",

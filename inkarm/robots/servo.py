@@ -330,3 +330,37 @@ class ServoFirmware:
         tau = np.clip(tau, -c["tau_limit"], c["tau_limit"])
         self.current_a = tau / self._kt
         return tau
+
+
+class JointServos:
+    """:class:`ServoFirmware` in joint units, for a simulated plant that takes joint goals:
+    ``torque(goal_q, q, qd)`` with [rad], [rad/s] -> [N m]. Goals are rounded to whole ticks
+    (what a bus writes), the present angle is the exact one, and a joint driven by
+    ``servos_per_joint[j]`` servos (a shadow doubles it) gets that many times the torque.
+    The firmware starts (:meth:`reset`) at the first call if nobody reset it.
+
+    Args:
+        models: One model per joint.
+        gains: The registers, per joint (all of a joint's servos get the same).
+        period_s: The period :meth:`torque` is called at [s].
+        servos_per_joint: (n,) servo counts; 1 each by default.
+    """
+
+    def __init__(self, models: Sequence[str | ServoModel], gains: FirmwareGains,
+                 period_s: float, servos_per_joint=None):
+        self.firmware = ServoFirmware(models, gains, period_s)
+        n = self.firmware.n
+        self.count = np.ones(n) if servos_per_joint is None else \
+            np.asarray(servos_per_joint, dtype=float).reshape(n)
+        self._started = False
+
+    def reset(self, q) -> None:
+        """Torque on at joint angles ``q`` [rad]."""
+        self.firmware.reset(rad_to_ticks(q))
+        self._started = True
+
+    def torque(self, goal_q, q, qd) -> np.ndarray:
+        if not self._started:
+            self.reset(q)
+        goal = np.rint(rad_to_ticks(goal_q))
+        return self.count * self.firmware.torque(goal, rad_to_ticks(q), qd)

@@ -147,3 +147,15 @@ def test_unknown_model_and_bad_period_are_input_errors():
         ServoFirmware(["XM430-W350"], FirmwareGains(), 0.0)
     with pytest.raises(InputError, match="unknown firmware register"):
         ServoFirmware(["XM430-W350"], FirmwareGains(), 0.002).set_register("kp", 1.0)
+
+
+def test_joint_servos_round_goals_to_ticks_and_count_shadows():
+    joints = servo.JointServos(["XM430-W350", "XM430-W350"], FirmwareGains(position_p=1000.0),
+                               0.002, servos_per_joint=[1, 2])
+    one_tick = 2 * np.pi / 4096
+    tau = joints.torque(np.array([0.4, 0.4]) * one_tick, np.zeros(2), np.zeros(2))
+    assert tau.tolist() == [0.0, 0.0]                    # under half a tick: no goal change
+    tau = joints.torque(np.array([3.0, 3.0]) * one_tick, np.zeros(2), np.zeros(2))
+    stall = servo.SERVO_MODELS["XM430-W350"].stall_torque_nm
+    assert tau[0] == pytest.approx(3 * 1000 / 128 / 885 * stall)
+    assert tau[1] == pytest.approx(2 * tau[0])
