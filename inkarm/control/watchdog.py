@@ -46,10 +46,13 @@ class Watchdog:
         self.speed_limit = None if speed_limit is None else \
             SPEED_TOLERANCE * np.asarray(speed_limit)
         self.range = None if joint_range is None else np.asarray(joint_range)
+        if self.range is not None:
+            self.lower, self.upper = self.range[:, 0].copy(), self.range[:, 1].copy()
         self.patience = max(1, round(config.watchdog_s / dt))
         self.saturation_patience = max(1, round(config.saturation_s / dt))
         self.far = self.fast = 0
         self.saturated = np.zeros(len(self.names), dtype=int)
+        self.any_saturated = False
 
     def check(self, time: float, q, qd, torque, force: float, error_mm: float) -> None:
         """Raise :class:`RunFault` when a watchdog fires."""
@@ -61,8 +64,8 @@ class Watchdog:
         if self.far >= self.patience:
             self._fault("tracking_limit", time, f"pen {error_mm:.1f} mm from its reference for "
                         f"{c.watchdog_s * 1000:.0f} ms (limit {c.tracking_limit_mm:g} mm)")
-        if self.range is not None:
-            outside = (q < self.range[:, 0]) | (q > self.range[:, 1])
+        if self.range is not None and not (self.lower <= q).all() & (q <= self.upper).all():
+            outside = (q < self.lower) | (q > self.upper)
             if outside.any():
                 j = int(np.argmax(outside))
                 lo, hi = np.rad2deg(self.range[j])
@@ -77,6 +80,12 @@ class Watchdog:
                             f"above its {self.speed_limit[j] / SPEED_TOLERANCE:.2f} rad/s limit")
         if self.torque_limit is not None and torque is not None:
             at_limit = np.abs(torque) >= self.torque_limit
+            if not at_limit.any():
+                if self.any_saturated:
+                    self.saturated[:] = 0
+                    self.any_saturated = False
+                return
+            self.any_saturated = True
             self.saturated = np.where(at_limit, self.saturated + 1, 0)
             if self.saturated.max() >= self.saturation_patience:
                 j = int(np.argmax(self.saturated))

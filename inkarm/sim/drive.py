@@ -42,6 +42,7 @@ class JointDrive:
                                      (gains.kp, gains.ki, gains.kd))
         self.limit = np.asarray(gains.integral_limit, dtype=float)
         self.h = float(step_s)
+        self.ki_h = self.ki * self.h
         self.alpha = self.h / (velocity_filter_s + self.h)
         n = len(self.kp)
         self.integral = np.zeros(n)
@@ -76,8 +77,9 @@ class JointDrive:
         error = goal - q_measured
         link_error = error if q_link is None else goal - q_link
         self.since += self.h
-        self.integral = np.clip(self.integral + self.ki * link_error * self.h, -self.limit,
-                                self.limit)
+        # (minimum/maximum rather than np.clip: several times cheaper on 7 numbers, at 500 Hz)
+        self.integral = np.minimum(np.maximum(self.integral + self.ki_h * link_error,
+                                              -self.limit), self.limit)
         return self.tau_ff + self.kp * error + self.integral + self.kd * (self.qd_goal - v)
 
     @property

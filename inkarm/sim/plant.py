@@ -346,7 +346,7 @@ class MujocoPlant:
         trans = self.transmission
         if self._position_goal is not None:
             senses = self.senses_model
-            q_meas = senses.position(q_true.copy())
+            q_meas = senses.position(q_true if senses.exact_q else q_true.copy())
             q_link = None
             if trans:  # the drives' encoders are on the motors (see JointDrive)
                 q_link = q_meas
@@ -361,7 +361,7 @@ class MujocoPlant:
                 tau = self.drive.torque(q_meas, v, q_link)
             else:
                 tau = self.firmware.torque(self._position_goal, q_meas, qd_motor)
-            self._motor_torque = np.clip(tau, -self._limit, self._limit)
+            self._motor_torque = np.minimum(np.maximum(tau, -self._limit), self._limit)
         tau = self._motor_torque
         if trans:
             j = trans.joints
