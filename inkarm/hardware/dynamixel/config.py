@@ -7,7 +7,8 @@
     shadows = { shoulder = 3, elbow = 5 }    # a joint's second servo (Secondary ID = primary)
     models = ["XM430-W350", ...]             # per joint (inkarm.hardware.dynamixel.tables)
     baudrate = 1000000                       # [bit/s]
-    operating_mode = "extended_position"     # or "position", "current_based_position"
+    operating_mode = "extended_position"     # or "position", "current_based_position",
+                                             # "current" (torque commands; the host's PID)
     position_p = [...]                       # register values per joint (or one number):
     position_i = [...]                       #   P/I/D, feedforward_1st/2nd,
     position_d = [...]                       #   profile_velocity, profile_acceleration
@@ -127,11 +128,21 @@ class DynamixelConfig:
                  for k in GAIN_KEYS if k in data}
         lift = data.get("pen_lift_deg")
         park = data.get("park_deg")
+        mode = rd.choice(data.get("operating_mode", "extended_position"), key("operating_mode"),
+                         ("position", "extended_position", "current_based_position", "current"))
+        if mode == "current":
+            blind = [m for m in models if "current_limit" not in table(m)]
+            if blind:
+                raise rd.error(key("operating_mode"), f"current mode needs servos that sense "
+                               f"current; {', '.join(sorted(set(blind)))} do not", value=mode)
+            if data.get("on_fault", "torque_off") != "torque_off" or \
+                    data.get("on_close", "torque_off") != "torque_off":
+                raise rd.error(key("operating_mode"), "a servo in current mode cannot lift the "
+                               "pen or hold by itself: set on_fault and on_close to "
+                               "\"torque_off\"", value=mode)
         return cls(
             ids=ids, models=tuple(models), shadows=shadows, baudrate=baud,
-            operating_mode=rd.choice(data.get("operating_mode", "extended_position"),
-                                     key("operating_mode"),
-                                     ("position", "extended_position", "current_based_position")),
+            operating_mode=mode,
             gains=gains,
             return_delay_us=int(rd.integer(data.get("return_delay_us", 0),
                                            key("return_delay_us"), 0, 508)),

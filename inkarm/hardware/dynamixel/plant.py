@@ -31,6 +31,7 @@ import numpy as np
 from inkarm.core.plant import (
     PlantState,
     PositionCommand,
+    TorqueCommand,
     WallClock,
     unsupported,
 )
@@ -38,7 +39,7 @@ from inkarm.errors import InputError
 from inkarm.hardware.dynamixel.bus import DynamixelBus, DynamixelFault
 from inkarm.hardware.dynamixel.calibration import Calibration
 from inkarm.hardware.dynamixel.config import DynamixelConfig
-from inkarm.hardware.dynamixel.tables import HARDWARE_ERRORS, MODEL_NAMES
+from inkarm.hardware.dynamixel.tables import HARDWARE_ERRORS, MODEL_NAMES, table
 from inkarm.robots.servo import servo_model, velocity_units_to_rad_s
 
 WATCHDOG_POLL_PERIODS = 10
@@ -123,6 +124,15 @@ class DynamixelPlant:
             np.nan if servo_model(m).current_unit_ma is None else
             servo_model(m).current_unit_ma * 1e-3 for m in cfg.models])
         self.stiffness, self.lead_s = servo_stiffness(cfg, self._dt)
+        self.current_mode = cfg.operating_mode == "current"
+        if self.current_mode:  # torques from the host, as goal currents
+            self.commands = frozenset({"torque"})
+            self._amps_per_nm = np.array([
+                1.0 / (servo_model(m).torque_constant_nm_per_a * (2 if j in cfg.shadows else 1))
+                for j, m in enumerate(cfg.models)])
+            self._current_max = np.array([
+                servo_model(m).current_unit_ma * 1e-3 * table(m)["current_limit"].default
+                for m in cfg.models])
         self.trace: list[tuple] = []
         self.fault: DynamixelFault | None = None
         self.safe_after_s: float | None = None
@@ -200,7 +210,8 @@ class DynamixelPlant:
                 bus.write(servo_id, "min_position_limit", max(0, a))
                 bus.write(servo_id, "max_position_limit", min(4095, b))
         for j, servo_id in enumerate(cfg.ids):  # goal := present, acknowledged, before torque
-            bus.write(servo_id, "goal_position", positions[j])
+            bus.write(servo_id, "goal_current" if self.current_mode else "goal_position",
+                      0 if self.current_mode else positions[j])
         for servo_id in cfg.all_ids:
             bus.write(servo_id, "torque_enable", 1)
         self._watchdog_armed = False
@@ -253,7 +264,9 @@ class DynamixelPlant:
     def command(self, command) -> None:
         """Goals of a :class:`PositionCommand` [rad], clamped to the software limits and to
         ``max_step_deg`` from the last goal, in one sync write."""
-        if type(command) is not PositionCommand:
+        if self.current_mode and type(command) is TorqueCommand:
+            return self._command_torque(command)
+        if type(command) is not PositionCommand or self.current_mode:
             raise InputError(unsupported(self, command))
         self._guard()
         q = np.asarray(command.q, dtype=float)
@@ -266,6 +279,26 @@ class DynamixelPlant:
         q = np.clip(q, last - self.max_step, last + self.max_step)
         try:
             self._send_goals(q)
+            if not self._watchdog_armed:
+                self._arm_watchdog()
+        except DynamixelFault as fault:
+            self._fail(fault)
+
+    def _command_torque(self, command: TorqueCommand) -> None:
+        """Current mode: joint torques [N m], clamped to the profile's limits, as goal currents
+        (torque / torque constant, shared by a joint's servos), in one sync write."""
+        self._guard()
+        tau = np.asarray(command.torque, dtype=float)
+        if tau.shape != (self.profile.n,) or not np.isfinite(tau).all():
+            raise InputError(f"expected {self.profile.n} finite joint torques, got {tau}",
+                             key="command.torque")
+        tau = np.clip(tau, -self.profile.torque_limits, self.profile.torque_limits)
+        amps = np.clip(self.calibration.direction * tau * self._amps_per_nm,
+                       -self._current_max, self._current_max)
+        units = [round(a / (servo_model(m).current_unit_ma * 1e-3))
+                 for a, m in zip(amps, self.config.models)]
+        try:
+            self.bus.sync_write(self.config.ids, "goal_current", units)
             if not self._watchdog_armed:
                 self._arm_watchdog()
         except DynamixelFault as fault:
@@ -342,7 +375,7 @@ class DynamixelPlant:
             # stops streaming.
             self._watchdog_off(exclude=fault.servo_id)
             self._pen_up(exclude=fault.servo_id)
-            actions.append("pen lifted")
+            actions.append("currents zeroed" if self.current_mode else "pen lifted")
             if self.config.on_fault == "torque_off":
                 self._torque_off(exclude=fault.servo_id)
                 actions.append("torque off")
@@ -379,6 +412,10 @@ class DynamixelPlant:
         self._goal_q = q
 
     def _pen_up(self, exclude: int | None = None) -> None:
+        if self.current_mode:  # no position loop to lift with: release (on_* = torque_off)
+            ids = [i for i in self.config.ids if i != exclude]
+            self.bus.sync_write(ids, "goal_current", [0] * len(ids))
+            return
         base = self._last.q if self._last is not None else self._goal_q
         q = np.clip(base + self.pen_lift, self.q_min, self.q_max)
         self._send_goals(q, exclude)

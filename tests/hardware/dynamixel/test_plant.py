@@ -123,3 +123,39 @@ def test_each_fault_ends_in_pen_up_and_a_safe_arm_within_50_ms(kind, wx250s, arm
     assert trace.is_file()
     saved = np.load(trace)
     assert len(saved["time"]) >= 12 and saved["q"].shape[1] == 6
+
+
+def test_current_mode_sends_torques_as_goal_currents(wx250s, arm_emulator):
+    from inkarm.core.plant import TorqueCommand
+    from inkarm.robots.servo import SERVO_MODELS
+
+    arm = with_backend(wx250s, operating_mode="current", models=["XM430-W350"] * 6,
+                       on_fault="torque_off", on_close="torque_off")
+    with arm_emulator(arm) as emu:
+        plant = DynamixelPlant(emu.port, arm)
+        assert plant.commands == frozenset({"torque"})
+        with pytest.raises(InputError, match="does not take position commands"):
+            plant.command(PositionCommand(wx250s.home_q))
+        plant.read()
+        plant.command(TorqueCommand(np.array([1.0, 2.0, 0, 0, 0, 99.0])))
+        kt = SERVO_MODELS["XM430-W350"].torque_constant_nm_per_a
+        waist, shoulder = round(1.0 / kt / 2.69e-3), round(2.0 / (2 * kt) / 2.69e-3)
+        wrist = round(wx250s.torque_limits[5] / kt / 2.69e-3)           # clamped to its limit
+        assert eventually(lambda: [emu.servo(i).memory.get("goal_current") for i in (1, 2, 3, 8)]
+                          == [waist, shoulder, shoulder, wrist])
+        assert all(s.memory.get("operating_mode") == 0 for s in emu.bus.servos)
+        time.sleep(0.1)
+        assert plant.read().qd[0] > 0.5          # the waist's rotor spins up under 1 N m
+        plant.close()
+        assert eventually(lambda: all(s.memory.get("torque_enable") == 0
+                                      for s in emu.bus.servos))
+
+
+def test_current_mode_needs_current_sensing_and_a_release_on_faults(wx250s):
+    from inkarm.hardware.dynamixel.config import DynamixelConfig
+
+    with pytest.raises(InputError, match="XL430-W250 do not"):
+        DynamixelConfig.of(with_backend(wx250s, operating_mode="current"))
+    with pytest.raises(InputError, match="cannot lift the pen or hold by itself"):
+        DynamixelConfig.of(with_backend(wx250s, operating_mode="current",
+                                        models=["XM430-W350"] * 6))
