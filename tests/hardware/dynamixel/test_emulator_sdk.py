@@ -190,3 +190,22 @@ def test_byte_timing_follows_the_baud_rate(wx250s, arm_emulator):
         port.closePort()
     wire = (20 + 6 * 21) * 10 / 1e6   # request and six 21-byte replies, 10 bits a byte
     assert per_read >= wire
+
+
+def test_stuffed_status_packets_reach_the_sdk_intact(sdk_port, emulator):
+    """Present values whose bytes hold FF FF FD are stuffed on the wire and unstuffed by
+    dynamixel-sdk."""
+    port, ph = sdk_port
+    emulator.bank.sync_registers = lambda: None   # hold the registers as set here
+    for s in emulator.bus.servos:
+        s.memory.set("present_current", -1)          # FF FF
+        s.memory.set("present_velocity", -3)         # FD FF FF FF
+        s.memory.set("present_position", -259)       # FD FE FF FF
+    reader = sdk.GroupSyncRead(port, ph, 126, 10)
+    for i in (1, 2, 3):
+        reader.addParam(i)
+    assert reader.txRxPacket() == OK
+    for i in (1, 2, 3):
+        assert reader.getData(i, 126, 2) == 0xFFFF
+        assert reader.getData(i, 128, 4) == 0xFFFFFFFD
+        assert reader.getData(i, 132, 4) == (-259) & 0xFFFFFFFF
