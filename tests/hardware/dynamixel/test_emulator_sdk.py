@@ -197,10 +197,9 @@ def test_stuffed_status_packets_reach_the_sdk_intact(sdk_port, emulator):
     dynamixel-sdk."""
     port, ph = sdk_port
     emulator.bank.sync_registers = lambda: None   # hold the registers as set here
+    raw = bytes.fromhex("ffff" "fdffffff" "fdfeffff")   # current -1, velocity -3, pos -259
     for s in emulator.bus.servos:
-        s.memory.set("present_current", -1)          # FF FF
-        s.memory.set("present_velocity", -3)         # FD FF FF FF
-        s.memory.set("present_position", -259)       # FD FE FF FF
+        s.memory.data[126:136] = raw
     reader = sdk.GroupSyncRead(port, ph, 126, 10)
     for i in (1, 2, 3):
         reader.addParam(i)
