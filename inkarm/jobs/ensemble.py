@@ -1,0 +1,80 @@
+"""``run_ensemble(scenario, seeds) -> list[Run]``: one scenario on an ensemble of plants, as one
+batched MuJoCo simulation.
+
+Member k is the scenario with ``plant.seed = seeds[k]``: its plant truth realised from that seed
+(the ``[plant.random]`` ranges), exactly what :func:`inkarm.jobs.run.run` would simulate for
+``scenario.with_overrides({"plant.seed": seeds[k]})``. Instead of one process per member, the
+members' models step together in :class:`inkarm.sim.batch.BatchPlant` (``mujoco.batch``, threads
+in C) and one controller (:func:`inkarm.control.batch_loop.run_drawings`) serves all of them
+with (N, n) arrays: the plan and the feed-forward along it depend only on the nominal model, so
+they are computed once.
+
+The Runs equal those of :func:`run` member by member (same status, same metrics up to
+floating-point rounding of a few vectorised sums); ``log.wall_s`` is the batch's wall time
+divided by the number of members (so each Run's real-time factor is the ensemble's aggregate
+one). Supported: position mode, and plant truths whose run-time part (noise, delays) is the same
+in every member; series elasticity and backlash are refused
+(:func:`inkarm.sim.batch.check_batchable` names the field).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from inkarm.control.batch_loop import run_drawings
+from inkarm.errors import InkarmError, InputError, RunFault
+from inkarm.ink.canvas import Canvas
+from inkarm.jobs.run import DEGRADED, FAILED, OK, Run, _metrics, _substeps, judge, \
+    placed_within_budget
+from inkarm.jobs.scenario import Scenario
+from inkarm.sim.batch import BatchPlant, check_batchable, member_model
+from inkarm.sim.cell import Cell, kinematic_model
+
+
+def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) -> list[Run]:
+    """Draw ``scenario`` on the plants of ``plant.seed`` = each of ``seeds``, batched; return
+    one :class:`Run` per seed, in order (failed members are Runs with status "failed", the
+    others go on). ``nthread``: MuJoCo threads (0: all CPUs)."""
+    seeds = [int(s) for s in seeds]
+    if not seeds:
+        raise InputError("an ensemble needs at least one seed", key="seeds", value=seeds)
+    if len(set(seeds)) != len(seeds):
+        raise InputError(f"the seeds repeat: {seeds}", key="seeds", value=seeds)
+    cell = Cell(scenario.cell, scenario.robot)
+    if scenario.controller.command != "position":
+        raise InputError(f"the batched ensemble runs position commands only, not "
+                         f"{scenario.controller.command!r}", key="controller.command",
+                         value=scenario.controller.command,
+                         choices=("position",)).within(file=scenario.path)
+    try:
+        drawing = placed_within_budget(scenario, cell)
+        believed = kinematic_model(cell)
+        truths = [scenario.plant.realised(s) for s in seeds]
+        check_batchable(truths)
+        members = [scenario.with_overrides({"plant.seed": s}) for s in seeds]
+        canvases = [Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
+                           ink=scenario.ink.make()) for _ in seeds]
+        plant = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
+                           canvases, substeps=_substeps(scenario.robot.control_period_s,
+                                                        scenario.cell.timestep),
+                           drive_gains=scenario.robot.drive, nthread=nthread)
+        results = run_drawings(drawing, plant, believed, scenario.robot.gains,
+                               scenario.controller, speed_limits=scenario.robot.speed_limits)
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    runs = []
+    for member, canvas, result in zip(members, canvases, results):
+        if isinstance(result, RunFault):
+            log = result.log
+            runs.append(Run(member, FAILED, drawing, log, canvas,
+                            _metrics(log, drawing, believed, canvas), reason=str(result),
+                            notes=log.notes))
+            continue
+        metrics = _metrics(result, drawing, believed, canvas)
+        shortfalls = judge(metrics, scenario.controller.force_n)
+        runs.append(Run(member, DEGRADED if shortfalls else OK, drawing, result, canvas, metrics,
+                        reason="; ".join(shortfalls), notes=result.notes))
+    return runs
+
+
+__all__ = ["run_ensemble"]

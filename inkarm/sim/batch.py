@@ -1,0 +1,387 @@
+"""A batched plant: an ensemble of drawing cells that differ in model parameters, stepped as one
+:class:`mujoco.batch.Batch` (MuJoCo 4), with the joint drives and senses vectorised over members.
+
+Member k runs on its own compiled model (:func:`member_model`: the cell with the member's
+:class:`PlantTruth` applied, as :func:`inkarm.sim.perturb.plant_model` does, plus a contact sensor
+on the pen tip) through ``Batch.set_models``; the batch steps all of them on a thread pool in C,
+bit for bit as a loop of ``mj_step`` over one MjData each would. Everything that
+:class:`inkarm.sim.plant.MujocoPlant` does per physics step in Python runs here once for all
+members as (N, n) arrays: the drive law of :mod:`inkarm.sim.drive`
+
+    tau = tau_ff + K_p e + clip(I + K_i e h) + K_d (qd* - v),   e = q* + qd* (t - t_cmd) - q_m,
+
+the encoder (quantisation, noise), velocity from differences, force-sensor noise and bias,
+sensing delay (a ring of the last ``d + 1`` readings) and actuation delay (commands queued for
+whole physics steps). The pen force is the sum of the normal components reported by the contact
+sensor (the forces of the step just taken, at the state it left: MujocoPlant's
+``mj_contactForce`` after ``mj_step2``), and each member's canvas gets the touches at the tip
+position of that state.
+
+Supported truths: every model-level field, and at run time ``encoder_ticks_per_rev``,
+``q_noise_rad``, ``velocity``, ``force_noise_n``, ``force_bias_n``, ``sensing_delay_ms`` and
+``actuation_delay_ms``, equal in every member (only model-level fields may be drawn at random per
+member). Series elasticity and backlash (a transmission per joint, with its own sub-stepping)
+are refused: :func:`check_batchable` names the field.
+
+Units: SI inside (MuJoCo), page [mm] for tips as in MujocoPlant.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from mujoco import batch as mjbatch
+
+from inkarm.errors import InputError, SimulationError
+from inkarm.robots.gains import PIDGains
+from inkarm.sim import perturb
+from inkarm.sim.cell import HOME_KEY, PAPER, PAPER_ORIGIN, PEN_TIP, Cell, build_spec
+from inkarm.sim.imperfections import PlantTruth
+from inkarm.sim.plant import route_mujoco_warnings
+
+# Run-time truths the batched plant reproduces (all members alike); the rest are refused.
+RUNTIME_SUPPORTED = ("encoder_ticks_per_rev", "q_noise_rad", "velocity", "force_noise_n",
+                     "force_bias_n", "sensing_delay_ms", "actuation_delay_ms")
+RUNTIME_REFUSED = ("elasticity_nm_per_rad", "backlash_deg")
+CONTACT_SLOTS = 4  # pen-tip contacts the sensor reports (a sphere on a box makes one)
+_DIVERGENCE_WARNINGS = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQPOS,
+                                         mujoco.mjtWarning.mjWARN_BADQVEL,
+                                         mujoco.mjtWarning.mjWARN_BADQACC)]
+
+
+def check_batchable(truths: list[PlantTruth], key_prefix: str = "plant") -> None:
+    """Refuse truths the batched plant cannot reproduce, naming the field: series elasticity or
+    backlash, or run-time fields that differ between members."""
+    for truth in truths:
+        for name in RUNTIME_REFUSED:
+            if np.any(np.asarray(getattr(truth, name), dtype=float) != 0.0):
+                raise InputError(
+                    f"the batched ensemble does not simulate {name} (a transmission per joint); "
+                    f"run these members one by one (inkarm.jobs.run.run)",
+                    key=f"{key_prefix}.{name}", value=getattr(truth, name))
+    first = truths[0]
+    for truth in truths[1:]:
+        for name in RUNTIME_SUPPORTED:
+            if getattr(truth, name) != getattr(first, name):
+                raise InputError(
+                    f"the batched ensemble needs one {name} for every member (only model-level "
+                    f"fields may differ); got {getattr(first, name)!r} and "
+                    f"{getattr(truth, name)!r}", key=f"{key_prefix}.{name}",
+                    value=getattr(truth, name))
+
+
+def member_model(cell: Cell, truth: PlantTruth) -> mujoco.MjModel:
+    """The plant's model of one member: :func:`inkarm.sim.perturb.plant_model`'s steps, with a
+    contact sensor on the pen tip added before compiling (it changes no dynamics)."""
+    if truth.random:
+        truth = truth.realised()
+    config = cell.config
+    changes = {}
+    if truth.paper_stiffness_n_per_mm is not None:
+        changes["paper_stiffness_n_per_mm"] = truth.paper_stiffness_n_per_mm
+    if truth.nib_friction is not None:
+        changes["friction"] = truth.nib_friction
+    if changes:
+        cell = Cell(dataclasses.replace(config, **changes), cell.robot)
+    spec = build_spec(cell)
+    spec.add_sensor(name="inkarm_pen_contact", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                    objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=PEN_TIP,
+                    intprm=[2, 0, CONTACT_SLOTS])  # data "force", reduce "none"
+    perturb._move_paper(spec, truth)
+    model = spec.compile()
+    if truth.paper_timeconst_s is not None:
+        paper = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, PAPER)
+        model.geom_solref[paper, 0] = max(truth.paper_timeconst_s, 2.0 * model.opt.timestep)
+    perturb._change_links(model, cell, truth)
+    return model
+
+
+@dataclass
+class BatchState:
+    """What every member's devices report, (N, ...) arrays; ``time`` is shared [s]."""
+
+    time: float
+    q: np.ndarray
+    qd: np.ndarray
+    torque: np.ndarray
+    force: np.ndarray
+    tip_mm: np.ndarray
+
+
+class BatchPlant:
+    """N drawing cells stepped together; position commands to the joint drives only.
+
+    Args:
+        models: One model per member, all from :func:`member_model` of one cell.
+        cell: The nominal cell (joint names).
+        truth: The run-time truth, shared by all members (its model-level fields are ignored).
+        seeds: The members' truth seeds (their measurement noise is drawn from them, as each
+            member's MujocoPlant would).
+        canvases: One canvas per member, or None.
+        substeps: Physics steps per control period.
+        drive_gains: The joint drives' gains.
+        nthread: Threads of the batch (0: all CPUs).
+        max_joint_speed: [rad/s] above which a member counts as diverged.
+    """
+
+    senses = frozenset({"force", "tip", "torque"})
+    commands = frozenset({"position"})
+
+    def __init__(self, models: list[mujoco.MjModel], cell: Cell, truth: PlantTruth,
+                 seeds: list[int], canvases=None, substeps: int = 3,
+                 drive_gains: PIDGains | None = None, nthread: int = 0,
+                 max_joint_speed: float = 50.0):
+        route_mujoco_warnings()
+        check_batchable([truth])
+        self.n_members = N = len(models)
+        m0 = models[0]
+        for m in models:
+            m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+        self.substeps = int(substeps)
+        self.h = float(m0.opt.timestep)
+        names = cell.robot.joint_names
+        self.n = n = len(names)
+        joints = [mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_JOINT, j) for j in names]
+        self._qpos_adr = np.array([m0.jnt_qposadr[j] for j in joints])
+        self._dof_adr = np.array([m0.jnt_dofadr[j] for j in joints])
+        dof_of_actuator = {int(m0.jnt_dofadr[m0.actuator_trnid[a, 0]]): a for a in range(m0.nu)}
+        self._arm_ctrl = np.array([dof_of_actuator[int(d)] for d in self._dof_adr])
+        self._limit = np.stack([m.actuator_ctrlrange[self._arm_ctrl, 1] for m in models])
+        sensor = mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_SENSOR, "inkarm_pen_contact")
+        if sensor < 0:
+            raise InputError("BatchPlant: the models need the pen contact sensor "
+                             "(build them with inkarm.sim.batch.member_model)")
+        adr = int(m0.sensor_adr[sensor])
+        self._normals = slice(adr, adr + 3 * CONTACT_SLOTS, 3)
+        nthread = nthread or (os.cpu_count() or 1)
+        self.batch = b = mjbatch.Batch(m0, N, nthread=min(nthread, N))
+        b.set_models(models)
+        self._models = models
+        # outputs bound before the first call (a field bound later is zero until the next)
+        self._sensordata = b.bind("sensordata")
+        site_xpos, site_xmat = b.bind("site_xpos"), b.bind("site_xmat")
+        b.reset(keyframe=mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY))
+        self._qpos, self._qvel, self._ctrl = b.bind("qpos"), b.bind("qvel"), b.bind("ctrl")
+        tip_site = mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_SITE, PEN_TIP)
+        origin = mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_SITE, PAPER_ORIGIN)
+        self._tip_xpos = site_xpos[:, tip_site]
+        to_page = 1000.0 * site_xmat[:, origin].reshape(N, 3, 3)
+        self._to_page = to_page.copy()
+        self._page_offset = np.einsum("ki,kij->kj", site_xpos[:, origin], to_page)
+        self.canvases = canvases
+        self.max_joint_speed = float(max_joint_speed)
+        self._warnings = self._warning_counts()
+        # drives, senses, delays
+        g = drive_gains or cell.robot.drive
+        self.kp, self.ki, self.kd = (np.asarray(x, dtype=float) for x in (g.kp, g.ki, g.kd))
+        self.i_limit = np.asarray(g.integral_limit, dtype=float)
+        self.alpha = self.h / (0.004 + self.h)
+        self.integral = np.zeros((N, n))
+        self.q_goal = np.zeros((N, n))
+        self.qd_goal = np.zeros((N, n))
+        self.tau_ff = np.zeros((N, n))
+        self.since = np.zeros(N)
+        self.goal_set = np.zeros(N, dtype=bool)
+        self.v = np.zeros((N, n))
+        self.q_prev: np.ndarray | None = None
+        self.motor = np.zeros((N, n))
+        ticks = truth.encoder_ticks_per_rev
+        self.tick = 2.0 * np.pi / ticks if ticks > 0 else 0.0
+        self.q_noise, self.force_noise, self.force_bias = (truth.q_noise_rad, truth.force_noise_n,
+                                                           truth.force_bias_n)
+        self.differences = truth.velocity == "differences"
+        self.exact_q = self.tick == 0.0 and self.q_noise == 0.0
+        self.sense_delay = round(truth.sensing_delay_ms / 1000.0 / self.h)
+        self.ideal = (self.exact_q and not self.differences and self.force_noise == 0.0
+                      and self.force_bias == 0.0 and self.sense_delay == 0)
+        self.act_delay = round(truth.actuation_delay_ms / 1000.0 / self.h)
+        self._rngs = [np.random.default_rng([int(s), 0x5E45]) for s in seeds]
+        self._draws = np.zeros((N, 0))
+        self._queue: list = []
+        self.steps = 0
+        self.time = 0.0
+        self.pen_force = np.zeros(N)
+        self.touching = np.zeros(N, dtype=bool)
+        self._tip_prev = self._tip_xpos.copy()
+        self._sq_prev: np.ndarray | None = None
+        ring = self.sense_delay + 1
+        self._ring_time = np.zeros(ring)
+        self._ring = {k: np.zeros((ring, N, *shape)) for k, shape in
+                      (("q", (n,)), ("qd", (n,)), ("torque", (n,)), ("force", ()),
+                       ("tip", (3,)))}
+        if not self.ideal:
+            q, qd = self._qpos[:, self._qpos_adr].copy(), self._qvel[:, self._dof_adr].copy()
+            self._record(q, qd, None)
+
+    # -- measurement ---------------------------------------------------------------------
+    def _normal_draws(self, k: int) -> np.ndarray:
+        """(N, k) standard normals, each member's next from its own stream (the same stream,
+        in the same order, as its MujocoPlant's Senses)."""
+        if self._draws.shape[1] < k:
+            fresh = np.stack([r.standard_normal(4096) for r in self._rngs])
+            self._draws = np.concatenate([self._draws, fresh], axis=1)
+        out, self._draws = self._draws[:, :k], self._draws[:, k:]
+        return out
+
+    def _position(self, q: np.ndarray, active) -> np.ndarray:
+        if self.exact_q:
+            return q
+        if self.tick:
+            q = self.tick * np.round(q / self.tick)
+        if self.q_noise:
+            q = q + self.q_noise * self._normal_draws(self.n)
+        return q
+
+    def _tip_mm(self) -> np.ndarray:
+        x = self._tip_xpos
+        return np.einsum("ki,kij->kj", x, self._to_page) - self._page_offset
+
+    def _record(self, q, qd, active) -> None:
+        force = self.pen_force
+        if self.force_noise:
+            force = force + self.force_noise * self._normal_draws(1)[:, 0]
+        force = force + self.force_bias
+        slot = self.steps % (self.sense_delay + 1)
+        self._ring_time[slot] = self.time
+        ring = self._ring
+        ring["q"][slot], ring["qd"][slot], ring["torque"][slot] = q, qd, self.motor
+        ring["force"][slot], ring["tip"][slot] = force, self._tip_mm()
+
+    def read(self) -> BatchState:
+        """Every member's reading ``sensing_delay_ms`` old (members that no longer step keep
+        their last)."""
+        if self.ideal:
+            return BatchState(self.time, self._qpos[:, self._qpos_adr].copy(),
+                              self._qvel[:, self._dof_adr].copy(), self.motor.copy(),
+                              self.pen_force.copy(), self._tip_mm())
+        slot = max(0, self.steps - self.sense_delay) % (self.sense_delay + 1)
+        r = self._ring
+        return BatchState(float(self._ring_time[slot]), r["q"][slot].copy(),
+                          r["qd"][slot].copy(), r["torque"][slot].copy(),
+                          r["force"][slot].copy(), r["tip"][slot].copy())
+
+    # -- commands and steps --------------------------------------------------------------
+    @property
+    def dt(self) -> float:
+        return self.substeps * self.h
+
+    def command(self, ids: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                tau_ff: np.ndarray) -> None:
+        """Position goals [rad], velocity [rad/s] and torque feed-forward [N m] for members
+        ``ids`` (rows of the arrays), reaching their drives ``actuation_delay_ms`` later."""
+        self._queue.append((self.steps + self.act_delay, ids, q, qd, tau_ff))
+
+    def _actuate(self, ids: np.ndarray) -> None:
+        queue = self._queue
+        while queue and queue[0][0] <= self.steps:
+            _, who, q, qd, tau = queue.pop(0)
+            self.q_goal[who], self.qd_goal[who], self.tau_ff[who] = q, qd, tau
+            self.since[who] = 0.0
+            self.goal_set[who] = True
+        if not self.goal_set[ids].any():
+            return
+        q_true = self._qpos[:, self._qpos_adr]
+        q_meas = self._position(q_true.copy(), ids)
+        if self.differences:
+            if self.q_prev is not None:
+                self.v += self.alpha * ((q_meas - self.q_prev) / self.h - self.v)
+            self.q_prev = q_meas.copy()
+            v = self.v
+        else:
+            v = self._qvel[:, self._dof_adr]
+        goal = self.q_goal + self.qd_goal * self.since[:, None]
+        error = goal - q_meas
+        self.since += self.h
+        integral = np.clip(self.integral + self.ki * error * self.h, -self.i_limit, self.i_limit)
+        tau = self.tau_ff + self.kp * error + integral + self.kd * (self.qd_goal - v)
+        on = self.goal_set
+        self.integral = np.where(on[:, None], integral, self.integral)
+        self.motor = np.where(on[:, None], np.clip(tau, -self._limit, self._limit), self.motor)
+
+    def step(self, ids: np.ndarray) -> dict[int, SimulationError]:
+        """Advance members ``ids`` (sorted) one control period; feed their canvases. Returns the
+        members that diverged, with the error each would have raised."""
+        ids = np.asarray(ids, dtype=np.int32)
+        canvases, b = self.canvases, self.batch
+        vel = int(mujoco.mjtStage.mjSTAGE_VEL)
+        for _ in range(self.substeps):
+            self._actuate(ids)
+            ctrl = self._ctrl
+            ctrl[np.ix_(ids, self._arm_ctrl)] = self.motor[ids]
+            b.step(ids, 1, vel)
+            self.time += self.h
+            force = self._sensordata[:, self._normals].sum(axis=1)
+            self.pen_force[ids] = force[ids]
+            if canvases is not None:
+                self._feed_canvases(ids, force)
+            self._tip_prev[ids] = self._tip_xpos[ids]
+            self.steps += 1
+            if not self.ideal:
+                q = self._position(self._qpos[:, self._qpos_adr].copy(), ids)
+                qd = self._qvel[:, self._dof_adr].copy()
+                if self.differences:
+                    prev = self._sq_prev if self._sq_prev is not None else q
+                    self._sq_prev = q
+                    qd = (q - prev) / self.h
+                self._record(q, qd, ids)
+        return self._diverged(ids)
+
+    def _feed_canvases(self, ids: np.ndarray, force: np.ndarray) -> None:
+        t = self.time - self.h
+        page = self._tip_prev[ids]
+        xy = np.einsum("ki,kij->kj", page, self._to_page[ids][:, :, :2]) \
+            - self._page_offset[ids, :2]
+        for k, m in enumerate(ids.tolist()):
+            f = float(force[m])
+            if f > 0.0:
+                self.touching[m] = True
+                self.canvases[m].touch((float(xy[k, 0]), float(xy[k, 1])), f, t)
+            elif self.touching[m]:
+                self.touching[m] = False
+                self.canvases[m].lift()
+
+    def _warning_counts(self) -> np.ndarray:
+        return self.batch.warning[:, _DIVERGENCE_WARNINGS, 1].astype(np.int64)
+
+    def _diverged(self, ids: np.ndarray) -> dict[int, SimulationError]:
+        qvel = self._qvel[ids]
+        warnings = self._warning_counts()
+        new = (warnings[ids] > self._warnings[ids]).any(axis=1)
+        speed = np.abs(np.nan_to_num(qvel, nan=np.inf)).max(axis=1)
+        bad = new | (speed > self.max_joint_speed)
+        out: dict[int, SimulationError] = {}
+        for k in np.flatnonzero(bad):
+            m = int(ids[k])
+            where = f"simulation diverged at t = {self.time:.4f} s"
+            why = "unstable gains, too large a time step or absurd torques"
+            names = [mujoco.mjtWarning(w).name for w, a, b in
+                     zip(_DIVERGENCE_WARNINGS, warnings[m], self._warnings[m]) if a > b]
+            if names or not np.isfinite(qvel[k]).all():
+                warned = f" (MuJoCo warned {', '.join(names)})" if names else ""
+                out[m] = SimulationError(f"{where}: non-finite or huge joint state{warned}; {why}")
+                continue
+            j = int(np.argmax(np.abs(qvel[k])))
+            model = self._models[m]
+            joint = model.joint(model.dof_jntid[j])
+            unit = "m/s" if joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE else "rad/s"
+            out[m] = SimulationError(
+                f"{where}: {joint.name} moves at {abs(qvel[k, j]):.1f} {unit}, above the "
+                f"{self.max_joint_speed:.1f} divergence threshold; {why}")
+        self._warnings = warnings
+        return out
+
+    def close(self, ids=None) -> None:
+        """Lift the canvas pens of members ``ids`` (all when None) still touching."""
+        members = range(self.n_members) if ids is None else ids
+        for m in members:
+            if self.touching[m] and self.canvases is not None:
+                self.canvases[m].lift()
+            self.touching[m] = False
+
+
+__all__ = ["BatchPlant", "BatchState", "check_batchable", "member_model", "RUNTIME_SUPPORTED",
+           "RUNTIME_REFUSED"]
