@@ -25,8 +25,8 @@ def add_emulate_parser(sub) -> None:
     p.add_argument("--robot", default="wx250s", metavar="NAME|FILE.toml",
                    help="robot profile with a [backends.dynamixel] table (default wx250s)")
     p.add_argument("--scenario", default=None, metavar="FILE.toml",
-                   help="scenario whose cell, paper and ink the twin uses (default: the "
-                   "robot's default job)")
+                   help="the scenario you will draw: the twin's cell, sheet and ink are its "
+                   "(default: the embedded default job's, with --robot)")
     p.add_argument("--simple", action="store_true",
                    help="no twin: each joint a damped rotor (no gravity, no paper, no ink)")
     p.add_argument("--baudrate", type=int, default=None,
@@ -80,6 +80,12 @@ def run_emulate(args: argparse.Namespace) -> int:
     ids = ", ".join(str(s.id) for s in emulator.bus.servos)
     print(f"Dynamixel Protocol 2.0 emulator of {profile.name} (servos {ids}) at "
           f"{emulator.baudrate} bit/s on {port}; Ctrl-C to stop", flush=True)
+    if not args.simple:
+        from inkarm.sim.cell import Cell
+
+        cell = Cell(scenario.cell, profile)
+        (w, h), (x, y) = cell.paper_size_mm, cell.paper_centre_mm
+        print(f"twin's sheet: {w:g} x {h:g} mm centred at ({x:g}, {y:g}) mm", file=sys.stderr)
     print(port, flush=True)
     try:
         while emulator.running:
