@@ -39,6 +39,7 @@ from inkarm.hardware.plotter.machine import GrblMachine, PenConfig
 
 RX_BUFFER = 128  # GRBL 1.1's serial receive buffer [bytes]
 MAX_REPLIES_KEPT = 10_000
+IDLE_TICK_S = 0.02
 REALTIME = {ord("?"), ord("!"), ord("~"), 0x18}
 SPINDLE_STOP = 0x9E  # GRBL 1.1's spindle-stop override (extended real-time byte)
 FAULT_KINDS = ("error", "alarm", "disconnect")
@@ -221,7 +222,9 @@ class GrblEmulator:
     def _protocol(self) -> None:
         machine = self.machine
         while not self._stop.is_set():
-            self._wake.wait(self.config.tick_s)
+            # Idle and nothing received: wake less often (a byte arriving wakes it at once).
+            busy = not machine.idle or self._rx or self._line
+            self._wake.wait(self.config.tick_s if busy else IDLE_TICK_S)
             self._wake.clear()
             with self._lock:
                 out = self._tick(machine)

@@ -247,6 +247,8 @@ def profile_step(v0: float, d: float, vn: float, ve: float, a: float,
                  dt: float) -> tuple[float, float, float, bool]:
     """Follow the trapezoid of :func:`profile_time` for up to ``dt`` [s]: returns the distance
     moved [mm], the speed reached [mm/s], the time used [s] and whether the block ended."""
+    if d <= 1e-12:  # (rounding left nothing of the block)
+        return max(d, 0.0), min(v0, ve) if ve > 0 else 0.0, 0.0, True
     vp = _peak(v0, d, vn, ve, a)
     if v0 > vp + 1e-9:
         # Brake uniformly so that the block ends at ve (or at its peak when ve > v0).

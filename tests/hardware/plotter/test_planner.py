@@ -120,3 +120,22 @@ def test_machine_accepts_no_line_while_a_dwell_runs_and_reports_state():
     m.advance(0.6)
     m.pump()
     assert m.accepts_line() and m.state == "Idle" and m.outbox[-1] == "ok"
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.lists(st.tuples(st.floats(1, 250), st.floats(1, 250)), min_size=2, max_size=10),
+       st.floats(1200, 12000).map(lambda f: round(f, 1)))
+def test_executed_motion_respects_speed_and_acceleration_limits(points, feed_mm_min):
+    """The machine's motion, sampled every few ms: its speed never above the feed (nor the
+    rapid rate), its speed never changing faster than the largest block acceleration."""
+    lines = ["G21 G90"] + [f"G1 X{x:.3f} Y{y:.3f} F{feed_mm_min:.1f}" for x, y in points]
+    plan = simulate(lines, samples=True)
+    t, xy = plan.samples[:, 0], plan.samples[:, 1:3]
+    dt = np.diff(t)
+    keep = dt > 1e-6
+    speed = np.linalg.norm(np.diff(xy, axis=0), axis=1)[keep] / dt[keep]
+    assert np.all(speed <= feed_mm_min / 60.0 * (1 + 1e-6) + 1e-6)
+    mid_t = 0.5 * (t[1:] + t[:-1])[keep]
+    accel = np.abs(np.diff(speed)) / np.maximum(np.diff(mid_t), 1e-9)
+    assert np.all(accel <= 1500.0 * math.sqrt(2) * (1 + 1e-3) + 1e-3)
+    assert xy[-1] == pytest.approx(points[-1], abs=1e-3)  # (3 decimals in the G-code)
