@@ -22,8 +22,9 @@ def add_emulate_parser(sub) -> None:
         "moving the robot's MuJoCo twin in real time, its pen drawing on an ink canvas. "
         "Prints the port for `inkarm draw --backend dynamixel --port PORT`; Ctrl-C stops it.",
     )
-    p.add_argument("--robot", default="wx250s", metavar="NAME|FILE.toml",
-                   help="robot profile with a [backends.dynamixel] table (default wx250s)")
+    p.add_argument("--robot", default=None, metavar="NAME|FILE.toml",
+                   help="robot profile with a [backends.dynamixel] table (default: the "
+                   "scenario's, else wx250s)")
     p.add_argument("--scenario", default=None, metavar="FILE.toml",
                    help="the scenario you will draw: the twin's cell, sheet and ink are its "
                    "(default: the embedded default job's, with --robot)")
@@ -60,9 +61,11 @@ def run_emulate(args: argparse.Namespace) -> int:
         raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
     faults = [parse_fault(text) for text in args.fault]
     scenario = load_scenario(args.scenario)
-    key = "robot.file" if args.robot.endswith(".toml") else "robot.name"
-    robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
-    scenario = scenario.with_overrides({"robot": {}, key: robot})
+    robot = args.robot or (None if args.scenario else "wx250s")
+    if robot is not None:
+        key = "robot.file" if robot.endswith(".toml") else "robot.name"
+        robot = str(Path(robot).resolve()) if key == "robot.file" else robot
+        scenario = scenario.with_overrides({"robot": {}, key: robot})
     profile = scenario.robot
     if args.simple:
         cfg = DynamixelConfig.of(profile)
