@@ -143,7 +143,7 @@ class GrblStreamer:
         self.serial.reset_input_buffer()
         self._rx = b""
         self.realtime(b"\x18")
-        lines = self._wait_for(lambda line: line.startswith("Grbl "), timeout_s, "its banner")
+        lines = self._wait_for(lambda line: line.startswith("Grbl "), timeout_s, "banner")
         end = self.clock() + 0.05
         while self.clock() < end:  # a [MSG:...] may follow the banner
             lines += self._read_lines()

@@ -294,3 +294,25 @@ def test_empty_lines_are_answered_and_status_in_inches_with_setting_13(emulator)
     s.pump(poll=False)
     assert s.last_status.mpos[:2] == pytest.approx((1.0, 2.0))
     s.close()
+
+
+def test_streamer_refuses_a_line_longer_than_the_buffer(emulator):
+    s = connect(emulator)
+    with pytest.raises(GrblError, match="does not fit GRBL's 128-byte buffer"):
+        s.queue(["G1 X1 " + "(" + "x" * 130 + ")"])
+    s.close()
+
+
+def test_a_silent_port_times_out_with_a_clear_error(tmp_path):
+    import os
+    import pty
+
+    master, slave = pty.openpty()  # nothing answers on it
+    try:
+        s = GrblStreamer(os.ttyname(slave))
+        with pytest.raises(GrblError, match="no banner from .* within 0.3 s"):
+            s.wake(timeout_s=0.3)
+        s.close()
+    finally:
+        os.close(master)
+        os.close(slave)
