@@ -25,6 +25,7 @@ The facts (from GRBL's ``planner.c`` and its documentation; no code copied):
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -35,26 +36,31 @@ BLOCK_BUFFER = 15  # GRBL's BLOCK_BUFFER_SIZE (16) less the slot its ring buffer
 STRAIGHT_COS = 0.999999  # GRBL's thresholds on cos(theta) for reversals and straight lines
 
 
-def limit_by_axes(limits: np.ndarray, unit: np.ndarray) -> float:
+def limit_by_axes(limits, unit) -> float:
     """The largest value along ``unit`` whose every axis component stays within ``limits``:
     ``min_i limits_i / |unit_i|`` over the axes with ``unit_i != 0``."""
-    moving = np.abs(unit) > 1e-12
-    return float(np.min(limits[moving] / np.abs(unit[moving]))) if moving.any() else math.inf
+    # Plain floats: three components, called for every block (NumPy's overhead dominates).
+    best = math.inf
+    for limit, u in zip(limits, unit, strict=True):
+        u = abs(float(u))
+        if u > 1e-12:
+            best = min(best, float(limit) / u)
+    return best
 
 
-def junction_speed_sqr(prev_unit: np.ndarray, unit: np.ndarray, accel: np.ndarray,
-                       deviation_mm: float) -> float:
+def junction_speed_sqr(prev_unit, unit, accel, deviation_mm: float) -> float:
     """The junction-deviation limit v_j^2 in [mm^2/s^2] at the corner from direction
     ``prev_unit`` into ``unit``, with per-axis accelerations ``accel`` [mm/s^2] and the
     junction deviation ``deviation_mm`` [mm] (GRBL ``$11``); see the module docstring."""
-    cos_theta = -float(np.dot(prev_unit, unit))
+    p, u = [float(v) for v in prev_unit], [float(v) for v in unit]
+    cos_theta = -(p[0] * u[0] + p[1] * u[1] + p[2] * u[2])
     if cos_theta > STRAIGHT_COS:  # a full reversal: stop
         return 0.0
     if cos_theta < -STRAIGHT_COS:  # straight on
         return math.inf
-    junction = unit - prev_unit
-    junction = junction / np.linalg.norm(junction)
-    accel_j = limit_by_axes(accel, junction)
+    junction = [a - b for a, b in zip(u, p, strict=True)]
+    norm = math.sqrt(sum(c * c for c in junction))
+    accel_j = limit_by_axes(accel, [c / norm for c in junction])
     sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
     return accel_j * deviation_mm * sin_half / (1.0 - sin_half)
 
@@ -94,8 +100,8 @@ class Planner:
     """
 
     def __init__(self, accel, max_rate, deviation_mm: float):
-        self.accel = np.asarray(accel, dtype=float)
-        self.max_rate = np.asarray(max_rate, dtype=float)
+        self.accel = tuple(float(a) for a in accel)
+        self.max_rate = tuple(float(r) for r in max_rate)
         self.deviation_mm = float(deviation_mm)
         self.blocks: deque[Block] = deque()
         self.speed = 0.0  # along the executing block [mm/s]
@@ -117,11 +123,12 @@ class Planner:
         """Queue the move from ``start`` to ``target`` [mm] at ``feed`` [mm/s] and re-plan;
         False (nothing queued) for a move shorter than a micrometre, as GRBL drops moves of no
         steps."""
-        delta = np.asarray(target, dtype=float) - np.asarray(start, dtype=float)
-        length = float(np.linalg.norm(delta))
+        target = np.asarray(target, dtype=float)
+        delta = (target - np.asarray(start, dtype=float)).tolist()
+        length = math.sqrt(delta[0] ** 2 + delta[1] ** 2 + delta[2] ** 2)
         if length < 1e-3:
             return False
-        unit = delta / length
+        unit = np.array(delta) / length
         accel = limit_by_axes(self.accel, unit)
         nominal = min(float(feed), limit_by_axes(self.max_rate, unit))
         if not self.blocks or self._last_unit is None:
@@ -129,8 +136,7 @@ class Planner:
         else:
             v_j = junction_speed_sqr(self._last_unit, unit, self.accel, self.deviation_mm)
             max_entry_sqr = min(v_j, nominal**2, self._last_nominal**2)
-        self.blocks.append(Block(np.asarray(target, dtype=float), unit, length, accel, nominal,
-                                 max_entry_sqr, 0.0, line))
+        self.blocks.append(Block(target, unit, length, accel, nominal, max_entry_sqr, 0.0, line))
         self._last_unit, self._last_nominal = unit, nominal
         self.recalculate()
         return True
@@ -147,7 +153,7 @@ class Planner:
                 break
             block.entry_sqr = min(block.max_entry_sqr, exit_sqr + 2 * block.accel * block.length)
             exit_sqr = block.entry_sqr
-        for prev, nxt in zip(blocks, list(blocks)[1:], strict=False):
+        for prev, nxt in itertools.pairwise(blocks):
             reachable = prev.entry_sqr + 2 * prev.accel * prev.length
             nxt.entry_sqr = min(nxt.entry_sqr, reachable)
 
