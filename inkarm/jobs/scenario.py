@@ -158,7 +158,7 @@ class Scenario:
         """This scenario with dotted keys replaced (``{"controller.force_n": 1.5,
         "robot.gains.kp": [...]}``), checked by the same rules as the TOML: an unknown key is
         refused with the closest valid one, a bad value with the message the file would get."""
-        data = self.to_dict()
+        data = copy.deepcopy(self.to_dict())  # the tables may be this scenario's own
         for dotted, value in overrides.items():
             _set_dotted(data, dotted, value)
         return parse_scenario(data, source=f"{self.path} (with overrides)",
