@@ -28,7 +28,8 @@ import numpy as np
 from inkarm.core.ranges import Range, check_ranges
 from inkarm.errors import InputError, closest
 
-VELOCITY_MODES = ("exact", "differences")
+VELOCITY_MODES = ("exact", "differences", "servo")
+SERVO_VELOCITY_UNIT = 0.229 * 2.0 * math.pi / 60.0  # Dynamixel X-series Present Velocity [rad/s]
 PerJoint = float | tuple[float, ...]
 
 RANGES = {
@@ -86,8 +87,9 @@ class PlantTruth:
         backlash_deg: Total free play between motor and link [deg].
         encoder_ticks_per_rev: Encoder resolution [ticks/rev]; 0: exact.
         q_noise_rad: Standard deviation of white noise on measured joint positions [rad].
-        velocity: "exact" (the simulator's) or "differences" (of successive measured positions,
-            as a device without a velocity sensor reports it).
+        velocity: "exact" (the simulator's), "differences" (of successive measured positions,
+            as a device without a velocity sensor reports it) or "servo" (in whole units of a
+            Dynamixel's Present Velocity, 0.229 rev/min).
         force_noise_n, force_bias_n: On the sensed pen force [N].
         sensing_delay_ms: Age of every reading [ms].
         actuation_delay_ms: Time before a command reaches the joints [ms].

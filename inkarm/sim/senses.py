@@ -11,7 +11,7 @@ from collections import deque
 
 import numpy as np
 
-from inkarm.sim.imperfections import PlantTruth
+from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
 
 
 class Senses:
@@ -28,12 +28,13 @@ class Senses:
         self.tick = 2.0 * math.pi / ticks if ticks > 0 else 0.0
         self.q_noise = truth.q_noise_rad
         self.differences = truth.velocity == "differences"
+        self.servo_units = truth.velocity == "servo"
         self.force_noise, self.force_bias = truth.force_noise_n, truth.force_bias_n
         self.delay_steps = round(truth.sensing_delay_ms / 1000.0 / step_s)
         self.h = step_s
         self.rng = np.random.default_rng([truth.seed, 0x5E45])
         self.exact_q = self.tick == 0.0 and self.q_noise == 0.0
-        self.ideal = (self.exact_q and not self.differences and self.force_noise == 0.0
+        self.ideal = (self.exact_q and truth.velocity == "exact" and self.force_noise == 0.0
                       and self.force_bias == 0.0 and self.delay_steps == 0)
         self.snapshots: deque = deque(maxlen=self.delay_steps + 1)
         self._q_prev: np.ndarray | None = None
@@ -50,7 +51,10 @@ class Senses:
         return q
 
     def velocity(self, q_measured: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """The reported velocity [rad/s]: exact, or the difference of the last two readings."""
+        """The reported velocity [rad/s]: exact, in whole servo units, or the difference of the
+        last two readings."""
+        if self.servo_units:
+            return SERVO_VELOCITY_UNIT * np.round(qd / SERVO_VELOCITY_UNIT)
         if not self.differences:
             return qd
         prev = self._q_prev if self._q_prev is not None else q_measured

@@ -33,12 +33,13 @@ def test_random_fields_are_drawn_within_their_ranges_from_the_seed():
 
 
 @pytest.mark.parametrize(("kwargs", "message"), [
-    ({"velocity": "guessed"}, r"velocity: expected one of exact, differences, got 'guessed'"),
+    ({"velocity": "guessed"}, (r"velocity: expected one of exact, differences, servo, got "
+                              r"'guessed'")),
     ({"mass_scale": 0.0}, r"mass_scale: expected a number in \[0.1, 10\]"),
     ({"sensing_delay_ms": -1.0}, r"sensing_delay_ms: expected a number in \[0, 1000\] ms"),
     ({"coulomb_nm": (1.0, float("nan"))}, r"coulomb_nm: expected finite numbers"),
-    ({"random": {"mass_scal": (0.9, 1.1)}}, r"'mass_scal' cannot be drawn at random \(did you "
-                                            r"mean 'mass_scale'\?\)"),
+    ({"random": {"mass_scal": (0.9, 1.1)}}, (r"'mass_scal' cannot be drawn at random \(did you "
+                                            r"mean 'mass_scale'\?\)")),
     ({"random": {"mass_scale": (1.2, 0.8)}}, r"random.mass_scale: expected finite low <= high"),
     ({"random": {"mass_scale": (0.0, 2.0)}}, r"random.mass_scale: expected a range within"),
     ({"seed": 1.5}, r"seed: expected a whole number >= 0"),
@@ -143,3 +144,14 @@ def test_a_sensing_delay_returns_readings_that_old():
     for _ in range(10):
         plant.step()
     assert plant.read().time == pytest.approx(plant.data.time - 0.006)
+
+
+def test_servo_velocity_comes_in_whole_units_and_the_force_sensor_has_its_bias():
+    senses = Senses(PlantTruth(velocity="servo", force_bias_n=0.2), 1, 0.002)
+    unit = 0.229 * 2 * np.pi / 60
+    np.testing.assert_allclose(senses.velocity(np.zeros(1), np.array([3.4 * unit])), 3 * unit)
+    assert senses.force(1.0) == pytest.approx(1.2)
+    noisy = Senses(PlantTruth(force_noise_n=0.05, seed=3), 1, 0.002)
+    readings = np.array([noisy.force(1.0) for _ in range(4000)])
+    assert readings.mean() == pytest.approx(1.0, abs=0.005)
+    assert readings.std() == pytest.approx(0.05, rel=0.05)
