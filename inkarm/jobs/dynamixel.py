@@ -130,16 +130,20 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
     return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes + tuple(log.notes))
 
 
-def _metrics(log, drawing, believed, canvas) -> dict:
-    """The run's metrics; the pen force, which the servos do not sense, counts as 0 (so the
-    force metrics are empty)."""
+def _metrics(log, drawing, believed, canvas, force_sensed: bool = False) -> dict:
+    """The run's metrics; unless ``force_sensed``, the pen force (which servos do not sense)
+    counts as 0, so the force metrics and the gaps, found from the force, are NaN."""
     if log is None or len(log) == 0 or not log.drawing.any():
         return {}
-    return compute_metrics(
+    metrics = compute_metrics(
         times_s=log.time, reference_mm=log.reference, tip_mm=log.tip,
-        force_n=np.nan_to_num(log.force), drawing=log.drawing, q=log.q,
+        force_n=log.force if force_sensed else np.nan_to_num(log.force), drawing=log.drawing,
+        q=log.q,
         joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
         canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes])
+    if not force_sensed:
+        metrics["gap_mm"] = float("nan")
+    return metrics
 
 
 def run_backend(scenario: Scenario, options, progress=None) -> Run:
@@ -198,10 +202,10 @@ def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
     except RunFault as e:
         partial = getattr(e, "log", None)
         return Run(scenario, FAILED, drawing, partial, canvas,
-                   _metrics(partial, drawing, believed, canvas), reason=str(e))
+                   _metrics(partial, drawing, believed, canvas, True), reason=str(e))
     finally:
         twin.close()
-    return Run(scenario, OK, drawing, log, canvas, _metrics(log, drawing, believed, canvas))
+    return Run(scenario, OK, drawing, log, canvas, _metrics(log, drawing, believed, canvas, True))
 
 
 def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
