@@ -121,7 +121,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     senses_force = "force" in plant.senses
     if "tip" not in plant.senses:
         raise InputError("the batched ensemble needs plants that sense the pen tip")
-    q_ref, qd_ref, qdd_ref, inertia, normal_q = ref.q, ref.qd, ref.qdd, ref.inertia, ref.normal_q
+    q_ref, qd_ref, inertia, normal_q = ref.q, ref.qd, ref.inertia, ref.normal_q
     contact_tau, page_ref, phases = ref.contact_tau, ref.page_mm, ref.phase
     hold_at = np.zeros(n_ref, dtype=bool)
     hold_at[list(ref.settle)] = senses_force

@@ -19,14 +19,23 @@ in every member; series elasticity and backlash are refused
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from inkarm.control.batch_loop import run_drawings
 from inkarm.errors import InkarmError, InputError, RunFault
-from inkarm.ink.canvas import Canvas
-from inkarm.jobs.run import DEGRADED, FAILED, OK, Run, _metrics, _substeps, judge, \
-    placed_within_budget
+from inkarm.ink.canvas import Canvas, require_raster_memory
+from inkarm.jobs.run import (
+    DEGRADED,
+    FAILED,
+    OK,
+    Run,
+    _metrics,
+    _substeps,
+    judge,
+    placed_within_budget,
+)
 from inkarm.jobs.scenario import Scenario
+from inkarm.jobs.sweep_design import with_point
 from inkarm.sim.batch import BatchPlant, check_batchable, member_model
 from inkarm.sim.cell import Cell, kinematic_model
 
@@ -34,7 +43,15 @@ from inkarm.sim.cell import Cell, kinematic_model
 def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) -> list[Run]:
     """Draw ``scenario`` on the plants of ``plant.seed`` = each of ``seeds``, batched; return
     one :class:`Run` per seed, in order (failed members are Runs with status "failed", the
-    others go on). ``nthread``: MuJoCo threads (0: all CPUs)."""
+    others go on). ``nthread``: MuJoCo threads (0: all CPUs). Every Run holds its page:
+    :func:`iter_ensemble` yields them one at a time instead."""
+    return list(iter_ensemble(scenario, seeds, nthread))
+
+
+def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) -> Iterator[Run]:
+    """:func:`run_ensemble` as a generator: the whole ensemble is simulated at the first
+    ``next``; then each member's canvas is inked and its metrics computed as it is yielded, so
+    a caller that keeps only what it needs of each Run holds one page at a time."""
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise InputError("an ensemble needs at least one seed", key="seeds", value=seeds)
@@ -48,33 +65,33 @@ def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) -> 
                          choices=("position",)).within(file=scenario.path)
     try:
         drawing = placed_within_budget(scenario, cell)
+        require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
         believed = kinematic_model(cell)
         truths = [scenario.plant.realised(s) for s in seeds]
         check_batchable(truths)
-        members = [scenario.with_overrides({"plant.seed": s}) for s in seeds]
-        canvases = [Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
-                           ink=scenario.ink.make()) for _ in seeds]
         plant = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
-                           canvases, substeps=_substeps(scenario.robot.control_period_s,
-                                                        scenario.cell.timestep),
+                           substeps=_substeps(scenario.robot.control_period_s,
+                                              scenario.cell.timestep),
                            drive_gains=scenario.robot.drive, nthread=nthread)
         results = run_drawings(drawing, plant, believed, scenario.robot.gains,
                                scenario.controller, speed_limits=scenario.robot.speed_limits)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
-    runs = []
-    for member, canvas, result in zip(members, canvases, results):
+    for k, (seed, result) in enumerate(zip(seeds, results)):
+        member = with_point(scenario, {"plant.seed": seed})
+        canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
+                        ink=scenario.ink.make())
+        plant.feed(k, canvas)
         if isinstance(result, RunFault):
             log = result.log
-            runs.append(Run(member, FAILED, drawing, log, canvas,
-                            _metrics(log, drawing, believed, canvas), reason=str(result),
-                            notes=log.notes))
+            yield Run(member, FAILED, drawing, log, canvas,
+                      _metrics(log, drawing, believed, canvas), reason=str(result),
+                      notes=log.notes)
             continue
         metrics = _metrics(result, drawing, believed, canvas)
         shortfalls = judge(metrics, scenario.controller.force_n)
-        runs.append(Run(member, DEGRADED if shortfalls else OK, drawing, result, canvas, metrics,
-                        reason="; ".join(shortfalls), notes=result.notes))
-    return runs
+        yield Run(member, DEGRADED if shortfalls else OK, drawing, result, canvas, metrics,
+                  reason="; ".join(shortfalls), notes=result.notes)
 
 
-__all__ = ["run_ensemble"]
+__all__ = ["iter_ensemble", "run_ensemble"]

@@ -14,8 +14,8 @@ the encoder (quantisation, noise), velocity from differences, force-sensor noise
 sensing delay (a ring of the last ``d + 1`` readings) and actuation delay (commands queued for
 whole physics steps). The pen force is the sum of the normal components reported by the contact
 sensor (the forces of the step just taken, at the state it left: MujocoPlant's
-``mj_contactForce`` after ``mj_step2``), and each member's canvas gets the touches at the tip
-position of that state.
+``mj_contactForce`` after ``mj_step2``); the touches (force, tip position of that state) are
+kept per member and fed to its canvas afterwards (:meth:`BatchPlant.feed`).
 
 Supported truths: every model-level field, and at run time ``encoder_ticks_per_rev``,
 ``q_noise_rad``, ``velocity``, ``force_noise_n``, ``force_bias_n``, ``sensing_delay_ms`` and
@@ -121,7 +121,6 @@ class BatchPlant:
         truth: The run-time truth, shared by all members (its model-level fields are ignored).
         seeds: The members' truth seeds (their measurement noise is drawn from them, as each
             member's MujocoPlant would).
-        canvases: One canvas per member, or None.
         substeps: Physics steps per control period.
         drive_gains: The joint drives' gains.
         nthread: Threads of the batch (0: all CPUs).
@@ -132,7 +131,7 @@ class BatchPlant:
     commands = frozenset({"position"})
 
     def __init__(self, models: list[mujoco.MjModel], cell: Cell, truth: PlantTruth,
-                 seeds: list[int], canvases=None, substeps: int = 3,
+                 seeds: list[int], substeps: int = 3,
                  drive_gains: PIDGains | None = None, nthread: int = 0,
                  max_joint_speed: float = 50.0):
         route_mujoco_warnings()
@@ -158,7 +157,7 @@ class BatchPlant:
         adr = int(m0.sensor_adr[sensor])
         self._normals = slice(adr, adr + 3 * CONTACT_SLOTS, 3)
         nthread = nthread or (os.cpu_count() or 1)
-        self.batch = b = mjbatch.Batch(m0, N, nthread=min(nthread, N))
+        self.batch = b = mjbatch.Batch(m0, N, nthread=min(nthread, N), persistent=True)
         b.set_models(models)
         self._models = models
         # outputs bound before the first call (a field bound later is zero until the next)
@@ -172,7 +171,8 @@ class BatchPlant:
         to_page = 1000.0 * site_xmat[:, origin].reshape(N, 3, 3)
         self._to_page = to_page.copy()
         self._page_offset = np.einsum("ki,kij->kj", site_xpos[:, origin], to_page)
-        self.canvases = canvases
+        self._touches: list = []
+        self._stacked: tuple | None = None
         self.max_joint_speed = float(max_joint_speed)
         self._warnings = self._warning_counts()
         # drives, senses, delays
@@ -205,7 +205,6 @@ class BatchPlant:
         self.steps = 0
         self.time = 0.0
         self.pen_force = np.zeros(N)
-        self.touching = np.zeros(N, dtype=bool)
         self._tip_prev = self._tip_xpos.copy()
         self._sq_prev: np.ndarray | None = None
         ring = self.sense_delay + 1
@@ -303,10 +302,10 @@ class BatchPlant:
         self.motor = np.where(on[:, None], np.clip(tau, -self._limit, self._limit), self.motor)
 
     def step(self, ids: np.ndarray) -> dict[int, SimulationError]:
-        """Advance members ``ids`` (sorted) one control period; feed their canvases. Returns the
+        """Advance members ``ids`` (sorted) one control period; keep their touches. Returns the
         members that diverged, with the error each would have raised."""
         ids = np.asarray(ids, dtype=np.int32)
-        canvases, b = self.canvases, self.batch
+        b = self.batch
         vel = int(mujoco.mjtStage.mjSTAGE_VEL)
         for _ in range(self.substeps):
             self._actuate(ids)
@@ -316,8 +315,7 @@ class BatchPlant:
             self.time += self.h
             force = self._sensordata[:, self._normals].sum(axis=1)
             self.pen_force[ids] = force[ids]
-            if canvases is not None:
-                self._feed_canvases(ids, force)
+            self._record_touches(ids, force)
             self._tip_prev[ids] = self._tip_xpos[ids]
             self.steps += 1
             if not self.ideal:
@@ -330,19 +328,40 @@ class BatchPlant:
                 self._record(q, qd, ids)
         return self._diverged(ids)
 
-    def _feed_canvases(self, ids: np.ndarray, force: np.ndarray) -> None:
-        t = self.time - self.h
-        page = self._tip_prev[ids]
-        xy = np.einsum("ki,kij->kj", page, self._to_page[ids][:, :, :2]) \
-            - self._page_offset[ids, :2]
-        for k, m in enumerate(ids.tolist()):
-            f = float(force[m])
-            if f > 0.0:
-                self.touching[m] = True
-                self.canvases[m].touch((float(xy[k, 0]), float(xy[k, 1])), f, t)
-            elif self.touching[m]:
-                self.touching[m] = False
-                self.canvases[m].lift()
+    def _record_touches(self, ids: np.ndarray, force: np.ndarray) -> None:
+        """Keep this step's pen forces and tip positions (page [mm], of the state the step
+        left) of members ``ids``; :meth:`feed` gives them to a canvas afterwards."""
+        page = self._tip_prev
+        A, o = self._to_page, self._page_offset
+        x, y, z = page[:, 0], page[:, 1], page[:, 2]
+        px = x * A[:, 0, 0] + y * A[:, 1, 0] + z * A[:, 2, 0] - o[:, 0]
+        py = x * A[:, 0, 1] + y * A[:, 1, 1] + z * A[:, 2, 1] - o[:, 1]
+        stepped = np.zeros(self.n_members, dtype=bool)
+        stepped[ids] = True
+        self._touches.append((self.time - self.h, stepped, np.where(stepped, force, 0.0),
+                              px, py))
+
+    def feed(self, member: int, canvas) -> None:
+        """Give ``canvas`` every touch of member ``member`` so far, in order, as MujocoPlant
+        gives its canvas during the run (``touch`` while the force is positive, ``lift`` when
+        the contact ends, and at the end). The canvas is passive, so feeding it afterwards
+        draws the same ink, and an ensemble holds one page at a time, not N."""
+        if not self._touches:
+            return
+        if self._stacked is None or len(self._stacked[0]) != len(self._touches):
+            self._stacked = tuple(np.array(c) for c in zip(*self._touches))
+        t, stepped, force, px, py = self._stacked
+        f, on = force[:, member], stepped[:, member]
+        contact = on & (f > 0.0)
+        ends = np.flatnonzero(on[1:] & contact[:-1] & ~contact[1:]) + 1
+        rows = np.union1d(np.flatnonzero(contact), ends)
+        for r in rows.tolist():
+            if contact[r]:
+                canvas.touch((float(px[r, member]), float(py[r, member])), float(f[r]),
+                             float(t[r]))
+            else:
+                canvas.lift()
+        canvas.lift()
 
     def _warning_counts(self) -> np.ndarray:
         return self.batch.warning[:, _DIVERGENCE_WARNINGS, 1].astype(np.int64)
@@ -374,14 +393,15 @@ class BatchPlant:
         self._warnings = warnings
         return out
 
-    def close(self, ids=None) -> None:
-        """Lift the canvas pens of members ``ids`` (all when None) still touching."""
-        members = range(self.n_members) if ids is None else ids
-        for m in members:
-            if self.touching[m] and self.canvases is not None:
-                self.canvases[m].lift()
-            self.touching[m] = False
+    def close(self) -> None:
+        """Nothing to release (members' pens are lifted when their canvases are fed)."""
 
 
-__all__ = ["BatchPlant", "BatchState", "check_batchable", "member_model", "RUNTIME_SUPPORTED",
-           "RUNTIME_REFUSED"]
+__all__ = [
+    "RUNTIME_REFUSED",
+    "RUNTIME_SUPPORTED",
+    "BatchPlant",
+    "BatchState",
+    "check_batchable",
+    "member_model",
+]

@@ -1,0 +1,90 @@
+"""Throughput of ensembles: N plants of one scenario that differ in their random imperfections
+(``plant.seed`` = 0 .. N-1), batched (:func:`inkarm.jobs.ensemble.run_ensemble`: one
+``mujoco.batch`` simulation, the controller vectorised over members) against the same N runs on
+a process pool of :func:`inkarm.jobs.run.run` (one process per CPU, each returning its status,
+metrics and simulated time), in the same process, on the same machine.
+
+Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]``. Prints
+one markdown table: wall time, members per second, the aggregate real-time factor (simulated
+seconds of all members over the wall time) and the throughput ratio against the process pool;
+then the largest difference of a metric between the two, member by member. Default: 64 members
+of ``scenarios/realistic_iiwa.toml`` (the default letter on the realistic plant whose
+``[plant.random]`` ranges make the ensemble; ``--quick``: 8). Both sides ink every member's
+canvas and compute its metrics, and keep (status, metrics, simulated time) of each member, one
+page at a time (:func:`inkarm.jobs.ensemble.iter_ensemble`); the pool's time includes starting
+its workers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from inkarm.jobs.ensemble import iter_ensemble
+from inkarm.jobs.run import run
+from inkarm.jobs.scenario import load_scenario
+from inkarm.jobs.sweep_design import with_point
+
+DEFAULT = Path(__file__).resolve().parent.parent / "scenarios" / "realistic_iiwa.toml"
+
+
+def one_member(path: str, seed: int) -> tuple[str, dict, float]:
+    """(status, metrics, simulated [s]) of the scenario at ``path`` with ``plant.seed``."""
+    result = run(with_point(load_scenario(path), {"plant.seed": seed}))
+    return result.status, result.metrics, float(result.log.time[-1] - result.log.time[0])
+
+
+def pooled(path: str, seeds: list[int], workers: int) -> tuple[float, float, list]:
+    """(wall [s], simulated [s], per-member results) on a fresh process pool."""
+    start = time.perf_counter()
+    context = multiprocessing.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        results = list(pool.map(one_member, [path] * len(seeds), seeds))
+    wall = time.perf_counter() - start
+    return wall, sum(r[2] for r in results), results
+
+
+def batched(path: str, seeds: list[int], nthread: int) -> tuple[float, float, list]:
+    """(wall [s], simulated [s], per-member results) of one batched ensemble."""
+    start = time.perf_counter()
+    results = [(r.status, r.metrics, float(r.log.time[-1] - r.log.time[0]))
+               for r in iter_ensemble(load_scenario(path), seeds, nthread=nthread)]
+    wall = time.perf_counter() - start
+    return wall, sum(r[2] for r in results), results
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--members", type=int, default=None)
+    parser.add_argument("--scenario", default=str(DEFAULT))
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    n = args.members or (8 if args.quick else 64)
+    seeds = list(range(n))
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    scenario = load_scenario(args.scenario)
+    rows = [(f"process pool, {cpus} workers (reference)", *pooled(args.scenario, seeds, cpus))]
+    rows.append((f"batched (mujoco.batch, {cpus} threads)", *batched(args.scenario, seeds, cpus)))
+    reference = n / rows[0][1]
+    print(f"## Ensembles: {n} plants of {scenario.title!r}\n")
+    print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio |")
+    print("|---|---|---|---|---|")
+    for name, wall, simulated, _ in rows:
+        print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
+              f"{n / wall / reference:.2f}x |")
+    pool, batch = rows[0][3], rows[1][3]
+    same_status = sum(a[0] == b[0] for a, b in zip(pool, batch))
+    worst = max((abs(a[1][k] - b[1][k]), k) for a, b in zip(pool, batch) for k in a[1]
+                if k != "realtime_factor" and k in b[1])
+    print(f"\nSame status in {same_status} of {n} members; largest metric difference "
+          f"{worst[0]:.2g} ({worst[1]}).")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
