@@ -95,8 +95,8 @@ def plot_timing(model: PrimitiveModel, Y: np.ndarray, expectations: np.ndarray,
                 fig=None, title: str = "") -> Figure:
     """Fig. 5 for one sequence: ``Y`` (T, D) and its posterior ``expectations`` (M, T, K).
 
-    Left: the timing code, P(primitive m active) against time, onsets (state 1 most likely)
-    marked with triangles. Right: the sequence (grey) and its reconstruction sum_m W^m <S^m>
+    Left: the timing code, P(primitive m active) against time, onsets (where state 1 becomes
+    the likely one) marked with triangles. Right: the sequence (grey) and its reconstruction sum_m W^m <S^m>
     (black) in pen space, each primitive's onset marked on the reconstruction."""
     fig = fig if fig is not None else new_figure((11.0, 4.0), layout="constrained")
     left, right = fig.subplots(1, 2, width_ratios=(1.3, 1.0))
@@ -109,8 +109,8 @@ def plot_timing(model: PrimitiveModel, Y: np.ndarray, expectations: np.ndarray,
     onsets = []
     for m in range(model.n_chains):
         first = expectations[m, :T, 1]
-        for k in np.flatnonzero((first > 0.5) & (first >= np.roll(first, 1))
-                                & (first >= np.roll(first, -1))):
+        entered = (first > 0.5) & ~(np.concatenate([[0.0], first[:-1]]) > 0.5)
+        for k in np.flatnonzero(entered):
             left.plot(t[k], m, "v", color="tab:red", ms=5)
             onsets.append((k, m))
     left.set_xlabel("time [s]")

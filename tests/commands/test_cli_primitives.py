@@ -94,7 +94,6 @@ def test_errors_are_one_line_and_name_the_input(tmp_path, capsys, small_model, a
 
 
 @pytest.mark.sim
-@pytest.mark.slow
 def test_the_simulated_arm_draws_a_scribble(small_model, tmp_path, capsys):
     import json
 
