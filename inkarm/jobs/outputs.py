@@ -43,7 +43,9 @@ def write_run(run: Run, out_dir: str | Path, report: bool = True) -> dict[str, P
             run.log.to_npz(stage / "trace.npz")
         run.canvas.to_png(stage / "canvas.png")
         if run.finished:
-            (stage / "metrics.json").write_text(strict_json(run.metrics))
+            verdict = {"status": run.status,
+                       "reasons": [r for r in run.reason.split("; ") if r]}
+            (stage / "metrics.json").write_text(strict_json({**run.metrics, **verdict}))
             if report:
                 from inkarm.plots.report import write_report
 

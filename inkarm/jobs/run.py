@@ -99,10 +99,16 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                         ink=scenario.ink.make())
         truth = scenario.plant.realised()
+        servos = (_servo_firmware(scenario.robot, scenario.cell.timestep)
+                  if scenario.controller.command == "position" else None)
         plant = MujocoPlant(plant_model(cell, truth), cell=cell, canvas=canvas,
                             substeps=_substeps(scenario.robot.control_period_s,
                                                scenario.cell.timestep),
-                            truth=truth, drive_gains=scenario.robot.drive)
+                            truth=truth, drive_gains=scenario.robot.drive, firmware=servos)
+        if servos is not None:
+            from inkarm.jobs.dynamixel import ServoGoals
+
+            plant = ServoGoals(plant, scenario.robot)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     try:
@@ -126,6 +132,19 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     shortfalls = judge(metrics, scenario.controller.force_n)
     return Run(scenario, DEGRADED if shortfalls else OK, drawing, log, canvas, metrics,
                reason="; ".join(shortfalls), notes=log.notes)
+
+
+def _servo_firmware(robot, step_s: float):
+    """The servo firmware of a robot whose joints are Dynamixel servos with position-loop
+    registers in its profile (``[backends.dynamixel] position_p``), in joint units: with
+    position commands its simulated plant runs as it would on its servos (goals shaped as
+    :class:`inkarm.hardware.dynamixel.plant.DynamixelPlant` sends them). With torque commands
+    the servos are in current mode and the host's loop drives them. None for other robots."""
+    if "position_p" not in robot.backends.get("dynamixel", {}):
+        return None
+    from inkarm.jobs.dynamixel import joint_firmware
+
+    return joint_firmware(robot, step_s)
 
 
 def judge(metrics: dict, force_n: float) -> list[str]:

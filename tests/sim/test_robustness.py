@@ -119,3 +119,24 @@ def test_beyond_reach_the_run_fails_safe_within_100_ms(name):
     log = result.log
     assert len(log) > 0 and log.time[-1] - fault <= 0.1  # the log up to the safe stop
     assert log.force[-1] == 0.0  # the pen is off the paper
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+def test_the_servo_arm_draws_through_its_encoders_backlash_and_bus_delay():
+    """4096 ticks a turn, velocity in the servo's units, 0.2 deg backlash, 4 ms bus delay."""
+    result = run(load_scenario("scenarios/realistic_servo_arm.toml"))
+    assert result.ok, result.reason
+    m = result.metrics
+    assert m["tracking_rms_mm"] <= 1.0 and m["ink_chamfer_mm"] <= 1.0 and m["gap_mm"] == 0.0
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+def test_position_commands_drive_the_servo_arm_through_its_firmware_model():
+    scenario = load_scenario("scenarios/wx250s_letter_N.toml").with_overrides(
+        {"controller.command": "position"})
+    result = run(scenario)
+    # the servos' own loop: it finishes, less tight than the host's (about 1.8 mm RMS)
+    assert result.finished, result.reason
+    assert result.metrics["tracking_rms_mm"] < 3.0 and result.metrics["ink_chamfer_mm"] < 1.0
