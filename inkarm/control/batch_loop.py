@@ -110,7 +110,9 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     timeout_ticks = round(config.settle_timeout_s / dt)
     stop_ticks = max(1, round(config.stop_s / dt))
     capacity = n_ref + len(ref.settle) * timeout_ticks + 2 * stop_ticks + 2
-    logs = [DrawLog.empty(capacity, n) for _ in range(N)]
+    log_time, log_force = np.zeros((N, capacity)), np.zeros((N, capacity))
+    log_q, log_qd, log_torque = (np.zeros((N, capacity, n)) for _ in range(3))
+    log_tip = np.zeros((N, capacity, 3))
     ref_rows = np.zeros((N, capacity), dtype=np.intp)
     ref_blend = np.zeros((N, capacity))
     k_force = config.force_gain_mm_per_ns / 1000.0 * dt
@@ -164,15 +166,15 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         stop_q0[m] = st.q[m]
         stop_lift[m] = -(config.hover_mm + travel) / 1000.0 * normal_q[min(i[m], n_ref - 1)]
 
-    def log_row(m: int, st, seen: int) -> None:
-        r = row[m]
-        if r >= capacity:
-            return
-        lg = logs[m]
-        lg.time[r], lg.q[r], lg.qd[r] = st.time, st.q[m], st.qd[m]
-        lg.torque[r], lg.tip[r], lg.force[r] = st.torque[m], st.tip_mm[m], st.force[m]
-        ref_rows[m, r] = seen
-        row[m] = r + 1
+    def log_rows(who: np.ndarray, st, seen: np.ndarray) -> None:
+        """One log row for each of members ``who`` (while it has room)."""
+        who = who[row[who] < capacity]
+        r = row[who]
+        log_time[who, r], log_q[who, r], log_qd[who, r] = st.time, st.q[who], st.qd[who]
+        log_torque[who, r], log_tip[who, r] = st.torque[who], st.tip_mm[who]
+        log_force[who, r] = st.force[who]
+        ref_rows[who, r] = seen[who]
+        row[who] = r + 1
 
     while (mode != DONE).any():
         state = plant.read()
@@ -236,9 +238,9 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         p = page_ref[seen]
         error = np.where((phase == APPROACH) | (phase == HOME), 0.0,
                          np.hypot(state.tip_mm[:, 0] - p[:, 0], state.tip_mm[:, 1] - p[:, 1]))
-        for m in np.flatnonzero(run):
-            log_row(int(m), state, int(seen[m]))
-            ref_blend[m, row[m] - 1] = blend
+        running = np.flatnonzero(run)
+        log_rows(running, state, seen)
+        ref_blend[running, row[running] - 1] = blend
         # the watchdogs, vectorised; a member whose check fires gets its own Watchdog's fault
         cfg = config
         far = np.where(run & (error > cfg.tracking_limit_mm), far + 1, 0)
@@ -271,7 +273,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
             s = min(int(stop_k[m]) / stop_ticks, 1.0)
             goal = stop_q0[m] + (10 * s**3 - 15 * s**4 + 6 * s**5) * stop_lift[m]
             q_goal[m], qd_goal[m], tau_goal[m] = goal, zero, kin.bias(goal, zero)
-            log_row(int(m), state, int(min(i[m], n_ref - 1)))
+            log_rows(np.array([m]), state, np.minimum(i, n_ref - 1))
         active = np.flatnonzero(mode != DONE)
         if not len(active):
             break
@@ -301,7 +303,11 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     wall = (_time.perf_counter() - wall0) / N
     out: list[DrawLog | RunFault] = []
     for m in members:
-        result = _with_plan_columns(logs[m], ref, ref_rows[m], int(row[m]), ref_blend[m])
+        log = DrawLog.empty(capacity, n)
+        log.time[:], log.q[:], log.qd[:], log.torque[:] = (log_time[m], log_q[m], log_qd[m],
+                                                           log_torque[m])
+        log.tip[:], log.force[:] = log_tip[m], log_force[m]
+        result = _with_plan_columns(log, ref, ref_rows[m], int(row[m]), ref_blend[m])
         result.wall_s = wall
         result.notes = notes
         if m in faults:
