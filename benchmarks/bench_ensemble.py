@@ -6,8 +6,9 @@ metrics and simulated time), in the same process, on the same machine.
 
 Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]``. Prints
 one markdown table: wall time, members per second, the aggregate real-time factor (simulated
-seconds of all members over the wall time) and the throughput ratio against the process pool;
-then the largest difference of a metric between the two, member by member. Default: 64 members
+seconds of all members over the wall time) and the throughput ratio against the process pool,
+for the batch on one MuJoCo thread and on one per CPU; then the largest difference of a metric
+between the pool and the batch, member by member. Default: 64 members
 of ``scenarios/realistic_iiwa.toml`` (the default letter on the realistic plant whose
 ``[plant.random]`` ranges make the ensemble; ``--quick``: 8). Both sides ink every member's
 canvas and compute its metrics, and keep (status, metrics, simulated time) of each member, one
@@ -69,7 +70,9 @@ def main() -> int:
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     scenario = load_scenario(args.scenario)
     rows = [(f"process pool, {cpus} workers (reference)", *pooled(args.scenario, seeds, cpus))]
-    rows.append((f"batched (mujoco.batch, {cpus} threads)", *batched(args.scenario, seeds, cpus)))
+    for threads in sorted({1, cpus}):
+        rows.append((f"batched (mujoco.batch, {threads} thread{'s' * (threads > 1)})",
+                     *batched(args.scenario, seeds, threads)))
     reference = n / rows[0][1]
     print(f"## Ensembles: {n} plants of {scenario.title!r}\n")
     print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio |")
@@ -77,10 +80,10 @@ def main() -> int:
     for name, wall, simulated, _ in rows:
         print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
               f"{n / wall / reference:.2f}x |")
-    pool, batch = rows[0][3], rows[1][3]
+    pool, batch = rows[0][3], rows[-1][3]
     same_status = sum(a[0] == b[0] for a, b in zip(pool, batch))
-    worst = max((abs(a[1][k] - b[1][k]), k) for a, b in zip(pool, batch) for k in a[1]
-                if k != "realtime_factor" and k in b[1])
+    worst = max(((abs(a[1][k] - b[1][k]), k) for a, b in zip(pool, batch) for k in a[1]
+                 if k != "realtime_factor" and k in b[1]), default=(0.0, "none"))
     print(f"\nSame status in {same_status} of {n} members; largest metric difference "
           f"{worst[0]:.2g} ({worst[1]}).")
     return 0

@@ -156,7 +156,9 @@ class BatchPlant:
                              "(build them with inkarm.sim.batch.member_model)")
         adr = int(m0.sensor_adr[sensor])
         self._normals = slice(adr, adr + 3 * CONTACT_SLOTS, 3)
-        nthread = nthread or (os.cpu_count() or 1)
+        if not nthread:
+            nthread = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
+                else (os.cpu_count() or 1)
         self.batch = b = mjbatch.Batch(m0, N, nthread=min(nthread, N), persistent=True)
         b.set_models(models)
         self._models = models
@@ -214,7 +216,7 @@ class BatchPlant:
                        ("tip", (3,)))}
         if not self.ideal:
             q, qd = self._qpos[:, self._qpos_adr].copy(), self._qvel[:, self._dof_adr].copy()
-            self._record(q, qd, None)
+            self._record(q, qd)
 
     # -- measurement ---------------------------------------------------------------------
     def _normal_draws(self, k: int) -> np.ndarray:
@@ -226,7 +228,7 @@ class BatchPlant:
         out, self._draws = self._draws[:, :k], self._draws[:, k:]
         return out
 
-    def _position(self, q: np.ndarray, active) -> np.ndarray:
+    def _position(self, q: np.ndarray) -> np.ndarray:
         if self.exact_q:
             return q
         if self.tick:
@@ -239,7 +241,7 @@ class BatchPlant:
         x = self._tip_xpos
         return np.einsum("ki,kij->kj", x, self._to_page) - self._page_offset
 
-    def _record(self, q, qd, active) -> None:
+    def _record(self, q: np.ndarray, qd: np.ndarray) -> None:
         force = self.pen_force
         if self.force_noise:
             force = force + self.force_noise * self._normal_draws(1)[:, 0]
@@ -284,7 +286,7 @@ class BatchPlant:
         if not self.goal_set[ids].any():
             return
         q_true = self._qpos[:, self._qpos_adr]
-        q_meas = self._position(q_true.copy(), ids)
+        q_meas = self._position(q_true.copy())
         if self.differences:
             if self.q_prev is not None:
                 self.v += self.alpha * ((q_meas - self.q_prev) / self.h - self.v)
@@ -319,13 +321,13 @@ class BatchPlant:
             self._tip_prev[ids] = self._tip_xpos[ids]
             self.steps += 1
             if not self.ideal:
-                q = self._position(self._qpos[:, self._qpos_adr].copy(), ids)
+                q = self._position(self._qpos[:, self._qpos_adr].copy())
                 qd = self._qvel[:, self._dof_adr].copy()
                 if self.differences:
                     prev = self._sq_prev if self._sq_prev is not None else q
                     self._sq_prev = q
                     qd = (q - prev) / self.h
-                self._record(q, qd, ids)
+                self._record(q, qd)
         return self._diverged(ids)
 
     def _record_touches(self, ids: np.ndarray, force: np.ndarray) -> None:
