@@ -116,7 +116,18 @@ def order_strokes(strokes: list[PlotterStroke], start_mm=(0.0, 0.0),
                                                                      s.speed[:0:-1])))
         out.append(s)
         here = s.points[-1]
-    return out
+    # Greedy nearest-end is a heuristic: keep the given order where it travels less.
+    start = np.asarray(start_mm, dtype=float)
+    return out if _travel(out, start) <= _travel(strokes, start) else strokes
+
+
+def _travel(strokes: list[PlotterStroke], start: np.ndarray) -> float:
+    """Pen-up travel [mm] from ``start`` through ``strokes`` in their order."""
+    here, total = start, 0.0
+    for s in strokes:
+        total += float(np.hypot(*(s.points[0] - here)))
+        here = s.points[-1]
+    return total
 
 
 def _merge(strokes: list[PlotterStroke], merge_mm: float) -> list[PlotterStroke]:

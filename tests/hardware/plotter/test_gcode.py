@@ -87,9 +87,8 @@ def test_order_visits_every_stroke_once_and_never_travels_more_than_given_order(
     ordered = order_strokes(strokes, merge_mm=-1.0)
     key = sorted(tuple(sorted(map(tuple, s.points.tolist()))) for s in strokes)
     assert sorted(tuple(sorted(map(tuple, s.points.tolist()))) for s in ordered) == key
-    # Greedy is no worse than the given order from each stroke's nearest end (a weak bound
-    # that still fails when an end is missed or a stroke revisited).
-    assert travel(ordered) <= travel(strokes) + 1e-6 or len(strokes) > 3
+    # never more pen-up travel than the order given (greedy alone can be worse)
+    assert travel(ordered) <= travel(strokes) + 1e-6
 
 
 @settings(max_examples=40, deadline=None)
