@@ -57,9 +57,8 @@ def test_draw_with_a_user_profile_file(tmp_path, capsys):
     profile = tmp_path / "my_arm.toml"
     profile.write_text((DATA / "wx250s.toml").read_text().replace('"wx250s"', '"my_arm"', 1))
     out = tmp_path / "o"
-    code = main(
-        ["draw", str(_job(tmp_path)), "--robot", str(profile), "--out", str(out), "--quiet"]
-    )
+    job = _job(tmp_path, '\n[controller]\ncommand = "torque"\n')  # servos in current mode
+    code = main(["draw", str(job), "--robot", str(profile), "--out", str(out), "--quiet"])
     assert code == 0, capsys.readouterr().err
     status = json.loads((out / "status.json").read_text())
     assert status["status"] == "ok" and status["robot"] == "my_arm"
