@@ -40,7 +40,8 @@ from inkarm.errors import InputError, SimulationError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim import perturb
 from inkarm.sim.cell import HOME_KEY, PAPER, PAPER_ORIGIN, PEN_TIP, Cell, build_spec
-from inkarm.sim.imperfections import PlantTruth
+from inkarm.sim.drive import JointDrive
+from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
 from inkarm.sim.plant import route_mujoco_warnings
 
 # Run-time truths the batched plant reproduces (all members alike); the rest are refused.
@@ -177,28 +178,22 @@ class BatchPlant:
         self._stacked: tuple | None = None
         self.max_joint_speed = float(max_joint_speed)
         self._warnings = self._warning_counts()
-        # drives, senses, delays
-        g = drive_gains or cell.robot.drive
-        self.kp, self.ki, self.kd = (np.asarray(x, dtype=float) for x in (g.kp, g.ki, g.kd))
-        self.i_limit = np.asarray(g.integral_limit, dtype=float)
-        self.alpha = self.h / (0.004 + self.h)
-        self.integral = np.zeros((N, n))
-        self.q_goal = np.zeros((N, n))
-        self.qd_goal = np.zeros((N, n))
-        self.tau_ff = np.zeros((N, n))
-        self.since = np.zeros(N)
-        self.goal_set = np.zeros(N, dtype=bool)
-        self.v = np.zeros((N, n))
-        self.q_prev: np.ndarray | None = None
+        # The drive law is elementwise: one JointDrive runs every member's drive on (N, n)
+        # arrays (members are commanded together, so the time since the set point is shared).
+        self.drive = JointDrive(drive_gains or cell.robot.drive, self.h)
+        self.drive.integral = np.zeros((N, n))
+        self.drive.v = np.zeros((N, n))
+        self._goal = [np.zeros((N, n)) for _ in range(3)]  # q, qd, tau_ff of the set points
         self.motor = np.zeros((N, n))
         ticks = truth.encoder_ticks_per_rev
         self.tick = 2.0 * np.pi / ticks if ticks > 0 else 0.0
         self.q_noise, self.force_noise, self.force_bias = (truth.q_noise_rad, truth.force_noise_n,
                                                            truth.force_bias_n)
         self.differences = truth.velocity == "differences"
+        self.servo_units = truth.velocity == "servo"
         self.exact_q = self.tick == 0.0 and self.q_noise == 0.0
         self.sense_delay = round(truth.sensing_delay_ms / 1000.0 / self.h)
-        self.ideal = (self.exact_q and not self.differences and self.force_noise == 0.0
+        self.ideal = (self.exact_q and truth.velocity == "exact" and self.force_noise == 0.0
                       and self.force_bias == 0.0 and self.sense_delay == 0)
         self.act_delay = round(truth.actuation_delay_ms / 1000.0 / self.h)
         self._rngs = [np.random.default_rng([int(s), 0x5E45]) for s in seeds]
@@ -276,32 +271,21 @@ class BatchPlant:
         ``ids`` (rows of the arrays), reaching their drives ``actuation_delay_ms`` later."""
         self._queue.append((self.steps + self.act_delay, ids, q, qd, tau_ff))
 
-    def _actuate(self, ids: np.ndarray) -> None:
-        queue = self._queue
+    def _actuate(self) -> None:
+        """One physics step of the drives (MujocoPlant._actuate for every member): due
+        commands, then the motor torques."""
+        queue, drive = self._queue, self.drive
         while queue and queue[0][0] <= self.steps:
             _, who, q, qd, tau = queue.pop(0)
-            self.q_goal[who], self.qd_goal[who], self.tau_ff[who] = q, qd, tau
-            self.since[who] = 0.0
-            self.goal_set[who] = True
-        if not self.goal_set[ids].any():
+            for held, new in zip(self._goal, (q, qd, tau)):
+                held[who] = new
+            drive.set_point(*(g.copy() for g in self._goal))
+        if not drive.active:
             return
-        q_true = self._qpos[:, self._qpos_adr]
-        q_meas = self._position(q_true.copy())
-        if self.differences:
-            if self.q_prev is not None:
-                self.v += self.alpha * ((q_meas - self.q_prev) / self.h - self.v)
-            self.q_prev = q_meas.copy()
-            v = self.v
-        else:
-            v = self._qvel[:, self._dof_adr]
-        goal = self.q_goal + self.qd_goal * self.since[:, None]
-        error = goal - q_meas
-        self.since += self.h
-        integral = np.clip(self.integral + self.ki * error * self.h, -self.i_limit, self.i_limit)
-        tau = self.tau_ff + self.kp * error + integral + self.kd * (self.qd_goal - v)
-        on = self.goal_set
-        self.integral = np.where(on[:, None], integral, self.integral)
-        self.motor = np.where(on[:, None], np.clip(tau, -self._limit, self._limit), self.motor)
+        q_meas = self._position(self._qpos[:, self._qpos_adr])
+        v = drive.velocity(q_meas, None if self.differences else self._qvel[:, self._dof_adr])
+        tau = drive.torque(q_meas, v)
+        self.motor = np.minimum(np.maximum(tau, -self._limit), self._limit)
 
     def step(self, ids: np.ndarray) -> dict[int, SimulationError]:
         """Advance members ``ids`` (sorted) one control period; keep their touches. Returns the
@@ -310,7 +294,7 @@ class BatchPlant:
         b = self.batch
         vel = int(mujoco.mjtStage.mjSTAGE_VEL)
         for _ in range(self.substeps):
-            self._actuate(ids)
+            self._actuate()
             ctrl = self._ctrl
             ctrl[np.ix_(ids, self._arm_ctrl)] = self.motor[ids]
             b.step(ids, 1, vel)
@@ -323,7 +307,9 @@ class BatchPlant:
             if not self.ideal:
                 q = self._position(self._qpos[:, self._qpos_adr].copy())
                 qd = self._qvel[:, self._dof_adr].copy()
-                if self.differences:
+                if self.servo_units:
+                    qd = SERVO_VELOCITY_UNIT * np.round(qd / SERVO_VELOCITY_UNIT)
+                elif self.differences:
                     prev = self._sq_prev if self._sq_prev is not None else q
                     self._sq_prev = q
                     qd = (q - prev) / self.h
