@@ -12,9 +12,10 @@ they are computed once.
 The Runs equal those of :func:`run` member by member (same status, same metrics up to
 floating-point rounding of a few vectorised sums); ``log.wall_s`` is the batch's wall time
 divided by the number of members (so each Run's real-time factor is the ensemble's aggregate
-one). Supported: position mode, and plant truths whose run-time part (noise, delays) is the same
-in every member; series elasticity and backlash are refused
-(:func:`inkarm.sim.batch.check_batchable` names the field).
+one). Supported: position mode, robots driven by the profile's ``[drive]`` gains (not servo
+firmware), and plant truths whose run-time part (noise, delays) is the same in every member;
+series elasticity and backlash are refused (:func:`inkarm.sim.batch.check_batchable` names the
+field).
 """
 
 from __future__ import annotations
@@ -63,6 +64,11 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) ->
                          f"{scenario.controller.command!r}", key="controller.command",
                          value=scenario.controller.command,
                          choices=("position",)).within(file=scenario.path)
+    if "position_p" in scenario.robot.backends.get("dynamixel", {}):
+        raise InputError(f"the batched ensemble drives joints with the profile's [drive] gains; "
+                         f"{scenario.robot.name!r} runs its servos' firmware in position mode: "
+                         f"run its members one by one (inkarm.jobs.run.run)", key="robot",
+                         value=scenario.robot.name).within(file=scenario.path)
     try:
         drawing = placed_within_budget(scenario, cell)
         require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
