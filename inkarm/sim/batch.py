@@ -4,21 +4,24 @@
 Member k runs on its own compiled model (:func:`member_model`: the cell with the member's
 :class:`PlantTruth` applied, as :func:`inkarm.sim.perturb.plant_model` does, plus a contact sensor
 on the pen tip) through ``Batch.set_models``; the batch steps all of them on a thread pool in C,
-bit for bit as a loop of ``mj_step`` over one MjData each would. Everything that
-:class:`inkarm.sim.plant.MujocoPlant` does per physics step in Python runs here once for all
-members as (N, n) arrays: the drive law of :mod:`inkarm.sim.drive`
+bit for bit as a loop of ``mj_step`` over one MjData each would (``persistent=True``: one MjData
+per member, so ``mjSTAGE_VEL`` after each step is ``mj_step1`` of the next, as in MujocoPlant).
+Everything that :class:`inkarm.sim.plant.MujocoPlant` does per physics step in Python runs here
+once for all members as (N, n) arrays: the drive law (one :class:`inkarm.sim.drive.JointDrive`,
+whose arithmetic is elementwise, on (N, n) arrays)
 
-    tau = tau_ff + K_p e + clip(I + K_i e h) + K_d (qd* - v),   e = q* + qd* (t - t_cmd) - q_m,
+    tau = tau_ff + K_p e + clip(I + K_i h e) + K_d (qd* - v),   e = q* + qd* (t - t_cmd) - q_m,
 
-the encoder (quantisation, noise), velocity from differences, force-sensor noise and bias,
-sensing delay (a ring of the last ``d + 1`` readings) and actuation delay (commands queued for
-whole physics steps). The pen force is the sum of the normal components reported by the contact
+the encoder (quantisation, noise: each member's stream drawn from its own seed, in MujocoPlant's
+order), velocity from differences or in servo units, force-sensor noise and bias, sensing delay
+(a ring of the last ``d + 1`` readings) and actuation delay (commands queued for whole physics
+steps). The pen force is the sum of the normal components reported by the contact
 sensor (the forces of the step just taken, at the state it left: MujocoPlant's
 ``mj_contactForce`` after ``mj_step2``); the touches (force, tip position of that state) are
 kept per member and fed to its canvas afterwards (:meth:`BatchPlant.feed`).
 
 Supported truths: every model-level field, and at run time ``encoder_ticks_per_rev``,
-``q_noise_rad``, ``velocity``, ``force_noise_n``, ``force_bias_n``, ``sensing_delay_ms`` and
+``q_noise_rad``, ``velocity`` (all three modes), ``force_noise_n``, ``force_bias_n``, ``sensing_delay_ms`` and
 ``actuation_delay_ms``, equal in every member (only model-level fields may be drawn at random per
 member). Series elasticity and backlash (a transmission per joint, with its own sub-stepping)
 are refused: :func:`check_batchable` names the field.
