@@ -133,3 +133,15 @@ def test_bad_seed_lists(quick, seeds, words):
     with pytest.raises(InputError, match=words) as err:
         run_ensemble(quick, seeds)
     assert err.value.key == "seeds"
+
+
+@pytest.mark.slow
+def test_the_shipped_ensemble_matches_run():
+    """Three members of scenarios/realistic_iiwa.toml (the letter N, its [plant.random] ranges):
+    each batched member is its run, metric for metric and pixel for pixel."""
+    scenario = load_scenario("scenarios/realistic_iiwa.toml")
+    for seed, batched in zip([0, 1, 2], run_ensemble(scenario, [0, 1, 2])):
+        alone = member(scenario, seed)
+        assert batched.status == alone.status == "ok"
+        assert_same_run(batched, alone)
+        assert np.abs(batched.canvas.image - alone.canvas.image).max() < 1e-6
