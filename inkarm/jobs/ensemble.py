@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 
 from inkarm.control.batch_loop import run_drawings
+from inkarm.core.budget import require_memory
 from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.ink.canvas import Canvas, require_raster_memory
 from inkarm.jobs.run import (
@@ -34,6 +35,7 @@ from inkarm.jobs.run import (
     _substeps,
     judge,
     placed_within_budget,
+    simulated_seconds,
 )
 from inkarm.jobs.scenario import Scenario
 from inkarm.jobs.sweep_design import with_point
@@ -71,13 +73,19 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) ->
                          value=scenario.robot.name).within(file=scenario.path)
     try:
         drawing = placed_within_budget(scenario, cell)
+        substeps = _substeps(scenario.robot.control_period_s, scenario.cell.timestep)
+        periods = simulated_seconds(drawing, scenario, cell) / scenario.robot.control_period_s
+        # per member and period: the log (3 n + 5 doubles, its plan row and blend) and, per
+        # physics step, the touches kept for the canvas (4 doubles)
+        require_memory(len(seeds) * periods * (3 * scenario.robot.n + 7 + 4 * substeps) * 8.0,
+                       f"the logs and touches of {len(seeds)} members over {periods:.3g} "
+                       f"control periods", key="seeds")
         require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
         believed = kinematic_model(cell)
         truths = [scenario.plant.realised(s) for s in seeds]
         check_batchable(truths)
         plant = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
-                           substeps=_substeps(scenario.robot.control_period_s,
-                                              scenario.cell.timestep),
+                           substeps=substeps,
                            drive_gains=scenario.robot.drive, nthread=nthread)
         results = run_drawings(drawing, plant, believed, scenario.robot.gains,
                                scenario.controller, speed_limits=scenario.robot.speed_limits)

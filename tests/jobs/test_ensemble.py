@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from inkarm.core.budget import BudgetError
 from inkarm.core.log import LIFT
 from inkarm.errors import InputError
 from inkarm.jobs.ensemble import iter_ensemble, run_ensemble
@@ -145,3 +146,10 @@ def test_the_shipped_ensemble_matches_run():
         assert batched.status == alone.status == "ok"
         assert_same_run(batched, alone)
         assert np.abs(batched.canvas.image - alone.canvas.image).max() < 1e-6
+
+
+def test_an_ensemble_over_the_memory_budget_is_refused_before_it_runs(quick, monkeypatch):
+    monkeypatch.setenv("INKARM_MAX_MEMORY_MB", "20")
+    with pytest.raises(BudgetError, match="the logs and touches of 200 members") as err:
+        run_ensemble(quick, range(200))
+    assert err.value.key == "seeds" and "INKARM_MAX_MEMORY_MB" in str(err.value)
