@@ -153,3 +153,16 @@ def test_an_ensemble_over_the_memory_budget_is_refused_before_it_runs(quick, mon
     with pytest.raises(BudgetError, match="the logs and touches of 200 members") as err:
         run_ensemble(quick, range(200))
     assert err.value.key == "seeds" and "INKARM_MAX_MEMORY_MB" in str(err.value)
+
+
+def test_a_member_too_fast_is_braked_at_once_as_run_brakes_it(quick):
+    # Motors at 5 % to 60 % of their torque: seed 3's joint 2 overshoots its speed limit.
+    scenario = quick.with_overrides({"plant.random": {"torque_limit_scale": [0.05, 0.6]}})
+    fine, fast = run_ensemble(scenario, [0, 3])
+    assert fine.ok
+    assert fast.reason.startswith("joint_speed: joint2 at")
+    assert fast.log.phase[-1] != LIFT  # braked where it was, no lift
+    for seed, batched in zip([0, 3], (fine, fast)):
+        alone = member(scenario, seed)
+        assert_same_run(batched, alone)
+        assert np.array_equal(batched.log.q, alone.log.q)
