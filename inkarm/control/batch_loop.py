@@ -26,6 +26,7 @@ Units: page [mm] and [s] at this module's surface, SI in the joint arrays.
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.loop import _with_plan_columns, plan_within_speed_limits
 from inkarm.control.reference import check_reachable
 from inkarm.control.watchdog import SATURATION, SPEED_TOLERANCE, Watchdog
-from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, DrawLog
+from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError, RunFault
 from inkarm.robots.gains import PIDGains
@@ -79,13 +80,15 @@ class _Surfaces:
 
 def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains,
                  config: LoopConfig | None = None, speed_limits: np.ndarray | None = None,
+                 progress: Callable[[float, str], None] | None = None,
                  ) -> list[DrawLog | RunFault]:
     """Draw ``drawing`` (page [mm], [s]) with every member of the batched ``plant``; return
     per member its :class:`DrawLog`, or the :class:`RunFault` that stopped it (its ``log``
     attribute holds the log to the safe stop), as :func:`run_drawing` would have.
 
     Raises UnreachableError before moving, and InputError for a torque-mode ``config``
-    (position mode only)."""
+    (position mode only). ``progress(fraction, phase)`` is called about ten times per simulated
+    second with the plan fraction and phase of the member furthest behind."""
     wall0 = _time.perf_counter()
     config = config or LoopConfig()
     if config.command != "position":
@@ -135,6 +138,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     travel = model.pen_travel_mm
     lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
     lookahead_rows = int(lookahead_rows)
+    report_every = max(1, round(0.1 / dt))
 
     mode = np.full(N, RUNNING)
     faults: dict[int, RunFault] = {}
@@ -299,7 +303,12 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         settled_for = np.where(advance, 0, settled_for)
         i = np.where(advance, i + 1, i)
         mode[run & (i >= n_ref)] = DONE
+        if progress is not None and period % report_every == 0 and (mode == RUNNING).any():
+            last = int(i[mode == RUNNING].min())
+            progress(last / n_ref, PHASES[phases[last]])
     plant.close()
+    if progress is not None:
+        progress(1.0, PHASES[phases[-1]])
     wall = (_time.perf_counter() - wall0) / N
     out: list[DrawLog | RunFault] = []
     for m in members:

@@ -20,7 +20,7 @@ field).
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 from inkarm.control.batch_loop import run_drawings
 from inkarm.core.budget import require_memory
@@ -43,15 +43,18 @@ from inkarm.sim.batch import BatchPlant, check_batchable, member_model
 from inkarm.sim.cell import Cell, kinematic_model
 
 
-def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) -> list[Run]:
+def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
+                 progress: Callable[[float, str], None] | None = None) -> list[Run]:
     """Draw ``scenario`` on the plants of ``plant.seed`` = each of ``seeds``, batched; return
     one :class:`Run` per seed, in order (failed members are Runs with status "failed", the
-    others go on). ``nthread``: MuJoCo threads (0: all CPUs). Every Run holds its page:
+    others go on). ``nthread``: MuJoCo threads (0: all CPUs); ``progress(fraction, phase)`` as
+    for :func:`inkarm.jobs.run.run`, for the member furthest behind. Every Run holds its page:
     :func:`iter_ensemble` yields them one at a time instead."""
-    return list(iter_ensemble(scenario, seeds, nthread))
+    return list(iter_ensemble(scenario, seeds, nthread, progress))
 
 
-def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) -> Iterator[Run]:
+def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
+                  progress: Callable[[float, str], None] | None = None) -> Iterator[Run]:
     """:func:`run_ensemble` as a generator: the whole ensemble is simulated at the first
     ``next``; then each member's canvas is inked and its metrics computed as it is yielded, so
     a caller that keeps only what it needs of each Run holds one page at a time."""
@@ -88,7 +91,8 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0) ->
                            substeps=substeps,
                            drive_gains=scenario.robot.drive, nthread=nthread)
         results = run_drawings(drawing, plant, believed, scenario.robot.gains,
-                               scenario.controller, speed_limits=scenario.robot.speed_limits)
+                               scenario.controller, speed_limits=scenario.robot.speed_limits,
+                               progress=progress)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     for k, (seed, result) in enumerate(zip(seeds, results)):

@@ -91,10 +91,15 @@ def test_a_failed_member_stops_while_the_others_finish(quick):
     assert np.array_equal(single.canvas.image, runs[0].canvas.image)
 
 
-def test_iter_ensemble_yields_the_members_in_order(quick):
+def test_iter_ensemble_yields_the_members_in_order_with_progress(quick):
     scenario = quick.with_overrides(RISKY)
-    statuses = [(r.scenario.plant.seed, r.status) for r in iter_ensemble(scenario, [9, 0])]
+    reports = []
+    runs = iter_ensemble(scenario, [9, 0], progress=lambda f, phase: reports.append((f, phase)))
+    statuses = [(r.scenario.plant.seed, r.status) for r in runs]
     assert statuses == [(9, "failed"), (0, "ok")]
+    fractions = [f for f, _ in reports]
+    assert len(reports) > 10 and fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert {"draw", "descend"} <= {phase for _, phase in reports}
 
 
 @pytest.mark.parametrize("overrides, key, words", [
