@@ -4,7 +4,9 @@
 a process pool of :func:`inkarm.jobs.run.run` (one process per CPU, each returning its status,
 metrics and simulated time), in the same process, on the same machine.
 
-Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]``. Prints
+Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]
+[--repeat R]`` (R interleaved runs of each executor, medians; default 1: the pool takes about a
+minute for 64 members on two cores). Prints
 one markdown table: wall time, members per second, the aggregate real-time factor (simulated
 seconds of all members over the wall time) and the throughput ratio against the process pool,
 for the batch on one MuJoCo thread and on one per CPU; then the largest difference of a metric
@@ -21,6 +23,7 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
+import statistics
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -64,17 +67,29 @@ def main() -> int:
     parser.add_argument("--members", type=int, default=None)
     parser.add_argument("--scenario", default=str(DEFAULT))
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--repeat", type=int, default=1, help="median of this many runs")
     args = parser.parse_args()
     n = args.members or (8 if args.quick else 64)
     seeds = list(range(n))
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     scenario = load_scenario(args.scenario)
-    rows = [(f"process pool, {cpus} workers (reference)", *pooled(args.scenario, seeds, cpus))]
+    executors = [(f"process pool, {cpus} workers (reference)",
+                  lambda: pooled(args.scenario, seeds, cpus))]
     for threads in sorted({1, cpus}):
-        rows.append((f"batched (mujoco.batch, {threads} thread{'s' * (threads > 1)})",
-                     *batched(args.scenario, seeds, threads)))
+        executors.append((f"batched (mujoco.batch, {threads} thread{'s' * (threads > 1)})",
+                          lambda t=threads: batched(args.scenario, seeds, t)))
+    # Interleaved repeats, so that a busy minute on a shared machine hits every executor alike.
+    walls: dict[str, list[float]] = {name: [] for name, _ in executors}
+    last = {}
+    for _ in range(args.repeat):
+        for name, measure in executors:
+            wall, simulated, results = measure()
+            walls[name].append(wall)
+            last[name] = (simulated, results)
+    rows = [(name, statistics.median(walls[name]), *last[name]) for name, _ in executors]
     reference = n / rows[0][1]
     print(f"## Ensembles: {n} plants of {scenario.title!r}\n")
+    print(f"Median of {args.repeat} run{'s' * (args.repeat > 1)} each.\n")
     print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio |")
     print("|---|---|---|---|---|")
     for name, wall, simulated, _ in rows:
