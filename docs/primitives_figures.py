@@ -58,7 +58,7 @@ def main() -> None:
                     title=f"{data.labels[b]}: error {error[b]:.2f} mm")
     save_figure(fig, IMG / "primitives_fig5.png", dpi=80)
     fig = new_figure((10.0, 5.0))
-    for ax, seed in zip(fig.subplots(1, 2), (1, 2)):
+    for ax, seed in zip(fig.subplots(1, 2), (2, 3)):
         path, _ = scribble(model, 3.0, seed=seed)
         plot_scribble(path, ax=ax, title=f"scribble, 3 s, seed {seed}")
     save_figure(fig, IMG / "primitives_fig8.png", dpi=80)
