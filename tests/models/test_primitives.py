@@ -188,6 +188,8 @@ def test_scribble_is_seeded():
     assert a == b and a.n == 201
     with pytest.raises(InputError, match="duration_s: expected a positive duration"):
         scribble(model, 0.0)
+    with pytest.raises(InputError, match="duration_s: samples of a 1e\\+06 s scribble"):
+        scribble(model, 1e6)
 
 
 def test_save_load_round_trip(tmp_path):

@@ -100,6 +100,12 @@ def test_bad_recordings_name_file_line_and_column(tmp_path, text, message):
     assert info.value.file == str(path)
 
 
+def test_a_recording_too_long_to_resample_is_refused_before_work(tmp_path):
+    path = _csv(tmp_path / "long_t.csv", "t,x,y\n0,0,0\n1e9,1,1\n")
+    with pytest.raises(InputError, match="long_t.csv: t: samples of a 1e\\+09 s path"):
+        recording_training_set(path)
+
+
 def test_recording_files_and_folders(tmp_path):
     with pytest.raises(InputError, match="no such file"):
         read_pen_csv(tmp_path / "none.csv")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from inkarm.core.budget import STEPS, require
 from inkarm.errors import InputError
 
 CHANNELS = ("dx", "dy", "dp")
@@ -39,7 +40,10 @@ def first_differences(t, pos, pressure=None, rate_hz: float = RATE_HZ) -> np.nda
                          key="pos")
     if len(t) > 1 and np.any(np.diff(t) <= 0):
         raise InputError("times must increase strictly", key="t")
-    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1) / rate_hz
+    n = int(np.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1
+    require(n, STEPS, f"samples of a {t[-1] - t[0]:g} s path at {rate_hz:g} Hz", key="t",
+            value=float(t[-1] - t[0]))
+    grid = t[0] + np.arange(n) / rate_hz
     xy = np.column_stack([np.interp(grid, t, pos[:, 0]), np.interp(grid, t, pos[:, 1])])
     if pressure is None:
         p = np.ones(len(grid))

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.budget import STEPS, require
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
 from inkarm.models.primitives.model import PrimitiveModel
@@ -87,6 +88,8 @@ def scribble(model: PrimitiveModel, duration_s: float, seed: int = 0,
         raise InputError(f"expected a positive duration in s, got {duration_s}",
                          key="duration_s", value=duration_s)
     n = max(round(duration_s * model.rate_hz), 1)
+    require(n, STEPS, f"samples of a {duration_s:g} s scribble at {model.rate_hz:g} Hz",
+            key="duration_s", value=duration_s)
     rng = np.random.default_rng(seed)
     Y, states = sample(model, n, rng, noise=noise)
     return pen_path(model, Y), states
