@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.budget import SAMPLES, require
 from inkarm.errors import InputError, unknown_name
 from inkarm.models.lqt import LQT
 from inkarm.models.primitives.features import CHANNELS, RATE_HZ, first_differences, normalise
@@ -64,6 +65,8 @@ def letter_paths(letter: str, n_samples: int = 200, styles: Sequence[str] = DEFA
             or n_samples < 1:
         raise InputError(f"expected an integer >= 1, got {n_samples!r}", key="n_samples",
                          value=n_samples)
+    require(n_samples, SAMPLES, "stochastic LQT samples of a letter", key="n_samples",
+            value=n_samples)
     if not styles:
         raise InputError("expected at least one handstyle", key="styles")
     for name in styles:

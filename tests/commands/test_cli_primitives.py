@@ -75,6 +75,8 @@ def test_scribble_writes_drawing_and_figures_and_is_seeded(small_model, tmp_path
     (["learn", "letter:a", "--states", "1", "--out", "{tmp}/m.npz"], "--states: expected an"),
     (["learn", "letter:a", "--restarts", "0", "--out", "{tmp}/m.npz"], "--restarts: expected"),
     (["learn", "letter:a", "--samples", "0", "--out", "{tmp}/m.npz"], "--samples: expected"),
+    (["learn", "letter:a", "--samples", "100000", "--out", "{tmp}/m.npz"],
+     "--samples: stochastic LQT samples of a letter: about 1e\\+05"),
     (["learn", "letter:a", "--styles", "cursiv", "--out", "{tmp}/m.npz"],
      "--styles: unknown handstyle 'cursiv' \\(did you mean 'cursive'\\?\\)"),
     (["learn", "letter:a", "--seed", "-1", "--out", "{tmp}/m.npz"], "--seed: expected"),
