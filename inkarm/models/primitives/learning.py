@@ -22,8 +22,9 @@ visits keeping its a_i; pi is averaged over the sequences. Eq. 12 uses the new W
 eigenvalues are floored at ``min_variance`` times the data's mean variance (never active on
 data with noise; it keeps C invertible when a model fits exactly).
 
-Stopping (sec. 3): EM stops after ``max_outer`` iterations or when no entry of W moved by more
-than ``tol_outer``; each E-step after ``max_inner`` sweeps or when <S> moves less than
+Stopping (sec. 3): EM stops after ``max_outer`` iterations or when no entry of W, C or the
+transition probabilities moved by more than ``tol_outer`` (W alone is not enough: C can still be
+shrinking, and the bound rising, while the primitives stand still); each E-step after ``max_inner`` sweeps or when <S> moves less than
 ``tol_inner`` (:func:`inkarm.models.primitives.inference.e_step`).
 """
 

@@ -43,7 +43,8 @@ class PrimitivesConfig:
         max_inner: Structured-variational sweeps per E-step (the paper's 20).
         max_outer: EM iterations (the paper's 50).
         tol_inner: An E-step stops when no expectation <S> moved by more than this.
-        tol_outer: EM stops when no primitive value moved by more than this (in units of Y).
+        tol_outer: EM stops when no entry of W, C or the transition probabilities moved by more
+            than this.
         self_loops: Whether active states may linger (Fig. 3's band) or must advance.
         stay_init: Initial probability that an active state lingers (with self_loops).
         min_variance: Floor on C's eigenvalues, as a fraction of the data's mean variance.
