@@ -24,8 +24,9 @@ data with noise; it keeps C invertible when a model fits exactly).
 
 Stopping (sec. 3): EM stops after ``max_outer`` iterations or when no entry of W, C or the
 transition probabilities moved by more than ``tol_outer`` (W alone is not enough: C can still be
-shrinking, and the bound rising, while the primitives stand still); each E-step after ``max_inner`` sweeps or when <S> moves less than
-``tol_inner`` (:func:`inkarm.models.primitives.inference.e_step`).
+shrinking, and the bound rising, while the primitives stand still); each E-step after
+``max_inner`` sweeps or when <S> moves less than ``tol_inner``
+(:func:`inkarm.models.primitives.inference.e_step`).
 """
 
 from __future__ import annotations
