@@ -9,7 +9,9 @@ Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--qu
 minute for 64 members on two cores). Prints
 one markdown table: wall time, members per second, the aggregate real-time factor (simulated
 seconds of all members over the wall time) and the throughput ratio against the process pool,
-for the batch on one MuJoCo thread and on one per CPU; then the largest difference of a metric
+for the batch on one MuJoCo thread and on one per CPU, and the CPU time per member (all threads,
+and the workers with their start; on a shared machine the wall-clock ratio moves with the other
+tenants' load, the CPU ratio much less); then the largest difference of a metric
 between the pool and the batch, member by member. Default: 64 members
 of ``scenarios/realistic_iiwa.toml`` (the default letter on the realistic plant whose
 ``[plant.random]`` ranges make the ensemble; ``--quick``: 8). Both sides ink every member's
@@ -23,6 +25,7 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
+import resource
 import statistics
 import sys
 import time
@@ -43,23 +46,31 @@ def one_member(path: str, seed: int) -> tuple[str, dict, float]:
     return result.status, result.metrics, float(result.log.time[-1] - result.log.time[0])
 
 
-def pooled(path: str, seeds: list[int], workers: int) -> tuple[float, float, list]:
-    """(wall [s], simulated [s], per-member results) on a fresh process pool."""
-    start = time.perf_counter()
-    context = multiprocessing.get_context("forkserver")
+def cpu_seconds() -> float:
+    """CPU time [s] of this process (all its threads) and of its children that ended."""
+    own, children = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
+                                                      resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def pooled(path: str, seeds: list[int], workers: int) -> tuple[float, float, float, list]:
+    """(wall [s], CPU [s], simulated [s], per-member results) on a fresh process pool (spawned
+    workers, children of this process, so that their CPU time is counted when they end)."""
+    start, cpu = time.perf_counter(), cpu_seconds()
+    context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
         results = list(pool.map(one_member, [path] * len(seeds), seeds))
     wall = time.perf_counter() - start
-    return wall, sum(r[2] for r in results), results
+    return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 
 
-def batched(path: str, seeds: list[int], nthread: int) -> tuple[float, float, list]:
-    """(wall [s], simulated [s], per-member results) of one batched ensemble."""
-    start = time.perf_counter()
+def batched(path: str, seeds: list[int], nthread: int) -> tuple[float, float, float, list]:
+    """(wall [s], CPU [s], simulated [s], per-member results) of one batched ensemble."""
+    start, cpu = time.perf_counter(), cpu_seconds()
     results = [(r.status, r.metrics, float(r.log.time[-1] - r.log.time[0]))
                for r in iter_ensemble(load_scenario(path), seeds, nthread=nthread)]
     wall = time.perf_counter() - start
-    return wall, sum(r[2] for r in results), results
+    return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 
 
 def main() -> int:
@@ -80,22 +91,26 @@ def main() -> int:
                           lambda t=threads: batched(args.scenario, seeds, t)))
     # Interleaved repeats, so that a busy minute on a shared machine hits every executor alike.
     walls: dict[str, list[float]] = {name: [] for name, _ in executors}
+    cpus_used: dict[str, list[float]] = {name: [] for name, _ in executors}
     last = {}
     for _ in range(args.repeat):
         for name, measure in executors:
-            wall, simulated, results = measure()
+            wall, cpu, simulated, results = measure()
             walls[name].append(wall)
+            cpus_used[name].append(cpu)
             last[name] = (simulated, results)
-    rows = [(name, statistics.median(walls[name]), *last[name]) for name, _ in executors]
-    reference = n / rows[0][1]
+    rows = [(name, statistics.median(walls[name]), statistics.median(cpus_used[name]),
+             *last[name]) for name, _ in executors]
+    reference, reference_cpu = n / rows[0][1], rows[0][2] / n
     print(f"## Ensembles: {n} plants of {scenario.title!r}\n")
     print(f"Median of {args.repeat} run{'s' * (args.repeat > 1)} each.\n")
-    print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio |")
-    print("|---|---|---|---|---|")
-    for name, wall, simulated, _ in rows:
+    print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio | "
+          "CPU per member [s] | CPU ratio |")
+    print("|---|---|---|---|---|---|---|")
+    for name, wall, cpu, simulated, _ in rows:
         print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
-              f"{n / wall / reference:.2f}x |")
-    pool, batch = rows[0][3], rows[-1][3]
+              f"{n / wall / reference:.2f}x | {cpu / n:.3f} | {reference_cpu / (cpu / n):.2f}x |")
+    pool, batch = rows[0][4], rows[-1][4]
     same_status = sum(a[0] == b[0] for a, b in zip(pool, batch))
     worst = max(((abs(a[1][k] - b[1][k]), k) for a, b in zip(pool, batch) for k in a[1]
                  if k != "realtime_factor" and k in b[1]), default=(0.0, "none"))
