@@ -15,7 +15,7 @@ divided by the number of members (so each Run's real-time factor is the ensemble
 one). Supported: position mode, robots driven by the profile's ``[drive]`` gains (not servo
 firmware), and plant truths whose run-time part (noise, delays) is the same in every member;
 series elasticity and backlash are refused (:func:`inkarm.sim.batch.check_batchable` names the
-field).
+field). Ctrl-C stops the whole ensemble (a plain KeyboardInterrupt: no partial Runs are kept).
 """
 
 from __future__ import annotations
