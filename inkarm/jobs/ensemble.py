@@ -9,8 +9,11 @@ in C) and one controller (:func:`inkarm.control.batch_loop.run_drawings`) serves
 with (N, n) arrays: the plan and the feed-forward along it depend only on the nominal model, so
 they are computed once.
 
-The Runs equal those of :func:`run` member by member (same status, same metrics up to
-floating-point rounding of a few vectorised sums); ``log.wall_s`` is the batch's wall time
+The Runs equal those of :func:`run` member by member: same status, reason, log rows, metrics
+and ink (bit for bit in the tests). One known difference: after a fault with an actuation delay,
+run's safe stop hands the drives a bias array that its next period's call overwrites while the
+command is still queued; the batched stop keeps each period's own, so the stop's log may differ
+by about 1e-6 rad. ``log.wall_s`` is the batch's wall time
 divided by the number of members (so each Run's real-time factor is the ensemble's aggregate
 one). Supported: position mode, robots driven by the profile's ``[drive]`` gains (not servo
 firmware), and plant truths whose run-time part (noise, delays) is the same in every member;
