@@ -164,7 +164,11 @@ class BatchPlant:
             nthread = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
                 else (os.cpu_count() or 1)
         self.batch = b = mjbatch.Batch(m0, N, nthread=min(nthread, N), persistent=True)
-        b.set_models(models)
+        try:
+            b.set_models(models)
+        except mujoco.FatalError as e:  # e.g. a rigid sheet (stiffness 0) beside a soft one
+            raise InputError(f"the members' models differ in structure, not only in parameters "
+                             f"({e}); a batch needs one layout", key="plant") from None
         self._models = models
         # outputs bound before the first call (a field bound later is zero until the next)
         self._sensordata = b.bind("sensordata")

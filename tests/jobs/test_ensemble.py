@@ -171,3 +171,15 @@ def test_a_member_too_fast_is_braked_at_once_as_run_brakes_it(quick):
         alone = member(scenario, seed)
         assert_same_run(batched, alone)
         assert np.array_equal(batched.log.q, alone.log.q)
+
+
+def test_members_of_different_structure_are_refused(quick):
+    from inkarm.sim.batch import BatchPlant, member_model
+    from inkarm.sim.cell import Cell
+    from inkarm.sim.imperfections import PlantTruth
+
+    cell = Cell(quick.cell, quick.robot)
+    soft, rigid = (member_model(cell, PlantTruth(paper_stiffness_n_per_mm=k)) for k in (5.0, 0.0))
+    with pytest.raises(InputError, match="differ in structure") as err:
+        BatchPlant([soft, rigid], cell, PlantTruth(), [0, 1])
+    assert err.value.key == "plant"
