@@ -312,7 +312,7 @@ def _safe_stop(plant, log, ref_row, row, i, state, normal_q, config, ticks, torq
             plant.command(TorqueCommand(update(goal, state.q, state.qd, zero,
                                                bias(state.q, state.qd))))
         else:
-            plant.command(PositionCommand(goal, zero, zero, bias(goal, zero)))
+            plant.command(PositionCommand(goal, zero, zero, bias(goal, zero).copy()))
         if row < len(log.time):
             log.time[row], log.q[row], log.qd[row] = state.time, state.q, state.qd
             log.torque[row] = state.torque if state.torque is not None else np.nan
