@@ -218,6 +218,9 @@ class MujocoPlant:
         self.firmware = firmware
         self._position_goal: np.ndarray | None = None
         self._motor_torque = np.zeros(n)
+        self._exact_drive = (self.drive is not None and firmware is None
+                             and self.senses_model.exact_q and truth.velocity == "exact"
+                             and not self.transmission)
         # Torque commands on an ideal plant go straight to MuJoCo (the per-step work is skipped).
         self._fast = (self.senses_model.ideal and self._delay_steps == 0
                       and not self.transmission)
@@ -275,8 +278,7 @@ class MujocoPlant:
             time=self.data.time,
             q=self._qpos[self._qpos_adr].copy(),
             qd=self._qvel[self._dof_adr].copy(),
-            torque=self._motor_torque.copy() if self.drive or self.firmware else
-            self._ctrl[self._arm_ctrl].copy(),
+            torque=np.minimum(np.maximum(self._motor_torque, -self._limit), self._limit),
             force=self._pen_force,
             tip_mm=self._tip_mm(),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
@@ -343,6 +345,11 @@ class MujocoPlant:
             self._apply(queue.pop(0)[1])
         q_true = self._qpos[self._qpos_adr]
         qd_true = self._qvel[self._dof_adr]
+        if self._exact_drive and self._position_goal is not None:
+            # (MuJoCo clamps the control to the torque limits; the reading clamps its copy)
+            self._motor_torque = tau = self.drive.torque(q_true, qd_true)
+            self._ctrl[self._arm_ctrl] = tau
+            return
         trans = self.transmission
         if self._position_goal is not None:
             senses = self.senses_model
