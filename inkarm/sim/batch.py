@@ -31,7 +31,6 @@ Units: SI inside (MuJoCo), page [mm] for tips as in MujocoPlant.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from dataclasses import dataclass
 
@@ -42,7 +41,7 @@ from mujoco import batch as mjbatch
 from inkarm.errors import InputError, SimulationError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim import perturb
-from inkarm.sim.cell import HOME_KEY, PAPER, PAPER_ORIGIN, PEN_TIP, Cell, build_spec
+from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_TIP, Cell
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
 from inkarm.sim.plant import route_mujoco_warnings
@@ -81,27 +80,12 @@ def check_batchable(truths: list[PlantTruth], key_prefix: str = "plant") -> None
 def member_model(cell: Cell, truth: PlantTruth) -> mujoco.MjModel:
     """The plant's model of one member: :func:`inkarm.sim.perturb.plant_model`'s steps, with a
     contact sensor on the pen tip added before compiling (it changes no dynamics)."""
-    if truth.random:
-        truth = truth.realised()
-    config = cell.config
-    changes = {}
-    if truth.paper_stiffness_n_per_mm is not None:
-        changes["paper_stiffness_n_per_mm"] = truth.paper_stiffness_n_per_mm
-    if truth.nib_friction is not None:
-        changes["friction"] = truth.nib_friction
-    if changes:
-        cell = Cell(dataclasses.replace(config, **changes), cell.robot)
-    spec = build_spec(cell)
-    spec.add_sensor(name="inkarm_pen_contact", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                    objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=PEN_TIP,
-                    intprm=[2, 0, CONTACT_SLOTS])  # data "force", reduce "none"
-    perturb._move_paper(spec, truth)
-    model = spec.compile()
-    if truth.paper_timeconst_s is not None:
-        paper = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, PAPER)
-        model.geom_solref[paper, 0] = max(truth.paper_timeconst_s, 2.0 * model.opt.timestep)
-    perturb._change_links(model, cell, truth)
-    return model
+    def add_contact_sensor(spec: mujoco.MjSpec) -> None:
+        spec.add_sensor(name="inkarm_pen_contact", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                        objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=PEN_TIP,
+                        intprm=[2, 0, CONTACT_SLOTS])  # data "force", reduce "none"
+
+    return perturb.plant_model(cell, truth, edit_spec=add_contact_sensor)
 
 
 @dataclass

@@ -9,6 +9,7 @@ controller never sees this model: it keeps :func:`inkarm.sim.cell.kinematic_mode
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -17,9 +18,11 @@ from inkarm.sim.cell import PAPER, Cell, build_spec
 from inkarm.sim.imperfections import PlantTruth
 
 
-def plant_model(cell: Cell, truth: PlantTruth | None = None) -> mujoco.MjModel:
+def plant_model(cell: Cell, truth: PlantTruth | None = None,
+                edit_spec: Callable[[mujoco.MjSpec], None] | None = None) -> mujoco.MjModel:
     """The cell as the plant really is: :func:`build_model` of ``cell`` with ``truth`` applied
-    (``truth.random`` must have been realised)."""
+    (drawn first when it has random fields). ``edit_spec`` may add to the spec before it is
+    compiled (sensors that change no dynamics)."""
     truth = truth or PlantTruth()
     if truth.random:
         truth = truth.realised()
@@ -32,6 +35,8 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None) -> mujoco.MjModel:
     if changes:
         cell = Cell(dataclasses.replace(config, **changes), cell.robot)
     spec = build_spec(cell)
+    if edit_spec is not None:
+        edit_spec(spec)
     _move_paper(spec, truth)
     model = spec.compile()
     if truth.paper_timeconst_s is not None:
