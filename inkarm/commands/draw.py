@@ -21,7 +21,8 @@ MAX_FPS = 240.0
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "draw",
-        help="draw a scenario with the simulated 7-DOF arm (the embedded default without one)",
+        help="draw a scenario with the simulated arm (the embedded default without one), or on "
+             "a Dynamixel arm or a GRBL plotter (--backend)",
         description="Build the scenario's drawing, check the arm can reach it, simulate the arm "
         "tracking it in MuJoCo and write canvas.png, trace.npz, metrics.json, report.png and "
         "reference.csv into --out. Schema: see inkarm.jobs.scenario.",
