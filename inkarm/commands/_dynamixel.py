@@ -4,11 +4,10 @@ pseudo-terminal (registered in :mod:`inkarm.commands.emulate`)."""
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import time
 from pathlib import Path
 
+from inkarm.commands._serve import serve
 from inkarm.errors import InputError
 
 
@@ -42,10 +41,6 @@ def add_emulate_parser(sub) -> None:
     p.set_defaults(_emulate=run_emulate)
 
 
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
-
-
 def run_emulate(args: argparse.Namespace) -> int:
     from inkarm.hardware.dynamixel.config import DynamixelConfig
     from inkarm.hardware.dynamixel.emulator import (
@@ -76,30 +71,17 @@ def run_emulate(args: argparse.Namespace) -> int:
     else:
         emulator = twin_emulator(scenario, faults, args.baudrate,
                                  byte_timing=not args.no_byte_timing)
-    signal.signal(signal.SIGTERM, _interrupt)
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        signal.signal(signal.SIGINT, _interrupt)
-    port = emulator.start()
-    ids = ", ".join(str(s.id) for s in emulator.bus.servos)
-    print(f"Dynamixel Protocol 2.0 emulator of {profile.name} (servos {ids}) at "
-          f"{emulator.baudrate} bit/s on {port}; Ctrl-C to stop", flush=True)
+
     if not args.simple:
         from inkarm.sim.cell import Cell
 
         cell = Cell(scenario.cell, profile)
         (w, h), (x, y) = cell.paper_size_mm, cell.paper_centre_mm
         print(f"twin's sheet: {w:g} x {h:g} mm centred at ({x:g}, {y:g}) mm", file=sys.stderr)
-    print(port, flush=True)
-    try:
-        while emulator.running:
-            time.sleep(0.2)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        emulator.stop()
-        canvas = getattr(emulator, "canvas", None)
-        if args.out is not None and canvas is not None:
-            print(f"canvas: {canvas.to_png(args.out)}", file=sys.stderr)
+    ids = ", ".join(str(s.id) for s in emulator.bus.servos)
+    serve(emulator, lambda port: f"Dynamixel Protocol 2.0 emulator of {profile.name} (servos "
+                                 f"{ids}) at {emulator.baudrate} bit/s on {port}; Ctrl-C to stop",
+          args.out)
     s = emulator.stats
     print(f"{s.packets} packets, {s.replies} replies, {s.bytes_skipped} bytes skipped, "
           f"{s.dropped_s:.3f} s of physics dropped; faults: {', '.join(s.faults) or 'none'}",

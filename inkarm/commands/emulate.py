@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
 import sys
-import time
 from pathlib import Path
 
 from inkarm.commands._dynamixel import add_emulate_parser
+from inkarm.commands._serve import serve
 from inkarm.errors import InputError
 
 
@@ -104,10 +103,6 @@ def _setting(text: str) -> tuple[int, float]:
     return number, setting
 
 
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
-
-
 def _run_grbl(args: argparse.Namespace) -> int:
     from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator, parse_fault
     from inkarm.hardware.plotter.machine import PenConfig
@@ -121,21 +116,8 @@ def _run_grbl(args: argparse.Namespace) -> int:
     canvas = Canvas(size_mm=_page(args.page), px_per_mm=args.px_per_mm)
     emulator = GrblEmulator(EmulatorConfig(speedup=args.speedup, settings=settings, pen=pen),
                             canvas=canvas, faults=faults)
-    signal.signal(signal.SIGTERM, _interrupt)  # `kill` stops it as Ctrl-C does
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:  # started in the background by a shell
-        signal.signal(signal.SIGINT, _interrupt)
-    port = emulator.start()
-    print(f"GRBL 1.1 emulator on {port} (speed-up {args.speedup:g}); Ctrl-C to stop", flush=True)
-    print(port, flush=True)
-    try:
-        while emulator.running:
-            time.sleep(0.2)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        emulator.stop()
-        if args.out is not None:
-            print(f"canvas: {canvas.to_png(args.out)}", file=sys.stderr)
+    serve(emulator, lambda port: f"GRBL 1.1 emulator on {port} (speed-up {args.speedup:g}); "
+                                 "Ctrl-C to stop", args.out)
     stats = emulator.stats
     print(f"received {stats.lines} lines, {stats.bytes_dropped} bytes lost to overflow, "
           f"{stats.machine_time_s:.2f} s of machine time", file=sys.stderr)

@@ -249,9 +249,9 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         cfg = config
         far = np.where(run & (error > cfg.tracking_limit_mm), far + 1, 0)
         candidates = run & ((force_f > cfg.force_limit_n) | (far >= watchdogs[0].patience))
-        if watchdogs[0].range is not None:
-            rng = watchdogs[0].range
-            candidates |= run & ((state.q < rng[:, 0]) | (state.q > rng[:, 1])).any(axis=1)
+        if watchdogs[0].lower is not None:
+            lower, upper = watchdogs[0].lower, watchdogs[0].upper
+            candidates |= run & ((state.q < lower) | (state.q > upper)).any(axis=1)
         if speed_limits is not None:
             over = (np.abs(state.qd) > SPEED_TOLERANCE * np.asarray(speed_limits)).any(axis=1)
             fast = np.where(run & over, fast + 1, 0)

@@ -45,9 +45,9 @@ class Watchdog:
         self.torque_limit = None if torque_limit is None else SATURATION * np.asarray(torque_limit)
         self.speed_limit = None if speed_limit is None else \
             SPEED_TOLERANCE * np.asarray(speed_limit)
-        self.range = None if joint_range is None else np.asarray(joint_range)
-        if self.range is not None:
-            self.lower, self.upper = self.range[:, 0].copy(), self.range[:, 1].copy()
+        self.lower = self.upper = None
+        if joint_range is not None:
+            self.lower, self.upper = np.asarray(joint_range, dtype=float).T.copy()
         self.patience = max(1, round(config.watchdog_s / dt))
         self.saturation_patience = max(1, round(config.saturation_s / dt))
         self.far = self.fast = 0
@@ -64,11 +64,11 @@ class Watchdog:
         if self.far >= self.patience:
             self._fault("tracking_limit", time, f"pen {error_mm:.1f} mm from its reference for "
                         f"{c.watchdog_s * 1000:.0f} ms (limit {c.tracking_limit_mm:g} mm)")
-        if self.range is not None and not (self.lower <= q).all() & (q <= self.upper).all():
+        if self.lower is not None and not (self.lower <= q).all() & (q <= self.upper).all():
             outside = (q < self.lower) | (q > self.upper)
             if outside.any():
                 j = int(np.argmax(outside))
-                lo, hi = np.rad2deg(self.range[j])
+                lo, hi = np.rad2deg(self.lower[j]), np.rad2deg(self.upper[j])
                 self._fault("joint_limit", time, f"{self.names[j]} at "
                             f"{np.rad2deg(q[j]):.1f} deg, outside its range [{lo:g}, {hi:g}] deg")
         if self.speed_limit is not None:

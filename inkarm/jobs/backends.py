@@ -12,8 +12,7 @@ whether it needs ``--port``, and ``run(scenario, options, progress) -> Run``.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 from inkarm.errors import InputError, unknown_name
 from inkarm.jobs.run import Run
@@ -32,14 +31,12 @@ class BackendOptions:
         baudrate: Serial speed in [bit/s].
         time_scale: Device seconds per wall-clock second (1 for real hardware; an emulator's
             speed-up factor).
-        extra: Further backend-specific settings, by name.
     """
 
     port: str | None = None
     profile: str | None = None
     baudrate: int = 115200
     time_scale: float = 1.0
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

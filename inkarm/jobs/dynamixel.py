@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-from inkarm.analysis.metrics import compute_metrics
 from inkarm.control.loop import run_drawing
 from inkarm.core.plant import PositionCommand, TorqueCommand
 from inkarm.errors import InkarmError, RunFault
@@ -28,10 +27,19 @@ from inkarm.hardware.dynamixel.config import DynamixelConfig
 from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, Fault, specs_for_profile
 from inkarm.hardware.dynamixel.plant import DynamixelPlant, servo_goal, servo_stiffness
 from inkarm.ink.canvas import Canvas
-from inkarm.jobs.run import FAILED, INTERRUPTED, OK, Run, RunInterrupted, placed_within_budget
+from inkarm.jobs.run import (
+    FAILED,
+    INTERRUPTED,
+    OK,
+    Run,
+    RunInterrupted,
+    _metrics,
+    _substeps,
+    placed_within_budget,
+)
 from inkarm.jobs.scenario import Scenario, load_scenario
 from inkarm.robots.servo import FirmwareGains, JointServos
-from inkarm.sim.cell import Cell, build_model, joint_ranges, kinematic_model
+from inkarm.sim.cell import Cell, build_model, kinematic_model
 from inkarm.sim.plant import MujocoPlant
 
 
@@ -114,7 +122,8 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
     except RunFault as e:  # a DynamixelFault or a watchdog of the loop
         partial = getattr(e, "log", None)
         return Run(scenario, FAILED, drawing, partial, canvas,
-                   _metrics(partial, drawing, believed, canvas), reason=str(e),
+                   _metrics(partial, drawing, believed, canvas, force_sensed=False),
+                   reason=str(e),
                    notes=notes + (partial.notes if partial is not None else ()))
     except KeyboardInterrupt as e:
         partial = getattr(e, "log", None)
@@ -122,37 +131,12 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
                                  reason="interrupted by the user (Ctrl-C)")) from None
     finally:
         plant.close()
-    metrics = _metrics(log, drawing, believed, canvas)
+    metrics = _metrics(log, drawing, believed, canvas, force_sensed=False)
     metrics["bus_overruns"] = plant.overruns
     notes += ("a Dynamixel arm senses no pen force (no force metrics)",)
     if not canvas_given:
         notes += ("the ink is on the paper, not on this run's canvas",)
     return Run(scenario, OK, drawing, log, canvas, metrics, notes=notes + tuple(log.notes))
-
-
-def _metrics(log, drawing, believed, canvas, force_sensed: bool = False) -> dict:
-    """The run's metrics; unless ``force_sensed``, the pen force (which servos do not sense)
-    counts as 0, so the force metrics and the gaps, found from the force, are NaN."""
-    if log is None or len(log) == 0 or not log.drawing.any():
-        return {}
-    metrics = compute_metrics(
-        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip,
-        force_n=log.force if force_sensed else np.nan_to_num(log.force), drawing=log.drawing,
-        q=log.q,
-        joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
-        canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes])
-    if not force_sensed:
-        metrics["gap_mm"] = float("nan")
-    return metrics
-
-
-def run_backend(scenario: Scenario, options, progress=None) -> Run:
-    """:mod:`inkarm.jobs.backends` entry: ``options.port``; ``options.extra`` may hold
-    ``calibration`` (a file)."""
-    return run_dynamixel(scenario, options.port,
-                         calibration=options.extra.get("calibration"), progress=progress)
-
-
 
 
 def joint_firmware(profile, period_s: float) -> JointServos:
@@ -192,7 +176,7 @@ def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
     believed = kinematic_model(cell)
     canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                     ink=scenario.ink.make())
-    substeps = max(1, round(profile.control_period_s / scenario.cell.timestep))
+    substeps = _substeps(profile.control_period_s, scenario.cell.timestep)
     twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=substeps,
                        firmware=joint_firmware(profile, scenario.cell.timestep))
     config = dataclasses.replace(scenario.controller, command="position")
@@ -202,10 +186,10 @@ def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
     except RunFault as e:
         partial = getattr(e, "log", None)
         return Run(scenario, FAILED, drawing, partial, canvas,
-                   _metrics(partial, drawing, believed, canvas, True), reason=str(e))
+                   _metrics(partial, drawing, believed, canvas), reason=str(e))
     finally:
         twin.close()
-    return Run(scenario, OK, drawing, log, canvas, _metrics(log, drawing, believed, canvas, True))
+    return Run(scenario, OK, drawing, log, canvas, _metrics(log, drawing, believed, canvas))
 
 
 def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
@@ -233,7 +217,8 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     if canvas is None:
         return result
     cell = Cell(scenario.cell, scenario.robot)
-    metrics = _metrics(result.log, result.drawing, kinematic_model(cell), canvas)
+    metrics = _metrics(result.log, result.drawing, kinematic_model(cell), canvas,
+                       force_sensed=False)
     if "bus_overruns" in result.metrics:
         metrics["bus_overruns"] = result.metrics["bus_overruns"]
     return dataclasses.replace(result, canvas=canvas, metrics=metrics)
@@ -245,7 +230,6 @@ __all__ = [
     "TwinJoints",
     "hil_run",
     "joint_firmware",
-    "run_backend",
     "run_dynamixel",
     "simulate_servo_arm",
     "twin_canvas",

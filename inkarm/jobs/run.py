@@ -162,16 +162,23 @@ def judge(metrics: dict, force_n: float) -> list[str]:
     return out
 
 
-def _metrics(log: DrawLog | None, drawing: Drawing, believed, canvas) -> dict:
-    """The metrics of a (possibly partial) log; empty when nothing was logged or drawn."""
+def _metrics(log: DrawLog | None, drawing: Drawing, believed, canvas,
+             force_sensed: bool = True) -> dict:
+    """The metrics of a (possibly partial) log; empty when nothing was logged or drawn. Unless
+    ``force_sensed`` (servo arms sense no pen force), the force counts as 0, so the force
+    metrics and the gaps, found from the force, are NaN."""
     if log is None or len(log) == 0 or not log.drawing.any():
         return {}
-    return compute_metrics(
-        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+    metrics = compute_metrics(
+        times_s=log.time, reference_mm=log.reference, tip_mm=log.tip,
+        force_n=log.force if force_sensed else np.nan_to_num(log.force),
         drawing=log.drawing, q=log.q,
         joint_range=joint_ranges(believed.model, believed.joint_names), wall_time_s=log.wall_s,
         canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
     )
+    if not force_sensed:
+        metrics["gap_mm"] = float("nan")
+    return metrics
 
 
 def check(scenario: Scenario) -> Drawing:

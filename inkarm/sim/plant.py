@@ -262,8 +262,7 @@ class MujocoPlant:
             time=self.data.time,
             q=q_measured,
             qd=qd_reported,
-            torque=self._motor_torque.copy() if self.drive or self.firmware else
-            self._ctrl[self._arm_ctrl].copy(),
+            torque=np.minimum(np.maximum(self._motor_torque, -self._limit), self._limit),
             force=self.senses_model.force(self._pen_force),
             tip_mm=self._tip_mm(),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
@@ -274,15 +273,7 @@ class MujocoPlant:
         kinematics, force from the last physics step), ``sensing_delay_ms`` old."""
         if not self.senses_model.ideal:
             return self.senses_model.latest()
-        return SimState(
-            time=self.data.time,
-            q=self._qpos[self._qpos_adr].copy(),
-            qd=self._qvel[self._dof_adr].copy(),
-            torque=np.minimum(np.maximum(self._motor_torque, -self._limit), self._limit),
-            force=self._pen_force,
-            tip_mm=self._tip_mm(),
-            pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
-        )
+        return self._snapshot(self._qpos[self._qpos_adr].copy(), self._qvel[self._dof_adr].copy())
 
     def command(self, command) -> None:
         """A :class:`TorqueCommand` [N m] is held until the next command (clamped to the motor

@@ -183,7 +183,11 @@ class ServoBank:
 
     def on_write(self, servo: EmulatedServo, names: list[str]) -> None:
         """The bus wrote ``names`` into ``servo``: torque-on restarts its profile at the present
-        position (the stale Goal Position is kept, as on a real servo)."""
+        position (the stale Goal Position is kept, as on a real servo). A goal alone, written
+        every control period, updates only the goal column (the gains are not re-read)."""
+        if not self._dirty and set(names) <= {"goal_position"}:
+            self._goal[self.servos.index(servo)] = servo.memory.get("goal_position")
+            return
         self._dirty = True
         if "torque_enable" in names and servo.memory.get("torque_enable"):
             self._refresh()
