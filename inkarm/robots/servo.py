@@ -215,10 +215,6 @@ class ServoFirmware:
         self._rad_per_tick = np.array([2.0 * np.pi / x.ticks_per_rev for x in m])
         self.reset(np.full(self.n, float(CENTRE_TICK)))
 
-    def register(self, name: str) -> np.ndarray:
-        """A gain register as a float array (n,)."""
-        return self._registers()[name]
-
     def _registers(self) -> dict[str, np.ndarray]:
         # Converted once per FirmwareGains object: assign a new one (or use set_register).
         if self._cache_key is not self.gains:

@@ -27,9 +27,10 @@ import numpy as np
 
 from inkarm.core.ranges import Range, check_ranges
 from inkarm.errors import InputError, closest
+from inkarm.robots.servo import velocity_units_to_rad_s
 
 VELOCITY_MODES = ("exact", "differences", "servo")
-SERVO_VELOCITY_UNIT = 0.229 * 2.0 * math.pi / 60.0  # Dynamixel X-series Present Velocity [rad/s]
+SERVO_VELOCITY_UNIT = float(velocity_units_to_rad_s(1))  # Present Velocity's unit [rad/s]
 PerJoint = float | tuple[float, ...]
 
 RANGES = {

@@ -32,8 +32,8 @@ import numpy as np
 
 from inkarm.errors import InputError
 from inkarm.io.toml import TomlReader, load_toml
+from inkarm.robots.servo import TICKS_PER_REV
 
-TICKS = 4096
 TOLERANCE_TICKS = 150   # a +90 deg mark must read 1024 +- this many ticks
 
 
@@ -56,19 +56,16 @@ class Calibration:
         k = np.zeros(len(base))
         for j, r in enumerate(ranges):
             centre = 0.0 if r is None else 0.5 * (r[0] + r[1])
-            k[j] = np.round((base[j] * 2 * np.pi / TICKS - centre) / (2 * np.pi))
+            k[j] = np.round((base[j] * 2 * np.pi / TICKS_PER_REV - centre) / (2 * np.pi))
         return k
 
     def to_rad(self, ticks, turns) -> np.ndarray:
         return (self.direction * (np.asarray(ticks, float) - self.offset_ticks)
-                - TICKS * np.asarray(turns)) * (2 * np.pi / TICKS)
+                - TICKS_PER_REV * np.asarray(turns)) * (2 * np.pi / TICKS_PER_REV)
 
     def to_ticks(self, q, turns) -> np.ndarray:
         return self.offset_ticks + self.direction * (
-            np.asarray(q, float) * TICKS / (2 * np.pi) + TICKS * np.asarray(turns))
-
-    def velocity_sign(self) -> np.ndarray:
-        return self.direction
+            np.asarray(q, float) * TICKS_PER_REV / (2 * np.pi) + TICKS_PER_REV * np.asarray(turns))
 
 
 def calibration_path(profile) -> Path:
@@ -91,7 +88,7 @@ def load_calibration(path: str | Path, joint_names: Sequence[str]) -> Calibratio
         j = rd.table(joints[name], f"joints.{name}")
         rd.keys(j, ("offset_ticks", "direction"), f"joints.{name}")
         offsets.append(rd.number(j.get("offset_ticks"), f"joints.{name}.offset_ticks", 0,
-                                 maximum=TICKS - 1))
+                                 maximum=TICKS_PER_REV - 1))
         direction = rd.integer(j.get("direction"), f"joints.{name}.direction", -1, 1)
         if direction == 0:
             raise rd.error(f"joints.{name}.direction", "expected 1 or -1, got 0", value=0)
@@ -123,16 +120,16 @@ def measure(read_ticks: Callable[[int], int], joint_names: Sequence[str],
         zero = read_ticks(j)
         ask(f"    now turn {name} +90 deg (its positive direction) to the next mark, then Enter ")
         quarter = read_ticks(j)
-        delta = (quarter - zero + TICKS // 2) % TICKS - TICKS // 2
-        if abs(abs(delta) - TICKS // 4) > TOLERANCE_TICKS:
+        delta = (quarter - zero + TICKS_PER_REV // 2) % TICKS_PER_REV - TICKS_PER_REV // 2
+        if abs(abs(delta) - TICKS_PER_REV // 4) > TOLERANCE_TICKS:
             raise InputError(f"{name}: the +90 deg mark reads {delta:+d} ticks from zero, "
                              f"expected +-1024 (+-{TOLERANCE_TICKS}); check the marks and "
                              "that the horn does not slip", key=name, value=delta)
         direction = 1 if delta > 0 else -1
-        offsets.append(zero % TICKS)
+        offsets.append(zero % TICKS_PER_REV)
         directions.append(direction)
-        say(f"    {name}: zero at {zero % TICKS} ticks, direction {direction:+d} "
-            f"({math.degrees(delta * 2 * math.pi / TICKS):+.1f} deg measured)")
+        say(f"    {name}: zero at {zero % TICKS_PER_REV} ticks, direction {direction:+d} "
+            f"({math.degrees(delta * 2 * math.pi / TICKS_PER_REV):+.1f} deg measured)")
     return Calibration(tuple(joint_names), np.array(offsets, float), np.array(directions, float))
 
 

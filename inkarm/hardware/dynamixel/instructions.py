@@ -282,13 +282,10 @@ def _fast_packet(replies: list[Reply], instruction: int) -> list[Reply]:
     n_body = sum(4 + len(d) for *_, d in parts)
     length = 1 + n_body  # the last part's CRC is the packet's
     packet = bytearray(p.HEADER + bytes([p.BROADCAST_ID, length & 0xFF, length >> 8, p.STATUS]))
-    for k, (servo, error, servo_id, data) in enumerate(parts):
+    for _servo, error, servo_id, data in parts:  # the last part's CRC is the packet's
         packet += bytes([error, servo_id]) + data
         crc = p.crc16(bytes(packet))
-        if k < len(parts) - 1:
-            packet += bytes([crc & 0xFF, crc >> 8])
-    crc = p.crc16(bytes(packet))
-    packet += bytes([crc & 0xFF, crc >> 8])
+        packet += bytes([crc & 0xFF, crc >> 8])
     if any(servo.corrupt_crc for servo, *_ in parts):
         packet[-2] ^= 0x5A
     return [(parts[-1][0], bytes(packet))]

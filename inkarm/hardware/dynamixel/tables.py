@@ -130,15 +130,10 @@ class ControlTable:
 
     def __post_init__(self):
         object.__setattr__(self, "_by_name", {r.name: r for r in self.registers})
-        object.__setattr__(self, "_by_address", {r.address: r for r in self.registers})
 
     @property
     def by_name(self) -> Mapping[str, Register]:
         return self._by_name  # type: ignore[attr-defined]
-
-    @property
-    def by_address(self) -> Mapping[int, Register]:
-        return self._by_address  # type: ignore[attr-defined]
 
     def __getitem__(self, name: str) -> Register:
         if name not in self.by_name:
