@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from inkarm.analysis.metrics import ink_box
 from inkarm.errors import InputError
 
 # Darkness (0 white .. 1 black) from which a pixel counts as ink: any visible mark, pencil too.
@@ -52,16 +53,6 @@ def ink_mask(grey) -> np.ndarray:
     return grey < _INK_GREY
 
 
-def union_box(*masks: np.ndarray) -> tuple[int, int, int, int] | None:
-    """Half-open pixel box (r0, r1, c0, c1) holding every True pixel of ``masks``; None when
-    all are empty."""
-    rows = np.flatnonzero(np.any([m.any(axis=1) for m in masks], axis=0))
-    cols = np.flatnonzero(np.any([m.any(axis=0) for m in masks], axis=0))
-    if rows.size == 0:
-        return None
-    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-
-
 def compare_ink(base_grey, new_grey, px_per_mm: float) -> InkDifference:
     """Missing ink, extra ink [mm] and IoU of ``new_grey`` against ``base_grey`` (8-bit grey
     pages of the same shape at ``px_per_mm``). A page without ink lies a page diagonal away
@@ -70,7 +61,7 @@ def compare_ink(base_grey, new_grey, px_per_mm: float) -> InkDifference:
     if base.shape != new.shape:
         raise InputError(f"compare_ink: the pages differ in size: baseline {base.shape} px, "
                          f"new {new.shape} px (was the paper or px_per_mm changed?)")
-    box = union_box(base, new)
+    box = ink_box(base | new, True)
     n_base, n_new = int(base.sum()), int(new.sum())
     if box is None:
         return InkDifference(0.0, 0.0, 1.0, 0, 0)

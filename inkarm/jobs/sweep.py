@@ -74,8 +74,9 @@ class SweepSummary:
 def run_point(scenario: Scenario, point: Point) -> PointResult:
     """Run ``scenario`` with ``point``'s overrides and seed; every failure becomes the row's
     status and reason."""
+    from inkarm.analysis.metrics import ink_box
     from inkarm.jobs.regress_baseline import library_versions, page_grey
-    from inkarm.jobs.regress_ink import ink_mask, union_box
+    from inkarm.jobs.regress_ink import ink_mask
     from inkarm.jobs.run import run
 
     start = time.perf_counter()
@@ -91,7 +92,7 @@ def run_point(scenario: Scenario, point: Point) -> PointResult:
             row["sim_s"] = float(result.log.time[-1] - result.log.time[0])
         page = page_grey(result)
         rows, px_per_mm = page.shape[0], result.canvas.px_per_mm
-        box = union_box(ink_mask(page))
+        box = ink_box(ink_mask(page), True)
         if box is not None:
             grey = page[box[0]:box[1], box[2]:box[3]].copy()
     except InkarmError as e:
