@@ -156,17 +156,20 @@ def repair(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile,
     offset_of = np.array([k for _, _, k in _NEIGHBOURS])[:, None]
     n_line = int(mask.sum())
     rows, cols = np.indices(mask.shape)
-    colours = [mask & (rows % 2 == a) & (cols % 2 == b) for a in (0, 1) for b in (0, 1)]
+    # each colour's pixels and which of their neighbours lie on the line: fixed over sweeps
+    colours = []
+    for a in (0, 1):
+        for b in (0, 1):
+            r, c = np.nonzero(mask & (rows % 2 == a) & (cols % 2 == b))
+            if r.size:
+                colours.append((r, c, np.stack([padded_mask[r + 1 + dr, c + 1 + dc]
+                                                for dr, dc, _ in _NEIGHBOURS])))
     changes: list[int] = []
     for _ in range(config.max_sweeps):
         changed = 0
-        for colour in colours:
-            r, c = np.nonzero(colour)
-            if r.size == 0:
-                continue
+        for r, c, ni in colours:
             padded = np.pad(level, 1)
             nl = np.stack([padded[r + 1 + dr, c + 1 + dc] for dr, dc, _ in _NEIGHBOURS])
-            ni = np.stack([padded_mask[r + 1 + dr, c + 1 + dc] for dr, dc, _ in _NEIGHBOURS])
             current = level[r, c]
             bad = (~exists[offset_of, current[None, :], nl] & ni).any(axis=0)
             if not np.any(bad):
