@@ -65,6 +65,11 @@ _BLOCK = 1 << 17  # spline evaluations per NumPy call: ~1 MB per (block, D) temp
 TIME_STEP_TABLE = ((200.0, 0.5), (400.0, 0.3), (np.inf, 0.2))
 
 
+
+def _intervals(duration: float, dt: float) -> int:
+    """Time steps of a line of ``duration`` [s] sampled every ``dt`` [s] (at least one)."""
+    return max(int(np.ceil(duration / dt - 1e-9)), 1)
+
 def time_step_for_length(length_px: float) -> float:
     """Delta t of seed 002 Table 3.1 for a line of ``length_px`` pixels."""
     for upper, step in TIME_STEP_TABLE:
@@ -102,7 +107,7 @@ def _check_params(squiggle: float, px_mm: float, duration: float, dt: float) -> 
 def step_count(lines: int, duration: float, dt: float) -> int:
     """Samples of a polyline of ``lines`` lines of ``duration`` [s] sampled every ``dt`` [s]:
     lines ceil(duration / dt) + 1 (consecutive lines share their joint)."""
-    return int(lines) * max(int(np.ceil(duration / dt - 1e-9)), 1) + 1
+    return int(lines) * _intervals(duration, dt) + 1
 
 
 ARC_TABLE = ARC_SAMPLES_PER_SEGMENT * round(THESIS_CLOCK / TIME_STEP_TABLE[-1][1]) + 1
@@ -113,7 +118,7 @@ def sample_count(lines: int, duration: float, dt: float) -> int:
     INKARM_MAX_STEPS: per line its ceil(duration / dt) + 1 time steps plus at most
     :data:`ARC_TABLE` (641) samples of its arc-length table. (About 1 ms per line of a few
     hundred steps, so that the budget also bounds polylines of many short lines.)"""
-    return int(lines) * (max(int(np.ceil(duration / dt - 1e-9)), 1) + 1 + ARC_TABLE)
+    return int(lines) * (_intervals(duration, dt) + 1 + ARC_TABLE)
 
 
 POLYLINE_S = 50e-6  # [s] per polyline: its generator and squiggles
@@ -126,7 +131,7 @@ def polylines_seconds(count: int, lines: int, duration: float, dt: float) -> flo
     """Estimated seconds of :func:`human_polylines`: ``count`` polylines of ``lines`` lines,
     each line ceil(duration / dt) + 1 time steps and :data:`ARC_TABLE` arc-length samples,
     computed for blocks of polylines."""
-    steps = max(int(np.ceil(duration / dt - 1e-9)), 1) + 1
+    steps = _intervals(duration, dt) + 1
     blocks = -(-int(count) // max(1, _BLOCK // max(ARC_TABLE, steps)))
     per_line = ARC_TABLE * ARC_SAMPLE_S + steps * STEP_S
     return float(count) * (POLYLINE_S + int(lines) * per_line) + int(lines) * blocks * BLOCK_S
@@ -256,7 +261,7 @@ def human_line(
     """
     check_polyline(1, squiggle, px_mm, duration, dt)
     _, points = control_points(start, end, rng, squiggle, px_mm)
-    steps = max(int(np.ceil(duration / dt - 1e-9)), 1)
+    steps = _intervals(duration, dt)
     t = np.minimum(np.arange(steps + 1) * dt, duration)
     t[-1] = duration
     # arc length of the spline on a fine grid of its parameter u, then invert it
@@ -328,7 +333,7 @@ def human_polylines(
     offsets = np.empty((count, int(starts[-1])))
     for i, gen in enumerate(gens):  # seed 002 sec. 3.2.1, line after line
         offsets[i] = gen.uniform(-squiggle, squiggle, size=offsets.shape[1]) * px_mm
-    steps = max(int(np.ceil(duration / dt - 1e-9)), 1)
+    steps = _intervals(duration, dt)
     t = np.minimum(np.arange(steps + 1) * dt, duration)
     t[-1] = duration
     s = minimum_jerk_profile(t / duration)
