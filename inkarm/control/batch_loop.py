@@ -131,7 +131,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     hold_at = np.zeros(n_ref, dtype=bool)
     hold_at[list(ref.settle)] = senses_force
     # The controller's model is nominal: c(q*, qd*) is the same for every member.
-    bias_ref = np.array([kin.bias(q_ref[r], qd_ref[r]).copy() for r in range(n_ref)])
+    bias_ref = ref.bias
     friction_estimate = np.tile(kin.model.dof_frictionloss[kin.dof_adr].astype(float), (N, 1))
     friction_ceiling = 4.0 * friction_estimate + 2.0
     friction_rate = config.friction_adaptation * dt

@@ -34,9 +34,9 @@ class FrictionCompensation:
     def torque(self, qd_ref: np.ndarray, error: np.ndarray) -> np.ndarray:
         """The friction feed-forward [N m] for this period; adapts the estimate."""
         direction = np.tanh(qd_ref / SIGN_WIDTH)
-        if self.rate:
-            self.estimate = np.clip(self.estimate + self.rate * error * direction, 0.0,
-                                    self.ceiling)
+        if self.rate:  # (minimum/maximum: several times cheaper than np.clip on 7 numbers)
+            self.estimate = np.minimum(np.maximum(
+                self.estimate + self.rate * error * direction, 0.0), self.ceiling)
         return self.estimate * direction
 
 

@@ -156,7 +156,7 @@ def run_drawing(
     # Local names and Python lists: this loop runs once per control period and its Python cost
     # is the budget. The plan's columns of the log are filled from ``ref_row`` afterwards.
     q_ref, qd_ref, qdd_ref, inertia, normal_q = ref.q, ref.qd, ref.qdd, ref.inertia, ref.normal_q
-    contact_tau, page_ref = ref.contact_tau, ref.page_mm
+    contact_tau, page_ref, plan_bias = ref.contact_tau, ref.page_mm, ref.bias
     phases = ref.phase.tolist()
     hold_at = [False] * len(ref)  # rows where a descent waits for the force (if sensed)
     for r in ref.settle:
@@ -239,7 +239,7 @@ def run_drawing(
                 q_then = q_ref[seen] + depth * normal_q[seen]
                 if blend:
                     q_then = q_then + blend * (q_ref[min(seen + 1, n_ref - 1)] - q_ref[seen])
-                feedforward = bias(q_ref[c], qd_ref[c]) + inertia[c] + friction.torque(
+                feedforward = plan_bias[c] + inertia[c] + friction.torque(
                     qd_ref[c], q_then - state.q)
                 if pressing:
                     feedforward += contact_tau[c]

@@ -39,8 +39,9 @@ from inkarm.errors import InputError, UnreachableError
 from inkarm.models.minjerk import PEAK_SPEED_RATIO
 from inkarm.robots.kinematic import KinematicModel
 
-# Spacing in [s] of the evaluations of the terms that vary with the pose only (inertia matrix,
-# normal direction in joint space), linearly interpolated in between.
+# Spacing in [s] of the evaluations of the slowly varying terms (inertia matrix, normal direction
+# in joint space, bias forces), linearly interpolated in between.
+# (Gravity changes with the pose; the velocity forces of a 1 s joint move are a smooth profile.)
 SLOW_TERMS_PERIOD_S = 0.04
 # Speed in [mm/s] below which the nib-drag feed-forward fades out (u = v / sqrt(|v|^2 + v0^2)).
 DRAG_SPEED_MM_S = 5.0
@@ -54,7 +55,8 @@ class JointReference:
     [mm], (K, 3); phase, stroke: as in DrawLog; normal_q: J5^+ (-n), joint motion per metre of
     pen pressed into the paper, (K, n); contact_tau: J^T f, the joint torque that pushes the
     planned contact force f on the paper while pressing, (K, n); inertia: M(q) qdd
-    feed-forward in [N m], (K, n); settle: rows after which the loop waits for the force to
+    feed-forward in [N m], (K, n); bias: c(q, qd), gravity and velocity forces along the plan
+    [N m], (K, n); settle: rows after which the loop waits for the force to
     settle (ends of descents).
     """
 
@@ -67,6 +69,7 @@ class JointReference:
     normal_q: np.ndarray
     contact_tau: np.ndarray
     inertia: np.ndarray
+    bias: np.ndarray
     settle: frozenset[int]
 
     def __len__(self) -> int:
@@ -221,11 +224,13 @@ def plan_joint_reference(
     tip_k = np.empty((n_k, 3))
     jac5_k = np.empty((n_k, 5, kin.n))
     mass_k = np.empty((n_k, kin.n * kin.n))
+    bias_k = np.empty((n_k, kin.n))
     for j, i in enumerate(all_knots):
         p, R, Jp, Jr = kin.jacobian_views(q[i])
         tip_k[j] = p
         jac5_k[j] = pen_jacobian(R, Jp, Jr)
         mass_k[j] = kin.mass(q[i]).ravel()
+        bias_k[j] = kin.bias(q[i], qd[i])
     page_k = placement.to_page(tip_k)
     jac_k = jac5_k[:, :3].transpose(0, 2, 1).reshape(n_k, kin.n * 3)  # rows of Jp^T
     # J5^+ (-n): the joint motion that presses the pen along -n, tilt unchanged.
@@ -260,6 +265,7 @@ def plan_joint_reference(
         normal_q=_lerp_rows(all_knots, normal_q_k, len(q)),
         contact_tau=contact_tau,
         inertia=np.einsum("kij,kj->ki", mass, qdd),
+        bias=_lerp_rows(all_knots, bias_k, len(q)),
         settle=frozenset(offset + r for r in pen.settle),
     )
 

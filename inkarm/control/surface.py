@@ -33,7 +33,7 @@ class SurfaceEstimate:
         self.prior = prior
         self.refit_every = refit_every
         self.count = 0
-        self.coef = np.zeros(3)
+        self.coef = (0.0, 0.0, 0.0)
         self.origin: tuple[float, float] | None = None
 
     def add(self, x: float, y: float, z: float) -> None:
@@ -45,13 +45,15 @@ class SurfaceEstimate:
         self.count += 1
         if self.count == 1 or self.count % self.refit_every == 0:
             ridge = self.normal + np.diag([0.0, self.prior, self.prior])
-            self.coef = np.linalg.solve(ridge + 1e-12 * np.eye(3), self.rhs)
+            # (Python floats: height() runs every control period.)
+            self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), self.rhs).tolist())
 
     def height(self, x: float, y: float) -> float:
         if self.origin is None:
             return 0.0
         a, b, c = self.coef
-        return float(a + b * (x - self.origin[0]) + c * (y - self.origin[1]))
+        x0, y0 = self.origin
+        return a + b * (x - x0) + c * (y - y0)
 
 
 __all__ = ["SurfaceEstimate"]

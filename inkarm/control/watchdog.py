@@ -48,6 +48,7 @@ class Watchdog:
         self.lower = self.upper = None
         if joint_range is not None:
             self.lower, self.upper = np.asarray(joint_range, dtype=float).T.copy()
+            self.mid, self.half = (self.upper + self.lower) / 2, (self.upper - self.lower) / 2
         self.patience = max(1, round(config.watchdog_s / dt))
         self.saturation_patience = max(1, round(config.saturation_s / dt))
         self.far = self.fast = 0
@@ -64,29 +65,28 @@ class Watchdog:
         if self.far >= self.patience:
             self._fault("tracking_limit", time, f"pen {error_mm:.1f} mm from its reference for "
                         f"{c.watchdog_s * 1000:.0f} ms (limit {c.tracking_limit_mm:g} mm)")
-        if self.lower is not None and not (self.lower <= q).all() & (q <= self.upper).all():
+        # One reduction per check in the common case (nothing near a limit); the slow paths
+        # find the joint. (This runs every control period.)
+        if self.lower is not None and (np.abs(q - self.mid) - self.half).max() > 0.0:
             outside = (q < self.lower) | (q > self.upper)
-            if outside.any():
-                j = int(np.argmax(outside))
-                lo, hi = np.rad2deg(self.lower[j]), np.rad2deg(self.upper[j])
-                self._fault("joint_limit", time, f"{self.names[j]} at "
-                            f"{np.rad2deg(q[j]):.1f} deg, outside its range [{lo:g}, {hi:g}] deg")
+            j = int(np.argmax(outside))
+            lo, hi = np.rad2deg(self.lower[j]), np.rad2deg(self.upper[j])
+            self._fault("joint_limit", time, f"{self.names[j]} at "
+                        f"{np.rad2deg(q[j]):.1f} deg, outside its range [{lo:g}, {hi:g}] deg")
         if self.speed_limit is not None:
-            over = np.abs(qd) > self.speed_limit
-            self.fast = self.fast + 1 if over.any() else 0
+            self.fast = self.fast + 1 if (np.abs(qd) - self.speed_limit).max() > 0.0 else 0
             if self.fast >= self.patience:
                 j = int(np.argmax(np.abs(qd) / self.speed_limit))
                 self._fault("joint_speed", time, f"{self.names[j]} at {abs(qd[j]):.2f} rad/s, "
                             f"above its {self.speed_limit[j] / SPEED_TOLERANCE:.2f} rad/s limit")
         if self.torque_limit is not None and torque is not None:
-            at_limit = np.abs(torque) >= self.torque_limit
-            if not at_limit.any():
+            if (np.abs(torque) - self.torque_limit).max() < 0.0:
                 if self.any_saturated:
                     self.saturated[:] = 0
                     self.any_saturated = False
                 return
             self.any_saturated = True
-            self.saturated = np.where(at_limit, self.saturated + 1, 0)
+            self.saturated = np.where(np.abs(torque) >= self.torque_limit, self.saturated + 1, 0)
             if self.saturated.max() >= self.saturation_patience:
                 j = int(np.argmax(self.saturated))
                 self._fault("torque_saturated", time, f"{self.names[j]} torque at its "

@@ -44,7 +44,7 @@ from inkarm.sim import perturb
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_TIP, Cell
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
-from inkarm.sim.plant import route_mujoco_warnings
+from inkarm.sim.plant import affine_drives, native_drive, route_mujoco_warnings
 
 # Run-time truths the batched plant reproduces (all members alike); the rest are refused.
 RUNTIME_SUPPORTED = ("encoder_ticks_per_rev", "q_noise_rad", "velocity", "force_noise_n",
@@ -126,6 +126,10 @@ class BatchPlant:
         check_batchable([truth])
         self.n_members = N = len(models)
         m0 = models[0]
+        drive_gains = drive_gains or cell.robot.drive
+        # The drives as affine actuators where MujocoPlant runs them so (on from the first
+        # step: the members are commanded before they step, with no actuation delay).
+        self.native = native_drive(True, truth, False)
         for m in models:
             m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
         self.substeps = int(substeps)
@@ -138,6 +142,9 @@ class BatchPlant:
         dof_of_actuator = {int(m0.jnt_dofadr[m0.actuator_trnid[a, 0]]): a for a in range(m0.nu)}
         self._arm_ctrl = np.array([dof_of_actuator[int(d)] for d in self._dof_adr])
         self._limit = np.stack([m.actuator_ctrlrange[self._arm_ctrl, 1] for m in models])
+        if self.native:
+            for m, limit in zip(models, self._limit):
+                affine_drives(m, self._arm_ctrl, drive_gains, limit)
         sensor = mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_SENSOR, "inkarm_pen_contact")
         if sensor < 0:
             raise InputError("BatchPlant: the models need the pen contact sensor "
@@ -156,6 +163,7 @@ class BatchPlant:
         self._models = models
         # outputs bound before the first call (a field bound later is zero until the next)
         self._sensordata = b.bind("sensordata")
+        self._actuator_force = b.bind("actuator_force")
         site_xpos, site_xmat = b.bind("site_xpos"), b.bind("site_xmat")
         b.reset(keyframe=mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_KEY, HOME_KEY))
         self._qpos, self._qvel, self._ctrl = b.bind("qpos"), b.bind("qvel"), b.bind("ctrl")
@@ -171,7 +179,8 @@ class BatchPlant:
         self._warnings = self._warning_counts()
         # The drive law is elementwise: one JointDrive runs every member's drive on (N, n)
         # arrays (members are commanded together, so the time since the set point is shared).
-        self.drive = JointDrive(drive_gains or cell.robot.drive, self.h)
+        self.drive = JointDrive(drive_gains, self.h)
+        self._u = self._du = None
         self.drive.integral = np.zeros((N, n))
         self.drive.v = np.zeros((N, n))
         self._goal = [np.zeros((N, n)) for _ in range(3)]  # q, qd, tau_ff of the set points
@@ -264,16 +273,24 @@ class BatchPlant:
 
     def _actuate(self) -> None:
         """One physics step of the drives (MujocoPlant._actuate for every member): due
-        commands, then the motor torques."""
+        commands, then the motor torques (or the affine drives' controls)."""
         queue, drive = self._queue, self.drive
+        due = bool(queue) and queue[0][0] <= self.steps
+        if not (drive.active or due):
+            return
+        q_meas = self._position(self._qpos[:, self._qpos_adr])
         while queue and queue[0][0] <= self.steps:
             _, who, q, qd, tau = queue.pop(0)
             for held, new in zip(self._goal, (q, qd, tau)):
                 held[who] = new
-            drive.set_point(*(g.copy() for g in self._goal))
-        if not drive.active:
+            drive.set_point(*(g.copy() for g in self._goal), q_link=q_meas)
+            if self.native:
+                self._u, self._du = drive.affine_control()
+        if self.native:
+            self._ctrl[:, self._arm_ctrl] = self._u
+            self._u = self._u + self._du
+            drive.since += self.h
             return
-        q_meas = self._position(self._qpos[:, self._qpos_adr])
         v = drive.velocity(q_meas, None if self.differences else self._qvel[:, self._dof_adr])
         tau = drive.torque(q_meas, v)
         self.motor = np.minimum(np.maximum(tau, -self._limit), self._limit)
@@ -286,9 +303,11 @@ class BatchPlant:
         vel = int(mujoco.mjtStage.mjSTAGE_VEL)
         for _ in range(self.substeps):
             self._actuate()
-            ctrl = self._ctrl
-            ctrl[np.ix_(ids, self._arm_ctrl)] = self.motor[ids]
+            if not self.native:
+                self._ctrl[np.ix_(ids, self._arm_ctrl)] = self.motor[ids]
             b.step(ids, 1, vel)
+            if self.native:  # the drives' torques of the step just taken
+                self.motor = self._actuator_force[:, self._arm_ctrl].copy()
             self.time += self.h
             force = self._sensordata[:, self._normals].sum(axis=1)
             self.pen_force[ids] = force[ids]

@@ -5,15 +5,26 @@ A torque-controlled arm (KUKA's joint impedance mode, a servo's position PID) cl
 loop in the drive, every physics step h, on its own encoder; the host sends set points with
 feed-forward every control period T = substeps h. :class:`JointDrive` is that loop:
 
-    tau = tau_ff + K_p e + K_i sum(e) h + K_d (qd* - v),   e = q* + qd* (t - t_cmd) - q_m
+    tau(t) = tau_ff + K_p (q*(t) - q_m) + I + K_d (qd* - v),   q*(t) = q* + qd* (t - t_cmd)
 
 where q_m is the drive's measured position (quantised and noisy as the plant's truth says), the
 set point is extrapolated with its velocity between commands, and v is the drive's velocity:
 the exact one, or, from a device without a velocity sensor, the difference of successive
 measurements through a first-order low-pass of time constant ``velocity_filter_s`` (a raw
 difference of a quantised encoder jumps by one tick per step: 1.5 mrad / 2 ms = 0.77 rad/s at
-4096 ticks/rev). The integrator is bounded by ``integral_limit`` [N m] (anti-windup) and sheds
-dry friction and model errors.
+4096 ticks/rev).
+
+The integral I sheds dry friction and model errors. It is slow (K_i / K_p of a few per second)
+and runs at the command rate, as drive firmwares run their outer terms: at each new set point
+
+    I <- clip(I + K_i (t - t_cmd) (q*(t) - q_link), +-integral_limit)
+
+with the error the old set point has left at that moment (anti-windup by the clip). The P and
+D terms are affine in (q_m, v), so on exact encoders the whole law is a MuJoCo actuator:
+
+    tau = u(t) - K_p q - K_d qd,   u(t) = K_p q*(t) + tau_ff + K_d qd* + I        (affine bias)
+
+and runs in C, its damping implicit in MuJoCo's integrator (:meth:`JointDrive.affine_control`).
 
 On a joint with series elasticity the P and D terms act on the motor's own encoder (collocated:
 stable whatever the spring, as arm drives with motor-side encoders do) and the integral on the
@@ -28,7 +39,8 @@ from inkarm.robots.gains import PIDGains
 
 
 class JointDrive:
-    """PID with feed-forward at physics rate; ``gains`` are the robot profile's.
+    """PID with feed-forward at physics rate, integral at the command rate; ``gains`` are the
+    robot profile's.
 
     Args:
         gains: K_p [N m/rad], K_i [N m/(rad s)], K_d [N m s/rad], integral limit [N m].
@@ -42,7 +54,6 @@ class JointDrive:
                                      (gains.kp, gains.ki, gains.kd))
         self.limit = np.asarray(gains.integral_limit, dtype=float)
         self.h = float(step_s)
-        self.ki_h = self.ki * self.h
         self.alpha = self.h / (velocity_filter_s + self.h)
         n = len(self.kp)
         self.integral = np.zeros(n)
@@ -51,8 +62,14 @@ class JointDrive:
         self.v = np.zeros(n)
         self.q_prev: np.ndarray | None = None
 
-    def set_point(self, q: np.ndarray, qd: np.ndarray | None, tau_ff: np.ndarray | None) -> None:
-        """A new set point (from the host, after any actuation delay)."""
+    def set_point(self, q: np.ndarray, qd: np.ndarray | None, tau_ff: np.ndarray | None,
+                  q_link: np.ndarray | None = None) -> None:
+        """A new set point (from the host, after any actuation delay); ``q_link`` [rad], the
+        links' measured position now, integrates the error the old set point left."""
+        if self.q_goal is not None and q_link is not None and self.since > 0.0:
+            error = self.q_goal + self.qd_goal * self.since - q_link
+            self.integral = np.minimum(np.maximum(
+                self.integral + (self.ki * self.since) * error, -self.limit), self.limit)
         n = len(self.kp)
         self.q_goal = np.asarray(q, dtype=float)
         self.qd_goal = np.zeros(n) if qd is None else np.asarray(qd, dtype=float)
@@ -69,18 +86,18 @@ class JointDrive:
         self.q_prev = q_measured.copy()
         return self.v
 
-    def torque(self, q_measured: np.ndarray, v: np.ndarray,
-               q_link: np.ndarray | None = None) -> np.ndarray:
-        """One physics step of the loop: the motor torque [N m]. ``q_measured`` and ``v`` are
-        the motors'; ``q_link`` the links' where they differ (elastic joints)."""
-        goal = self.q_goal + self.qd_goal * self.since
-        error = goal - q_measured
-        link_error = error if q_link is None else goal - q_link
+    def torque(self, q_measured: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """One physics step of the loop: the motor torque [N m] from the motors' ``q_measured``
+        and ``v``."""
+        error = self.q_goal + self.qd_goal * self.since - q_measured
         self.since += self.h
-        # (minimum/maximum rather than np.clip: several times cheaper on 7 numbers, at 500 Hz)
-        self.integral = np.minimum(np.maximum(self.integral + self.ki_h * link_error,
-                                              -self.limit), self.limit)
         return self.tau_ff + self.kp * error + self.integral + self.kd * (self.qd_goal - v)
+
+    def affine_control(self) -> tuple[np.ndarray, np.ndarray]:
+        """The set point as the control u of an affine actuator (tau = u - K_p q - K_d qd):
+        u at the first physics step of the set point and its increase per step, K_p qd* h."""
+        u = self.kp * self.q_goal + self.tau_ff + self.kd * self.qd_goal + self.integral
+        return u, self.kp * self.qd_goal * self.h
 
     @property
     def active(self) -> bool:

@@ -72,6 +72,33 @@ def _index(addresses: list[int]) -> slice | np.ndarray:
     return np.array(addresses)
 
 
+def native_drive(has_drive: bool, truth: PlantTruth, has_transmission: bool) -> bool:
+    """Whether the joint drives run as MuJoCo actuators (see :class:`JointDrive`): exact
+    encoders and velocity (the actuator sees the true state), no transmission between motor
+    and link, and no actuation delay (so that the drives are on from the first physics step,
+    as a batch of such plants has them)."""
+    return (has_drive and not has_transmission and truth.encoder_ticks_per_rev == 0
+            and truth.q_noise_rad == 0.0 and truth.velocity == "exact"
+            and truth.actuation_delay_ms == 0.0)
+
+
+def affine_drives(model: mujoco.MjModel, actuators, gains, limit: np.ndarray) -> None:
+    """Make the torque motors ``actuators`` the drive law tau = u - K_p q - K_d qd (``gains``
+    K_p [N m/rad], K_d [N m s/rad]), clamped to +-``limit`` [N m], integrated by Euler: a
+    digital drive samples v and holds its torque for the step, so its damping is explicit
+    (implicitfast would treat it as an analogue damper: 0.07 instead of 0.05 mm on the default
+    letter). The cell has no other velocity-dependent force where the two integrators differ
+    (joint damping is implicit in both)."""
+    model.actuator_biastype[actuators] = mujoco.mjtBias.mjBIAS_AFFINE
+    prm = np.zeros_like(model.actuator_biasprm[actuators])
+    prm[:, 1], prm[:, 2] = -np.asarray(gains.kp), -np.asarray(gains.kd)
+    model.actuator_biasprm[actuators] = prm
+    model.actuator_ctrllimited[actuators] = 0
+    model.actuator_forcelimited[actuators] = 1
+    model.actuator_forcerange[actuators] = np.column_stack([-limit, limit])
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+
+
 @dataclass(slots=True)
 class SimState(PlantState):
     """A :class:`PlantState` plus what only a simulator can measure: the pen slide's
@@ -174,6 +201,7 @@ class MujocoPlant:
         self._qpos = self.data.qpos
         self._qvel = self.data.qvel
         self._ctrl = self.data.ctrl
+        self._actuator_force = self.data.actuator_force
         self._warning_stats = [self.data.warning[w] for w in _DIVERGENCE_WARNINGS]
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
@@ -218,15 +246,34 @@ class MujocoPlant:
         self.firmware = firmware
         self._position_goal: np.ndarray | None = None
         self._motor_torque = np.zeros(n)
-        self._exact_drive = (self.drive is not None and firmware is None
-                             and self.senses_model.exact_q and truth.velocity == "exact"
-                             and not self.transmission)
+        # On exact encoders the drive law is an affine MuJoCo actuator (see JointDrive): the
+        # drives run in C, Python only ramps the set point once per physics step.
+        self._native = native_drive(self.drive is not None and firmware is None, truth,
+                                    bool(self.transmission))
+        self._affine = False
+        self._motor_params = (m.actuator_biastype[self._arm_ctrl].copy(),
+                              m.actuator_biasprm[self._arm_ctrl].copy(),
+                              m.actuator_ctrllimited[self._arm_ctrl].copy(),
+                              m.actuator_forcelimited[self._arm_ctrl].copy(),
+                              m.actuator_forcerange[self._arm_ctrl].copy())
+        self._u = self._du = None
         # Torque commands on an ideal plant go straight to MuJoCo (the per-step work is skipped).
         self._fast = (self.senses_model.ideal and self._delay_steps == 0
                       and not self.transmission)
         if not self.senses_model.ideal:
             self.senses_model.record(self._snapshot(self._qpos[self._qpos_adr].copy(),
                                                     self._qvel[self._dof_adr].copy()))
+
+    def _set_affine(self, on: bool) -> None:
+        """Switch the arm's motors between plain torque motors and the drive law as an affine
+        actuator."""
+        if on:
+            affine_drives(self.model, self._arm_ctrl, self.drive, self._limit)
+        else:
+            m, arm = self.model, self._arm_ctrl
+            (m.actuator_biastype[arm], m.actuator_biasprm[arm], m.actuator_ctrllimited[arm],
+             m.actuator_forcelimited[arm], m.actuator_forcerange[arm]) = self._motor_params
+        self._affine = on
 
     senses = frozenset({"force", "tip", "torque"})
 
@@ -242,14 +289,14 @@ class MujocoPlant:
         """Control period in [s]."""
         return self.substeps * self.model.opt.timestep
 
-    def _actuators_of_joints(self) -> np.ndarray:
+    def _actuators_of_joints(self) -> slice | np.ndarray:
         m = self.model
         dof_of_actuator = {int(m.jnt_dofadr[m.actuator_trnid[a, 0]]): a for a in range(m.nu)}
         dofs = np.arange(m.nv)[self._dof_adr]
         missing = [self.joint_names[i] for i, dof in enumerate(dofs) if dof not in dof_of_actuator]
         if missing:
             raise InputError(f"MujocoPlant: no motor drives the joints {missing}")
-        return np.array([dof_of_actuator[int(dof)] for dof in dofs])
+        return _index([dof_of_actuator[int(dof)] for dof in dofs])
 
     def _warning_counts(self) -> np.ndarray:
         return np.array([w.number for w in self._warning_stats])
@@ -262,7 +309,8 @@ class MujocoPlant:
             time=self.data.time,
             q=q_measured,
             qd=qd_reported,
-            torque=np.minimum(np.maximum(self._motor_torque, -self._limit), self._limit),
+            torque=(self._actuator_force[self._arm_ctrl].copy() if self._affine else
+                    np.minimum(np.maximum(self._motor_torque, -self._limit), self._limit)),
             force=self.senses_model.force(self._pen_force),
             tip_mm=self._tip_mm(),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
@@ -285,18 +333,26 @@ class MujocoPlant:
             raise InputError(unsupported(self, command))
         if self._fast and kind is TorqueCommand:
             self._position_goal = None
+            if self._affine:
+                self._set_affine(False)
             self._motor_torque = np.clip(command.torque, -self._limit, self._limit)
             self._ctrl[self._arm_ctrl] = command.torque
             return
         self._queue.append((self._steps + self._delay_steps, command))
 
-    def _apply(self, command) -> None:
+    def _apply(self, command, q_link: np.ndarray) -> None:
         if type(command) is TorqueCommand:
             self._position_goal = None
             self._motor_torque = np.clip(command.torque, -self._limit, self._limit)
+            if self._affine:
+                self._set_affine(False)
         elif self.drive is not None:
             self._position_goal = command.q
-            self.drive.set_point(command.q, command.qd, command.torque)
+            self.drive.set_point(command.q, command.qd, command.torque, q_link)
+            if self._native:
+                self._u, self._du = self.drive.affine_control()
+                if not self._affine:
+                    self._set_affine(True)
         else:
             self._position_goal = np.asarray(command.q, dtype=float)
 
@@ -332,34 +388,40 @@ class MujocoPlant:
         """One physics step of the drives and transmission: due commands, motor torques,
         torques on the links."""
         queue = self._queue
-        while queue and queue[0][0] <= self._steps:
-            self._apply(queue.pop(0)[1])
+        due = bool(queue) and queue[0][0] <= self._steps
         q_true = self._qpos[self._qpos_adr]
-        qd_true = self._qvel[self._dof_adr]
-        if self._exact_drive and self._position_goal is not None:
-            # (MuJoCo clamps the control to the torque limits; the reading clamps its copy)
-            self._motor_torque = tau = self.drive.torque(q_true, qd_true)
-            self._ctrl[self._arm_ctrl] = tau
+        if self._native:
+            while queue and queue[0][0] <= self._steps:
+                self._apply(queue.pop(0)[1], q_true)
+            if self._affine:
+                self._ctrl[self._arm_ctrl] = self._u
+                self._u = self._u + self._du
+                self.drive.since += self._timestep
+            else:
+                self._ctrl[self._arm_ctrl] = self._motor_torque
             return
+        qd_true = self._qvel[self._dof_adr]
         trans = self.transmission
-        if self._position_goal is not None:
+        if self._position_goal is not None or due:
             senses = self.senses_model
             q_meas = senses.position(q_true if senses.exact_q else q_true.copy())
-            q_link = None
+            q_link = q_meas
             if trans:  # the drives' encoders are on the motors (see JointDrive)
-                q_link = q_meas
                 q_meas = q_meas.copy()
                 q_meas[trans.joints] = trans.theta
                 qd_motor = qd_true.copy()
                 qd_motor[trans.joints] = trans.omega
             else:
                 qd_motor = qd_true
-            if self.drive is not None:
-                v = self.drive.velocity(q_meas, None if senses.differences else qd_motor)
-                tau = self.drive.torque(q_meas, v, q_link)
-            else:
-                tau = self.firmware.torque(self._position_goal, q_meas, qd_motor)
-            self._motor_torque = np.minimum(np.maximum(tau, -self._limit), self._limit)
+            while queue and queue[0][0] <= self._steps:
+                self._apply(queue.pop(0)[1], q_link)
+            if self._position_goal is not None:
+                if self.drive is not None:
+                    v = self.drive.velocity(q_meas, None if senses.differences else qd_motor)
+                    tau = self.drive.torque(q_meas, v)
+                else:
+                    tau = self.firmware.torque(self._position_goal, q_meas, qd_motor)
+                self._motor_torque = np.minimum(np.maximum(tau, -self._limit), self._limit)
         tau = self._motor_torque
         if trans:
             j = trans.joints
@@ -418,6 +480,8 @@ class MujocoPlant:
         m = self.model
         dofs = np.arange(m.nv)[self._dof_adr]
         m.dof_frictionloss[dofs] = 100.0 * np.maximum(self._limit, 1.0)
+        if self._affine:
+            self._set_affine(False)
         self._position_goal = None
         self._queue.clear()
         self._motor_torque = np.zeros(len(self.joint_names))
@@ -429,6 +493,8 @@ class MujocoPlant:
         """Zero the torques and lift the canvas pen. Idempotent."""
         if self._closed:
             return
+        if self._affine:
+            self._set_affine(False)
         self.data.ctrl[:] = 0.0
         self._motor_torque = np.zeros(len(self.joint_names))
         self._position_goal = None
