@@ -104,7 +104,9 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         plant = MujocoPlant(plant_model(cell, truth), cell=cell, canvas=canvas,
                             substeps=_substeps(scenario.robot.control_period_s,
                                                scenario.cell.timestep),
-                            truth=truth, drive_gains=scenario.robot.drive, firmware=servos)
+                            truth=truth, firmware=servos,
+                            # the servos' own loop holds the goals, not the profile's drives
+                            drive_gains=scenario.robot.drive if servos is None else None)
         if servos is not None:
             from inkarm.jobs.dynamixel import ServoGoals
 
