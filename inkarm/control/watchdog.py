@@ -54,6 +54,12 @@ class Watchdog:
         self.far = self.fast = 0
         self.saturated = np.zeros(len(self.names), dtype=int)
         self.any_saturated = False
+        # With every limit known, one reduction over [q - mid, qd, torque] clears the joints in
+        # the common case (this runs every control period); the checks below find which fired.
+        self._bounds = None
+        if self.lower is not None and self.speed_limit is not None and \
+                self.torque_limit is not None:
+            self._bounds = np.concatenate([self.half, self.speed_limit, self.torque_limit])
 
     def check(self, time: float, q, qd, torque, force: float, error_mm: float) -> None:
         """Raise :class:`RunFault` when a watchdog fires."""
@@ -65,8 +71,13 @@ class Watchdog:
         if self.far >= self.patience:
             self._fault("tracking_limit", time, f"pen {error_mm:.1f} mm from its reference for "
                         f"{c.watchdog_s * 1000:.0f} ms (limit {c.tracking_limit_mm:g} mm)")
-        # One reduction per check in the common case (nothing near a limit); the slow paths
-        # find the joint. (This runs every control period.)
+        if self._bounds is not None and torque is not None and (np.abs(np.concatenate(
+                (q - self.mid, qd, torque))) - self._bounds).max() < 0.0:
+            self.fast = 0
+            if self.any_saturated:
+                self.saturated[:] = 0
+                self.any_saturated = False
+            return
         if self.lower is not None and (np.abs(q - self.mid) - self.half).max() > 0.0:
             outside = (q < self.lower) | (q > self.upper)
             j = int(np.argmax(outside))

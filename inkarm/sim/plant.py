@@ -359,9 +359,20 @@ class MujocoPlant:
     def step(self) -> None:
         """Advance one control period; feed the canvas; raise SimulationError on divergence."""
         m, d, canvas = self.model, self.data, self.canvas
+        ramp = False
+        if self._native:  # no actuation delay: the commands are due now
+            queue = self._queue
+            while queue:
+                self._apply(queue.pop(0)[1], self._qpos[self._qpos_adr])
+            ramp = self._affine
+            ctrl, arm, u, du, drive = self._ctrl, self._arm_ctrl, self._u, self._du, self.drive
         fast = self._fast and self._position_goal is None and not self._queue
         for _ in range(self.substeps):
-            if not fast:
+            if ramp:  # the drives run in MuJoCo; the set point moves with its velocity
+                ctrl[arm] = u
+                u = u + du
+                drive.since += self._timestep
+            elif not fast:
                 self._actuate()
             mujoco.mj_step2(m, d)
             force = self._tip_normal_force() if d.ncon else 0.0
@@ -382,6 +393,8 @@ class MujocoPlant:
                     q = self.senses_model.position(self._qpos[self._qpos_adr].copy())
                     qd = self.senses_model.velocity(q, self._qvel[self._dof_adr].copy())
                     self.senses_model.record(self._snapshot(q, qd))
+        if ramp:
+            self._u = u
         self._check_divergence()
 
     def _actuate(self) -> None:
@@ -390,16 +403,6 @@ class MujocoPlant:
         queue = self._queue
         due = bool(queue) and queue[0][0] <= self._steps
         q_true = self._qpos[self._qpos_adr]
-        if self._native:
-            while queue and queue[0][0] <= self._steps:
-                self._apply(queue.pop(0)[1], q_true)
-            if self._affine:
-                self._ctrl[self._arm_ctrl] = self._u
-                self._u = self._u + self._du
-                self.drive.since += self._timestep
-            else:
-                self._ctrl[self._arm_ctrl] = self._motor_torque
-            return
         qd_true = self._qvel[self._dof_adr]
         trans = self.transmission
         if self._position_goal is not None or due:
