@@ -25,10 +25,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 
+import numpy as np
+
 from inkarm.control.batch_loop import run_drawings
 from inkarm.core.budget import require_memory
+from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.ink.canvas import Canvas, require_raster_memory
+from inkarm.jobs.ensemble_workers import available_cpus, stream_shares
 from inkarm.jobs.run import (
     DEGRADED,
     FAILED,
@@ -47,25 +51,34 @@ from inkarm.sim.cell import Cell, kinematic_model
 
 
 def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
-                 progress: Callable[[float, str], None] | None = None) -> list[Run]:
+                 progress: Callable[[float, str], None] | None = None,
+                 processes: int = 0) -> list[Run]:
     """Draw ``scenario`` on the plants of ``plant.seed`` = each of ``seeds``, batched; return
     one :class:`Run` per seed, in order (failed members are Runs with status "failed", the
-    others go on). ``nthread``: MuJoCo threads (0: all CPUs); ``progress(fraction, phase)`` as
-    for :func:`inkarm.jobs.run.run`, for the member furthest behind. Every Run holds its page:
+    others go on). ``processes``: shares of the members, each one batch in its own worker
+    process (0: one per CPU; 1: one batch in this process); ``nthread``: MuJoCo threads in all
+    (0: one per CPU), shared among the processes; ``progress(fraction, phase)`` as for
+    :func:`inkarm.jobs.run.run`, for the member furthest behind. Every Run holds its page:
     :func:`iter_ensemble` yields them one at a time instead."""
-    return list(iter_ensemble(scenario, seeds, nthread, progress))
+    return list(iter_ensemble(scenario, seeds, nthread, progress, processes))
 
 
 def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
-                  progress: Callable[[float, str], None] | None = None) -> Iterator[Run]:
-    """:func:`run_ensemble` as a generator: the whole ensemble is simulated at the first
-    ``next``; then each member's canvas is inked and its metrics computed as it is yielded, so
-    a caller that keeps only what it needs of each Run holds one page at a time."""
+                  progress: Callable[[float, str], None] | None = None,
+                  processes: int = 0) -> Iterator[Run]:
+    """:func:`run_ensemble` as a generator: the members are yielded in order as their shares
+    deliver them (in one process: the whole ensemble is simulated at the first ``next``, then
+    each member's canvas is inked and its metrics computed as it is yielded), so a caller that
+    keeps only what it needs of each Run holds one page at a time."""
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise InputError("an ensemble needs at least one seed", key="seeds", value=seeds)
     if len(set(seeds)) != len(seeds):
         raise InputError(f"the seeds repeat: {seeds}", key="seeds", value=seeds)
+    if processes < 0 or nthread < 0:
+        raise InputError(f"processes and nthread count CPUs (0: all); got processes = "
+                         f"{processes}, nthread = {nthread}", key="processes" if processes < 0
+                         else "nthread", value=processes if processes < 0 else nthread)
     cell = Cell(scenario.cell, scenario.robot)
     if scenario.controller.command != "position":
         raise InputError(f"the batched ensemble runs position commands only, not "
@@ -87,9 +100,30 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                        f"the logs and touches of {len(seeds)} members over {periods:.3g} "
                        f"control periods", key="seeds")
         require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
-        believed = kinematic_model(cell)
+        check_batchable([scenario.plant.realised(s) for s in seeds])
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+    cpus = available_cpus()
+    shares = [list(part) for part in np.array_split(seeds, min(processes or cpus, len(seeds)))]
+    threads = max(1, (nthread or cpus) // len(shares))
+    if len(shares) == 1:
+        yield from share_runs(scenario, drawing, seeds, nthread, len(seeds), progress=progress)
+        return
+    yield from stream_shares(share_runs, [(scenario, drawing, [int(s) for s in share], threads,
+                                           len(seeds)) for share in shares], progress)
+
+
+def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: int,
+               members: int, progress: Callable[[float, str], None] | None = None
+               ) -> Iterator[Run]:
+    """The Runs of ``seeds``, one share of an ensemble of ``members`` drawing the placed
+    ``drawing``, as one batch on ``nthread`` MuJoCo threads (0: all CPUs). Each log's wall time
+    is the share's over ``members``: the shares run at once, so that is the ensemble's."""
+    cell = Cell(scenario.cell, scenario.robot)
+    believed = kinematic_model(cell)
+    try:
+        substeps = _substeps(scenario.robot.control_period_s, scenario.cell.timestep)
         truths = [scenario.plant.realised(s) for s in seeds]
-        check_batchable(truths)
         plant = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
                            substeps=substeps,
                            drive_gains=scenario.robot.drive, nthread=nthread)
@@ -103,8 +137,9 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
         canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
                         ink=scenario.ink.make())
         plant.feed(k, canvas)
+        log = result.log if isinstance(result, RunFault) else result
+        log.wall_s *= len(seeds) / members
         if isinstance(result, RunFault):
-            log = result.log
             yield Run(member, FAILED, drawing, log, canvas,
                       _metrics(log, drawing, believed, canvas), reason=str(result),
                       notes=log.notes)
@@ -115,4 +150,4 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                   reason="; ".join(shortfalls), notes=result.notes)
 
 
-__all__ = ["iter_ensemble", "run_ensemble"]
+__all__ = ["iter_ensemble", "run_ensemble", "share_runs"]
