@@ -1,24 +1,29 @@
-"""``run_ensemble(scenario, seeds) -> list[Run]``: one scenario on an ensemble of plants, as one
-batched MuJoCo simulation.
+"""``run_ensemble(scenario, seeds) -> list[Run]``: one scenario on an ensemble of plants, as
+batched MuJoCo simulations, one share of the members per CPU.
 
 Member k is the scenario with ``plant.seed = seeds[k]``: its plant truth realised from that seed
 (the ``[plant.random]`` ranges), exactly what :func:`inkarm.jobs.run.run` would simulate for
 ``scenario.with_overrides({"plant.seed": seeds[k]})``. Instead of one process per member, the
-members' models step together in :class:`inkarm.sim.batch.BatchPlant` (``mujoco.batch``, threads
-in C) and one controller (:func:`inkarm.control.batch_loop.run_drawings`) serves all of them
-with (N, n) arrays: the plan and the feed-forward along it depend only on the nominal model, so
-they are computed once.
+members' models step together in :class:`inkarm.sim.batch.BatchPlant` (``mujoco.batch``) and one
+controller (:func:`inkarm.control.batch_loop.run_drawings`) serves all of them with (N, n)
+arrays: the plan and the feed-forward along it depend only on the nominal model, so they are
+computed once. The controller, the inking and the metrics are Python on one core, so the
+members are split into one contiguous share per CPU (``processes``), each share such a batch in
+a kept worker process (:mod:`inkarm.jobs.ensemble_workers`), its Runs streamed back in member
+order; ``processes=1`` runs one batch in this process, on ``nthread`` MuJoCo threads.
 
 The Runs equal those of :func:`run` member by member: same status, reason, log rows, metrics
-and ink (bit for bit in the tests). One known difference: after a fault with an actuation delay,
+and ink (bit for bit in the tests), whatever the shares (a member's simulation does not depend
+on the others'). One known difference: after a fault with an actuation delay,
 run's safe stop hands the drives a bias array that its next period's call overwrites while the
 command is still queued; the batched stop keeps each period's own, so the stop's log may differ
-by about 1e-6 rad. ``log.wall_s`` is the batch's wall time
-divided by the number of members (so each Run's real-time factor is the ensemble's aggregate
-one). Supported: position mode, robots driven by the profile's ``[drive]`` gains (not servo
-firmware), and plant truths whose run-time part (noise, delays) is the same in every member;
-series elasticity and backlash are refused (:func:`inkarm.sim.batch.check_batchable` names the
-field). Ctrl-C stops the whole ensemble (a plain KeyboardInterrupt: no partial Runs are kept).
+by about 1e-6 rad. ``log.wall_s`` is the member's share's wall time divided by the number of
+members (the shares run at once, so each Run's real-time factor is about the ensemble's
+aggregate one). Supported: position mode, robots driven by the profile's ``[drive]`` gains (not
+servo firmware), and plant truths whose run-time part (noise, delays) is the same in every
+member; series elasticity and backlash are refused (:func:`inkarm.sim.batch.check_batchable`
+names the field). Ctrl-C stops the whole ensemble, every share (a plain KeyboardInterrupt: no
+partial Runs are kept).
 """
 
 from __future__ import annotations
