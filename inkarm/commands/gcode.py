@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 from inkarm.errors import InputError
+from inkarm.io.outputs import atomic_file
 
 DRAWING_SUFFIXES = (".svg", ".csv", ".npz")
 
@@ -75,9 +76,8 @@ def run(args: argparse.Namespace) -> int:
     drawing = load_drawing(args.source)
     job = drawing_to_gcode(drawing, profile, optimise=args.optimise, speed_mm_s=args.speed)
     seconds = estimate_seconds(job.lines)
-    partial = out.with_name(f".{out.name}.partial")
-    partial.write_text(job.text())
-    os.replace(partial, out)
+    with atomic_file(out) as partial:
+        partial.write_text(job.text())
     print(f"{out}: {len(job.lines)} lines, {len(drawing.strokes)} strokes, pen profile "
           f"{profile.name!r}; estimated {seconds:.1f} s on GRBL's planner (default settings)")
     return 0

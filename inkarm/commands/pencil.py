@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import argparse
 import os
-import tempfile
 from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import atomic_file, check_out_dir, staged
 
 SHOW_FILES = ("profile.png", "line.png")
 
@@ -72,13 +71,8 @@ def _extract(args: argparse.Namespace) -> int:
                                       reference_force_n=args.force_n, source=args.scan.name)
     except InputError as e:
         raise e.within(file=str(args.scan)) from None
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent)
-    os.close(fd)
-    try:
-        save_profile(profile, tmp)
-        os.replace(tmp, out)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
+    with atomic_file(out) as partial:
+        save_profile(profile, partial)
     print(f"{profile.name}: width {profile.width_mm:.3f} mm, mid-line greys "
           f"{profile.mid_range}, line greys {profile.full_range}, {profile.levels} levels")
     print(f"profile written to {out} (use it with [ink] model = \"pencil\", grade = \"{out}\")")

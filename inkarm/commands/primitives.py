@@ -6,12 +6,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.errors import InputError
+from inkarm.io.outputs import atomic_file
 
 LETTER_PREFIX = "letter:"
 
@@ -129,14 +129,8 @@ def _learn(args) -> int:
     batch = result.batch
     error = reconstruction_error_mm(result.model, batch.Y, batch.mask,
                                     result.posterior.expectations)
-    with tempfile.NamedTemporaryFile(dir=out.absolute().parent, prefix=f".{out.name}.",
-                                     suffix=".npz", delete=False) as f:
-        staging = Path(f.name)
-    try:
-        result.model.save(staging)
-        os.replace(staging, out)
-    finally:
-        staging.unlink(missing_ok=True)
+    with atomic_file(out) as partial:
+        result.model.save(partial)
     print(f"{len(result.history)} EM iterations, bound {result.final_bound:.6g}; "
           f"reconstruction error {error.mean():.3f} mm mean, {error.max():.3f} mm worst "
           f"sequence; wrote {out}")

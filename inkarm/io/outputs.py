@@ -6,7 +6,8 @@ symlink itself, never the file it points to). The folder's marker file (``status
 drawing run) is removed first and moved in last, so a folder without it is incomplete. Files the
 command owns but did not produce this time (a failed run has no ``metrics.json``) are removed, so
 no file of an earlier run is left beside a new one. If anything fails before the move (a full
-disk, an error, Ctrl-C), ``--out`` is left exactly as it was.
+disk, an error, Ctrl-C), ``--out`` is left exactly as it was. A single file is written the
+same way (:func:`atomic_file`): complete under a hidden name beside it, then renamed.
 """
 
 from __future__ import annotations
@@ -66,3 +67,20 @@ def staged(out_dir: str | Path, marker: str | None = None,
             os.replace(stage / name, out / name)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+@contextmanager
+def atomic_file(path: str | Path) -> Iterator[Path]:
+    """Yield a hidden path beside ``path`` (same suffix, so writers that add one, like
+    ``np.savez``, keep it); on a normal exit rename it to ``path`` atomically; on an exception
+    remove it and leave ``path`` as it was."""
+    out = Path(path)
+    fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=f".partial{out.suffix}",
+                                dir=out.absolute().parent)
+    os.close(fd)
+    staging = Path(name)
+    try:
+        yield staging
+        os.replace(staging, out)
+    finally:
+        staging.unlink(missing_ok=True)

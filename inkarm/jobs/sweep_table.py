@@ -12,11 +12,12 @@ are the ids in ``results.parquet`` and ``parts/``: a resumed sweep skips them. C
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+from inkarm.io.outputs import atomic_file
 
 TABLE_FILE = "results.parquet"
 PARTS_DIR = "parts"
@@ -27,9 +28,8 @@ def write_part(out_dir: Path, row: dict) -> Path:
     parts = Path(out_dir) / PARTS_DIR
     parts.mkdir(parents=True, exist_ok=True)
     final = parts / f"{row['point_id']}.parquet"
-    partial = parts / f".{row['point_id']}.partial"
-    pq.write_table(pa.Table.from_pylist([row]), partial)
-    os.replace(partial, final)
+    with atomic_file(final) as partial:
+        pq.write_table(pa.Table.from_pylist([row]), partial)
     return final
 
 
@@ -59,9 +59,8 @@ def compact(out_dir: Path) -> pa.Table | None:
     rows = {row["point_id"]: row for row in table.to_pylist()}  # later rows win
     ordered = sorted(rows.values(), key=lambda r: r["index"])
     merged = pa.Table.from_pylist(ordered, schema=table.schema)
-    partial = out / f".{TABLE_FILE}.partial"
-    pq.write_table(merged, partial)
-    os.replace(partial, out / TABLE_FILE)
+    with atomic_file(out / TABLE_FILE) as partial:
+        pq.write_table(merged, partial)
     for p in parts:
         p.unlink(missing_ok=True)
     if (out / PARTS_DIR).is_dir() and not any((out / PARTS_DIR).iterdir()):

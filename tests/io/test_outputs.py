@@ -5,7 +5,7 @@ import os
 import pytest
 
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import atomic_file, check_out_dir, staged
 
 
 def test_an_empty_out_is_refused():
@@ -68,3 +68,18 @@ def test_a_planted_symlink_is_replaced_not_followed(tmp_path):
     assert victim.read_text() == "precious"
     assert not (out / "canvas.png").is_symlink()
     assert (out / "canvas.png").read_bytes() == b"png"
+
+
+def test_atomic_file_renames_a_complete_file_and_keeps_the_old_one_on_failure(tmp_path):
+
+    out = tmp_path / "model.npz"
+    with atomic_file(out) as partial:
+        assert partial.parent == tmp_path and partial.suffix == ".npz"  # np.savez adds none
+        assert partial.name.startswith(".") and not out.exists()
+        partial.write_text("first")
+    assert out.read_text() == "first"
+    with pytest.raises(RuntimeError), atomic_file(out) as partial:
+        partial.write_text("half")
+        raise RuntimeError("disk full")
+    assert out.read_text() == "first"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.npz"]
