@@ -199,13 +199,9 @@ class ServoFirmware:
                  period_s: float):
         self.models = tuple(servo_model(m) for m in models)
         self.n = len(self.models)
-        if not (np.isfinite(period_s) and 0.0 < period_s <= 0.1):
-            raise InputError(f"expected a firmware period in (0, 0.1] s, got {period_s}",
-                             key="period_s", value=period_s)
-        self.period_s = float(period_s)
+        self.set_period(period_s)
         self.gains = gains
         self._cache_key = None
-        self._coeff_key = None
         m = self.models
         self._stall = np.array([x.stall_torque_nm for x in m])
         self._w_noload = np.array([x.no_load_speed_rad_s for x in m])
@@ -214,6 +210,15 @@ class ServoFirmware:
                                  for x in m])
         self._rad_per_tick = np.array([2.0 * np.pi / x.ticks_per_rev for x in m])
         self.reset(np.full(self.n, float(CENTRE_TICK)))
+
+    def set_period(self, period_s: float) -> None:
+        """Call :meth:`torque` every ``period_s`` [s] from now on (a plant that refines its
+        physics step, e.g. for a stiff gear train, calls the firmware more often)."""
+        if not (np.isfinite(period_s) and 0.0 < period_s <= 0.1):
+            raise InputError(f"expected a firmware period in (0, 0.1] s, got {period_s}",
+                             key="period_s", value=period_s)
+        self.period_s = float(period_s)
+        self._coeff_key = None
 
     def _registers(self) -> dict[str, np.ndarray]:
         # Converted once per FirmwareGains object: assign a new one (or use set_register).
@@ -335,6 +340,10 @@ class JointServos:
     ``servos_per_joint[j]`` servos (a shadow doubles it) gets that many times the torque.
     The firmware starts (:meth:`reset`) at the first call if nobody reset it.
 
+    A Dynamixel's absolute encoder is on its output shaft, after the gear train
+    (:attr:`encoder_on_output`): its backlash lies inside the position loop, so a plant that
+    models the gear train should pass the link angle to :meth:`torque`, not the motor's.
+
     Args:
         models: One model per joint.
         gains: The registers, per joint (all of a joint's servos get the same).
@@ -349,6 +358,12 @@ class JointServos:
         self.count = np.ones(n) if servos_per_joint is None else \
             np.asarray(servos_per_joint, dtype=float).reshape(n)
         self._started = False
+
+    encoder_on_output = True
+
+    def set_period(self, period_s: float) -> None:
+        """The period :meth:`torque` is called at from now on [s]."""
+        self.firmware.set_period(period_s)
 
     def reset(self, q) -> None:
         """Torque on at joint angles ``q`` [rad]."""

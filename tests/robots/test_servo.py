@@ -159,3 +159,29 @@ def test_joint_servos_round_goals_to_ticks_and_count_shadows():
     stall = servo.SERVO_MODELS["XM430-W350"].stall_torque_nm
     assert tau[0] == pytest.approx(3 * 1000 / 128 / 885 * stall)
     assert tau[1] == pytest.approx(2 * tau[0])
+
+
+def test_a_firmware_moved_to_a_finer_period_runs_as_one_built_at_it():
+    gains = {"position_p": 900.0, "position_i": 400.0, "position_d": 2500.0,
+             "profile_velocity": 200.0, "profile_acceleration": 50.0}
+    built = ServoFirmware([IDEAL], FirmwareGains(**gains), 0.0005)
+    moved = ServoFirmware([IDEAL], FirmwareGains(**gains), 0.002)
+    coarse_torque = moved.torque([2100.0], [2048.0], [0.0])  # coefficients cached at 2 ms
+    moved.set_period(0.0005)
+    moved.reset([2048.0])
+    built.reset([2048.0])
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        goal, present, speed = [2048 + rng.uniform(0, 80)], [2048 + rng.uniform(0, 60)], [0.1]
+        assert moved.torque(goal, present, speed) == pytest.approx(
+            built.torque(goal, present, speed), rel=1e-12, abs=1e-12)
+    assert moved.period_s == 0.0005 and coarse_torque.shape == (1,)
+    with pytest.raises(InputError, match=r"expected a firmware period in \(0, 0.1\] s, got 0.5"):
+        moved.set_period(0.5)
+
+
+def test_joint_servos_pass_their_period_on_and_read_the_output_shaft():
+    joints = servo.JointServos(["XM430-W350"], FirmwareGains(), 0.002)
+    joints.set_period(0.001)
+    assert joints.firmware.period_s == 0.001
+    assert joints.encoder_on_output  # a Dynamixel's encoder sits after its gear train
