@@ -29,48 +29,18 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.jobs.robustness import (
+    ALL_AT_ONCE,
+    ALL_BUT_ELASTIC,
+    BEYOND_REACH,
+    BOUNDS,
+    ONE_AT_A_TIME,
+    overrides,
+)
+
 ROOT = Path(__file__).resolve().parents[1]
 REALISTIC = ROOT / "scenarios" / "realistic_iiwa.toml"
 SERVO_ARM = ROOT / "scenarios" / "realistic_servo_arm.toml"
-ELASTIC = [2e4, 2e4, 1e4, 1e4, 5e3, 2e3, 2e3]
-ONE_AT_A_TIME = {
-    "exact twin": {},
-    "paper +5 mm": {"paper_height_mm": 5.0},
-    "paper -5 mm": {"paper_height_mm": -5.0},
-    "paper tilted 2 deg": {"paper_tilt_deg": 2.0},
-    "masses +20 %, centres of mass 20 mm off": {"mass_scale": 1.2, "com_offset_mm": 20.0},
-    "masses -20 %, centres of mass 20 mm off": {"mass_scale": 0.8, "com_offset_mm": 20.0},
-    "payload 0.5 kg": {"payload_kg": 0.5},
-    "Coulomb friction 5/5/3/3/2/1/1 N m": {"coulomb_nm": [5, 5, 3, 3, 2, 1, 1]},
-    "series elasticity 2e4..2e3 N m/rad": {"elasticity_nm_per_rad": ELASTIC},
-    "q noise 1e-4 rad, velocity from differences": {"q_noise_rad": 1e-4,
-                                                    "velocity": "differences"},
-    "2 ms sensing + 2 ms actuation delay": {"sensing_delay_ms": 2.0, "actuation_delay_ms": 2.0},
-    "hard paper (rigid, solref 2 ms), nib friction 0.3": {
-        "paper_stiffness_n_per_mm": 0.0, "paper_timeconst_s": 0.002, "nib_friction": 0.3},
-}
-ALL_AT_ONCE = {k: v for plant in ONE_AT_A_TIME.values() for k, v in plant.items()}
-ALL_BUT_ELASTIC = {k: v for k, v in ALL_AT_ONCE.items() if k != "elasticity_nm_per_rad"}
-BEYOND_REACH = {  # plant -> the watchdog that must stop it
-    "paper 30 mm lower": ({"paper_height_mm": -30.0}, "paper_not_found"),
-    "paper 20 mm higher": ({"paper_height_mm": 20.0}, "force_limit"),
-    "actuation delay 40 ms": ({"actuation_delay_ms": 40.0}, "tracking_limit"),
-    "sensing 30 + actuation 30 ms": ({"sensing_delay_ms": 30.0, "actuation_delay_ms": 30.0},
-                                     "tracking_limit"),
-    "series elasticity 100 N m/rad": ({"elasticity_nm_per_rad": 100.0}, "torque_saturated"),
-    "encoder 64 ticks/rev": ({"encoder_ticks_per_rev": 64, "velocity": "differences"},
-                             "torque_saturated"),
-    "torque limits 10 % (below gravity)": ({"torque_limit_scale": 0.1}, "joint_speed"),
-}
-BOUNDS = {"tracking_rms_mm": 0.3, "ink_chamfer_mm": 0.3, "gap_mm": 0.0, "force_band_n": 0.1}
-
-
-def overrides(plant: dict) -> dict:
-    """Scenario overrides for a plant; a stated actuation delay is the controller's lookahead."""
-    out = {f"plant.{k}": v for k, v in plant.items()}
-    if plant.get("actuation_delay_ms"):
-        out["controller.lookahead_s"] = min(plant["actuation_delay_ms"], 2.0) / 1000.0
-    return out
 
 
 def drawing_force(run) -> np.ndarray:
@@ -124,7 +94,7 @@ def run_beyond(name: str) -> dict:
     from inkarm.jobs.scenario import load_scenario
 
     plant, watchdog = BEYOND_REACH[name]
-    result = run(load_scenario().with_overrides(overrides(plant)))
+    result = run(load_scenario().with_overrides(overrides(plant, knows_latency=False)))
     log = result.log
     fault = re.search(r"at t = ([0-9.]+) s", result.reason)
     after = float(log.time[-1]) - float(fault.group(1)) if fault else np.nan
@@ -147,7 +117,7 @@ def main() -> int:
     args = parser.parse_args()
     members = 8 if args.quick else args.members
     t0 = time.perf_counter()
-    plants = {**ONE_AT_A_TIME, "all of the above at once": ALL_AT_ONCE,
+    plants = {"exact twin": {}, **ONE_AT_A_TIME, "all of the above at once": ALL_AT_ONCE,
               "all at once but the elasticity": ALL_BUT_ELASTIC}
     with ProcessPoolExecutor(args.workers) as pool:
         rows = dict(zip(plants, pool.map(run_plant, plants.values())))

@@ -13,34 +13,28 @@ import re
 import numpy as np
 import pytest
 
+from inkarm.jobs.robustness import (
+    ALL_BUT_ELASTIC,
+    BEYOND_REACH,
+    BOUNDS,
+    ELASTIC,
+    ONE_AT_A_TIME,
+    SAFE_WITHIN_S,
+    overrides,
+)
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 
-ELASTIC = [2e4, 2e4, 1e4, 1e4, 5e3, 2e3, 2e3]
-HARD_PAPER = {"paper_stiffness_n_per_mm": 0.0, "paper_timeconst_s": 0.002, "nib_friction": 0.3}
-ROWS = {
-    "paper +5 mm": {"paper_height_mm": 5.0},
-    "paper -5 mm": {"paper_height_mm": -5.0},
-    "paper tilted 2 deg": {"paper_tilt_deg": 2.0},
-    "masses +20 %, CoM 20 mm": {"mass_scale": 1.2, "com_offset_mm": 20.0},
-    "masses -20 %, CoM 20 mm": {"mass_scale": 0.8, "com_offset_mm": 20.0},
-    "payload 0.5 kg": {"payload_kg": 0.5},
-    "Coulomb 5/5/3/3/2/1/1 N m": {"coulomb_nm": [5, 5, 3, 3, 2, 1, 1]},
-    "q noise, velocity from differences": {"q_noise_rad": 1e-4, "velocity": "differences"},
-    "2 + 2 ms delays": {"sensing_delay_ms": 2.0, "actuation_delay_ms": 2.0},
-    "hard paper, nib friction 0.3": HARD_PAPER,
-}
-QUICK = {"paper -5 mm", "hard paper, nib friction 0.3"}
+QUICK = {"paper -5 mm", "hard paper (rigid, solref 2 ms), nib friction 0.3"}
+ROWS = {name: plant for name, plant in ONE_AT_A_TIME.items() if "elasticity" not in name}
 
 
 def draw(plant: dict, scenario=None, knows_latency: bool = True):
-    over = {f"plant.{k}": v for k, v in plant.items()}
-    if knows_latency and plant.get("actuation_delay_ms"):  # the controller knows its latency
-        over["controller.lookahead_s"] = plant["actuation_delay_ms"] / 1000.0
-    return run((scenario or load_scenario()).with_overrides(over))
+    return run((scenario or load_scenario()).with_overrides(overrides(plant, knows_latency)))
 
 
-def assert_within_bounds(result, rms=0.3, chamfer=0.3, band=0.1):
+def assert_within_bounds(result, rms=BOUNDS["tracking_rms_mm"], chamfer=BOUNDS["ink_chamfer_mm"],
+                         band=BOUNDS["force_band_n"]):
     assert result.ok, result.reason
     m = result.metrics
     assert m["tracking_rms_mm"] <= rms and m["ink_chamfer_mm"] <= chamfer, m
@@ -81,8 +75,7 @@ def test_series_elasticity_draws_within_a_third_of_a_millimetre():
 @pytest.mark.sim
 @pytest.mark.slow
 def test_every_imperfection_but_the_elasticity_at_once():
-    plant = {k: v for row in ROWS.values() for k, v in row.items()}
-    assert_within_bounds(draw(plant), band=0.15)
+    assert_within_bounds(draw(ALL_BUT_ELASTIC), band=0.15)
 
 
 @pytest.mark.sim
@@ -95,29 +88,16 @@ def test_an_ensemble_around_the_realistic_scenario_draws():
     assert max(r.metrics["ink_chamfer_mm"] for r in results) <= 0.3
 
 
-BEYOND = {
-    "paper 30 mm lower": ({"paper_height_mm": -30.0}, "paper_not_found"),
-    "paper 20 mm higher": ({"paper_height_mm": 20.0}, "force_limit"),
-    "actuation delay 40 ms": ({"actuation_delay_ms": 40.0}, "tracking_limit"),
-    "sensing 30 + actuation 30 ms": ({"sensing_delay_ms": 30.0, "actuation_delay_ms": 30.0},
-                                     "tracking_limit"),
-    "series elasticity 100 N m/rad": ({"elasticity_nm_per_rad": 100.0}, "torque_saturated"),
-    "encoder 64 ticks/rev": ({"encoder_ticks_per_rev": 64, "velocity": "differences"},
-                             "torque_saturated"),
-    "torque limits 10 %": ({"torque_limit_scale": 0.1}, "joint_speed"),
-}
-
-
 @pytest.mark.sim
 @pytest.mark.parametrize("name", [
-    pytest.param(n, marks=() if n == "paper 30 mm lower" else pytest.mark.slow) for n in BEYOND])
+    pytest.param(n, marks=() if n == "paper 30 mm lower" else pytest.mark.slow) for n in BEYOND_REACH])
 def test_beyond_reach_the_run_fails_safe_within_100_ms(name):
-    plant, watchdog = BEYOND[name]
+    plant, watchdog = BEYOND_REACH[name]
     result = draw(plant, knows_latency=False)
     assert result.status == "failed" and result.reason.startswith(f"{watchdog}: "), result.reason
     fault = float(re.search(r"at t = ([0-9.]+) s", result.reason).group(1))
     log = result.log
-    assert len(log) > 0 and log.time[-1] - fault <= 0.1  # the log up to the safe stop
+    assert len(log) > 0 and log.time[-1] - fault <= SAFE_WITHIN_S  # the log up to the safe stop
     assert log.force[-1] == 0.0  # the pen is off the paper
 
 

@@ -1,0 +1,60 @@
+"""Issue 9's robustness conditions as data: plants that differ from the controller's model, one
+imperfection at a time and all at once, plants beyond the controller's reach with the watchdog
+that must stop each, and the bounds a drawing must keep. ``tests/sim/test_robustness.py`` and
+``benchmarks/bench_robustness.py`` run the same conditions; a user can run them on their own
+controller the same way (``run(scenario.with_overrides(overrides(plant)))``).
+
+Each plant is a ``[plant]`` table (:class:`inkarm.sim.imperfections.PlantTruth` fields, SI and
+[mm], [ms] as named).
+"""
+
+from __future__ import annotations
+
+# Series elasticity per joint of the iiwa [N m/rad]: harmonic drives with torque sensors.
+ELASTIC = [2e4, 2e4, 1e4, 1e4, 5e3, 2e3, 2e3]
+HARD_PAPER = {"paper_stiffness_n_per_mm": 0.0, "paper_timeconst_s": 0.002, "nib_friction": 0.3}
+ONE_AT_A_TIME = {
+    "paper +5 mm": {"paper_height_mm": 5.0},
+    "paper -5 mm": {"paper_height_mm": -5.0},
+    "paper tilted 2 deg": {"paper_tilt_deg": 2.0},
+    "masses +20 %, centres of mass 20 mm off": {"mass_scale": 1.2, "com_offset_mm": 20.0},
+    "masses -20 %, centres of mass 20 mm off": {"mass_scale": 0.8, "com_offset_mm": 20.0},
+    "payload 0.5 kg": {"payload_kg": 0.5},
+    "Coulomb friction 5/5/3/3/2/1/1 N m": {"coulomb_nm": [5, 5, 3, 3, 2, 1, 1]},
+    "series elasticity 2e4..2e3 N m/rad": {"elasticity_nm_per_rad": ELASTIC},
+    "q noise 1e-4 rad, velocity from differences": {"q_noise_rad": 1e-4,
+                                                    "velocity": "differences"},
+    "2 ms sensing + 2 ms actuation delay": {"sensing_delay_ms": 2.0, "actuation_delay_ms": 2.0},
+    "hard paper (rigid, solref 2 ms), nib friction 0.3": HARD_PAPER,
+}
+ALL_AT_ONCE = {k: v for plant in ONE_AT_A_TIME.values() for k, v in plant.items()}
+ALL_BUT_ELASTIC = {k: v for k, v in ALL_AT_ONCE.items() if k != "elasticity_nm_per_rad"}
+BEYOND_REACH = {  # plant -> the watchdog that must stop it
+    "paper 30 mm lower": ({"paper_height_mm": -30.0}, "paper_not_found"),
+    "paper 20 mm higher": ({"paper_height_mm": 20.0}, "force_limit"),
+    "actuation delay 40 ms": ({"actuation_delay_ms": 40.0}, "tracking_limit"),
+    "sensing 30 + actuation 30 ms": ({"sensing_delay_ms": 30.0, "actuation_delay_ms": 30.0},
+                                     "tracking_limit"),
+    "series elasticity 100 N m/rad": ({"elasticity_nm_per_rad": 100.0}, "torque_saturated"),
+    "encoder 64 ticks/rev": ({"encoder_ticks_per_rev": 64, "velocity": "differences"},
+                             "torque_saturated"),
+    "torque limits 10 % (below gravity)": ({"torque_limit_scale": 0.1}, "joint_speed"),
+}
+# tracking RMS [mm], ink chamfer [mm], gaps [mm], half-width of the force band [N] around the
+# set point (1st to 99th percentile of the drawing samples)
+BOUNDS = {"tracking_rms_mm": 0.3, "ink_chamfer_mm": 0.3, "gap_mm": 0.0, "force_band_n": 0.1}
+# A fault must have the pen off the paper within this much simulated time [s].
+SAFE_WITHIN_S = 0.1
+
+
+def overrides(plant: dict, knows_latency: bool = True) -> dict:
+    """Scenario overrides for ``plant``; with ``knows_latency`` its actuation delay is the
+    controller's ``lookahead_s`` (what a user who measured the latency would set)."""
+    out = {f"plant.{k}": v for k, v in plant.items()}
+    if knows_latency and plant.get("actuation_delay_ms"):
+        out["controller.lookahead_s"] = plant["actuation_delay_ms"] / 1000.0
+    return out
+
+
+__all__ = ["ALL_AT_ONCE", "ALL_BUT_ELASTIC", "BEYOND_REACH", "BOUNDS", "ELASTIC", "HARD_PAPER",
+           "ONE_AT_A_TIME", "SAFE_WITHIN_S", "overrides"]
