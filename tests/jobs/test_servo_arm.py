@@ -14,10 +14,8 @@ pytestmark = pytest.mark.sim
 # The "Servo arms" row, bounds in [mm].
 ROW = {"tracking_rms_mm": 1.0, "ink_chamfer_mm": 1.0}
 # Position commands on the realistic arm: the host leads its goals by the 4 ms bus delay it
-# knows of, and keeps the model's friction (adapting it against a joint error that the
-# backlash makes hunts, the goal moving by the estimate over K at 7 Hz).
-REALISTIC_POSITION = {"controller.command": "position", "controller.lookahead_s": 0.004,
-                      "controller.friction_adaptation": 0.0}
+# knows of (the scenario keeps the model's friction, as position commands on servos need).
+REALISTIC_POSITION = {"controller.command": "position", "controller.lookahead_s": 0.004}
 
 
 class FirmwareCalls:
