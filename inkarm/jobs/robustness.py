@@ -35,7 +35,7 @@ BEYOND_REACH = {  # plant -> the watchdog that must stop it
     "actuation delay 40 ms": ({"actuation_delay_ms": 40.0}, "tracking_limit"),
     "sensing 30 + actuation 30 ms": ({"sensing_delay_ms": 30.0, "actuation_delay_ms": 30.0},
                                      "tracking_limit"),
-    "series elasticity 100 N m/rad": ({"elasticity_nm_per_rad": 100.0}, "torque_saturated"),
+    "series elasticity 100 N m/rad": ({"elasticity_nm_per_rad": 100.0}, "force_limit"),
     "encoder 64 ticks/rev": ({"encoder_ticks_per_rev": 64, "velocity": "differences"},
                              "torque_saturated"),
     "torque limits 10 % (below gravity)": ({"torque_limit_scale": 0.1}, "joint_speed"),

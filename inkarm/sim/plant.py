@@ -224,7 +224,9 @@ class MujocoPlant:
         if self.transmission:
             loose = dofs[self.transmission.joints]
             m.dof_armature[loose] = 0.0  # the rotor is the transmission's own body now
-            mujoco.mj_setConst(m, d)
+            state = d.qpos.copy(), d.qvel.copy()
+            mujoco.mj_setConst(m, d)  # (which leaves d at the model's qpos0)
+            d.qpos[:], d.qvel[:] = state
             mujoco.mj_forward(m, d)
             # The link side sees tau_c held over a step: keep sqrt(k / J_link) h <= 1.
             dense = np.zeros((m.nv, m.nv))
@@ -243,7 +245,11 @@ class MujocoPlant:
         self._queue: list = []
         self._steps = 0
         self.drive = JointDrive(drive_gains, m.opt.timestep) if drive_gains is not None else None
+        if self.drive is not None and self.transmission:
+            self.drive.elastic(self.transmission.joints, self.transmission.k)
         self.firmware = firmware
+        if firmware is not None and hasattr(firmware, "set_period"):
+            firmware.set_period(m.opt.timestep)  # the step may have been refined above
         self._position_goal: np.ndarray | None = None
         self._motor_torque = np.zeros(n)
         # On exact encoders the drive law is an affine MuJoCo actuator (see JointDrive): the
@@ -423,7 +429,11 @@ class MujocoPlant:
                     v = self.drive.velocity(q_meas, None if senses.differences else qd_motor)
                     tau = self.drive.torque(q_meas, v)
                 else:
-                    tau = self.firmware.torque(self._position_goal, q_meas, qd_motor)
+                    # (a Dynamixel's encoder is on its output shaft: the backlash is inside
+                    # its loop)
+                    on_output = getattr(self.firmware, "encoder_on_output", False)
+                    tau = self.firmware.torque(self._position_goal,
+                                               q_link if on_output else q_meas, qd_motor)
                 self._motor_torque = np.minimum(np.maximum(tau, -self._limit), self._limit)
         tau = self._motor_torque
         if trans:

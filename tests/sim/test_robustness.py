@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from inkarm.jobs.robustness import (
-    ALL_BUT_ELASTIC,
+    ALL_AT_ONCE,
     BEYOND_REACH,
     BOUNDS,
     ELASTIC,
@@ -60,22 +60,23 @@ def test_the_exact_twin_keeps_its_tracking():
 
 @pytest.mark.sim
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="series elasticity: 0.31 mm RMS, above the 0.3 mm bound "
-                   "(the motor-side loop leaves the spring's dynamic deflection)")
 def test_series_elasticity_within_the_bounds():
     assert_within_bounds(draw({"elasticity_nm_per_rad": ELASTIC}))
 
 
 @pytest.mark.sim
 @pytest.mark.slow
-def test_series_elasticity_draws_within_a_third_of_a_millimetre():
-    assert_within_bounds(draw({"elasticity_nm_per_rad": ELASTIC}), rms=0.35)
+def test_every_imperfection_at_once_tracks_within_the_bounds():
+    assert_within_bounds(draw(ALL_AT_ONCE), band=0.15)
 
 
 @pytest.mark.sim
 @pytest.mark.slow
-def test_every_imperfection_but_the_elasticity_at_once():
-    assert_within_bounds(draw(ALL_BUT_ELASTIC), band=0.15)
+@pytest.mark.xfail(strict=True, reason="all at once the force spreads to 0.88..1.14 N (the hard "
+                   "paper's nib friction with the delays and noise: 0.90..1.12 N without the "
+                   "springs)")
+def test_every_imperfection_at_once_keeps_the_force_band():
+    assert_within_bounds(draw(ALL_AT_ONCE))
 
 
 @pytest.mark.sim
@@ -109,14 +110,3 @@ def test_the_servo_arm_draws_through_its_encoders_backlash_and_bus_delay():
     assert result.ok, result.reason
     m = result.metrics
     assert m["tracking_rms_mm"] <= 1.0 and m["ink_chamfer_mm"] <= 1.0 and m["gap_mm"] == 0.0
-
-
-@pytest.mark.sim
-@pytest.mark.slow
-def test_position_commands_drive_the_servo_arm_through_its_firmware_model():
-    scenario = load_scenario("scenarios/wx250s_letter_N.toml").with_overrides(
-        {"controller.command": "position"})
-    result = run(scenario)
-    # the servos' own loop: it finishes, less tight than the host's (about 1.8 mm RMS)
-    assert result.finished, result.reason
-    assert result.metrics["tracking_rms_mm"] < 3.0 and result.metrics["ink_chamfer_mm"] < 1.0

@@ -1,7 +1,7 @@
-"""The joint drives as MuJoCo actuators: the affine actuator applies the drive law exactly
+"""The joint drives: as MuJoCo actuators the affine actuator applies the drive law exactly
 (closed form), its integral runs at the command rate, a plant with native drives draws the same
 run as the same plant with the drives in Python (to rounding), and a torque command turns the
-motors back into plain motors."""
+motors back into plain motors; an elastic joint leads its motor by the spring's deflection."""
 
 from __future__ import annotations
 
@@ -112,3 +112,44 @@ def test_a_torque_command_turns_the_drives_back_into_motors():
     assert plant.model.actuator_biastype[0] == mujoco.mjtBias.mjBIAS_NONE
     assert np.allclose(plant.data.actuator_force[:N], tau)
     assert np.array_equal(plant.read().torque, tau)
+
+
+def test_an_elastic_joint_leads_its_motor_by_the_spring_deflection():
+    drive = JointDrive(GAINS, 0.002)
+    k = np.array([2e4, 1e4])
+    drive.elastic(np.array([1, 3]), k)
+    assert drive.ki[1] == drive.ki[0] / 10 and drive.ki[3] == drive.ki[0] / 10
+    tau_ff = np.linspace(-40.0, 40.0, N)
+    q = np.zeros(N)
+    drive.set_point(q, None, tau_ff)
+    # at the motor goal q* + tau_ff / k the P term is silent: the motor passes tau_ff
+    motor = q.copy()
+    motor[[1, 3]] += tau_ff[[1, 3]] / k
+    assert np.allclose(drive.torque(motor, np.zeros(N)), tau_ff, rtol=0, atol=1e-9)
+
+
+def test_the_static_deflection_of_an_elastic_arm_is_led_away():
+    """Holding a pose against gravity through springs: the links sit where they are asked to,
+    without waiting for the integral (the lead alone)."""
+    from inkarm.control.kinematics import ArmKinematics
+    from inkarm.sim.cell import kinematic_model
+
+    cell = make_cell()
+    plant = MujocoPlant(cell=cell, truth=PlantTruth(elasticity_nm_per_rad=[2e4, 2e4, 1e4, 1e4,
+                                                                           5e3, 2e3, 2e3]))
+    plant.drive.ki[:] = 0.0
+    pose = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
+    gravity = ArmKinematics.of(kinematic_model(cell)).bias(pose, np.zeros(N)).copy()
+    for _ in range(300):
+        plant.command(PositionCommand(pose, np.zeros(N), None, gravity))
+        plant.step()
+    assert np.abs(gravity).max() > 20.0  # 55 N m at the shoulder: 2.8 mrad of spring
+    assert np.abs(plant.data.qpos[:N] - pose).max() < 2e-5
+
+
+def test_a_plant_with_a_transmission_starts_where_it_is_put():
+    pose = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
+    plant = MujocoPlant(cell=make_cell(), q0=pose,
+                        truth=PlantTruth(elasticity_nm_per_rad=[2e4] * N, backlash_deg=0.1))
+    assert np.array_equal(plant.read().q, pose)
+    assert np.array_equal(plant.transmission.theta, pose)  # rotors at rest against the links
