@@ -70,8 +70,7 @@ def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: i
     cell = Cell(scenario.cell, scenario.robot)
     profile = scenario.robot
     cfg = DynamixelConfig.of(profile)
-    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
-                    ink=scenario.ink.make())
+    canvas = scenario.ink.canvas(cell.paper_size_mm)
     twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=1)
     emulator = DynamixelEmulator(specs_for_profile(cfg, profile.n), TwinJoints(twin),
                                  baudrate=baudrate or cfg.baudrate, faults=faults,
@@ -113,8 +112,7 @@ def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
         raise e.within(file=scenario.path) from None
     notes = () if cal is not None else (f"no calibration file ({path}): tick 2048 is 0 rad",)
     canvas_given = canvas is not None
-    canvas = canvas if canvas is not None else Canvas(
-        size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make())
+    canvas = canvas if canvas is not None else scenario.ink.canvas(cell.paper_size_mm)
     plant = DynamixelPlant(port, profile, cal, trace_path=trace_path)
     try:
         log = run_drawing(drawing, plant, believed, profile.gains, config, progress=progress,
@@ -179,8 +177,7 @@ def simulate_servo_arm(scenario: Scenario, progress=None) -> Run:
     cell = Cell(scenario.cell, profile)
     drawing = placed_within_budget(scenario, cell)
     believed = kinematic_model(cell)
-    canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
-                    ink=scenario.ink.make())
+    canvas = scenario.ink.canvas(cell.paper_size_mm)
     substeps = _substeps(profile.control_period_s, scenario.cell.timestep)
     twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=substeps,
                        firmware=joint_firmware(profile, scenario.cell.timestep))

@@ -72,15 +72,14 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
         # Ctrl-C: stop the machine now (soft reset, unlock, pen up), keep what was measured.
         plant.streamer.state.failure = plant.streamer.state.failure or "interrupted by the user"
         plant.close()
-        raise RunInterrupted(Run(scenario, INTERRUPTED, drawing, None, canvas or Canvas(
-            size_mm=size, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make()),
+        raise RunInterrupted(Run(scenario, INTERRUPTED, drawing, None, canvas or scenario.ink.canvas(size),
             reason="interrupted by the user (Ctrl-C); the plotter was reset and its pen "
             "lifted")) from None
     finally:
         plant.close()
     own_canvas = canvas is None
     if own_canvas:
-        canvas = Canvas(size_mm=size, px_per_mm=scenario.ink.px_per_mm, ink=scenario.ink.make())
+        canvas = scenario.ink.canvas(size)
         ink_measured(canvas, log)
     notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile {pen.name!r}, "
              f"{len(log)} status reports (the log's rows)"),)
@@ -145,8 +144,7 @@ def arm_and_plotter(scenario: Scenario, speedup: float = 2.0) -> tuple[Run, Run]
     from inkarm.jobs.run import run
 
     arm = run(scenario)
-    canvas = Canvas(size_mm=page_size_mm(scenario), px_per_mm=scenario.ink.px_per_mm,
-                    ink=scenario.ink.make())
+    canvas = scenario.ink.canvas(page_size_mm(scenario))
     config = EmulatorConfig(speedup=speedup)
     with GrblEmulator(config, canvas=canvas) as emulator:
         plotter = run_plotter_scenario(scenario, emulator.port, time_scale=speedup,

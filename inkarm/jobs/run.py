@@ -96,8 +96,7 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
     try:
         drawing = placed_within_budget(scenario, cell)
         believed = kinematic_model(cell)  # the controller's own model, of the nominal cell
-        canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
-                        ink=scenario.ink.make())
+        canvas = scenario.ink.canvas(cell.paper_size_mm)
         truth = scenario.plant.realised()
         servos = (_servo_firmware(scenario.robot, scenario.cell.timestep)
                   if scenario.controller.command == "position" else None)

@@ -64,7 +64,7 @@ from inkarm.control.config import LoopConfig
 from inkarm.core.equality import same
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InkarmError, InputError, ScenarioError
-from inkarm.ink.canvas import INK_MODELS
+from inkarm.ink.canvas import INK_MODELS, Canvas
 from inkarm.io.toml import TomlReader, load_toml
 from inkarm.jobs.sources import Source, parse_source, source_table
 from inkarm.robots.profile import GAIN_KEYS, RobotProfile, gain_vector
@@ -107,6 +107,10 @@ class InkSpec:
         """A fresh ink model."""
         return dataclasses.replace(self.params) if self.params is not None else \
             INK_MODELS[self.model]()
+
+    def canvas(self, size_mm: tuple[float, float]) -> Canvas:
+        """A blank page of ``size_mm`` [mm] in this ink, at this resolution."""
+        return Canvas(size_mm=size_mm, px_per_mm=self.px_per_mm, ink=self.make())
 
 
 @dataclass(frozen=True, eq=False)
