@@ -238,7 +238,7 @@ class MujocoPlant:
                 m.opt.timestep /= split
                 self.substeps *= split
                 self._timestep = float(m.opt.timestep)
-            self.transmission = Transmission(stiffness, backlash, rotor, m.opt.timestep)
+                self.transmission = Transmission(stiffness, backlash, rotor, m.opt.timestep)
             self.transmission.reset(self._qpos[self._qpos_adr], self._qvel[self._dof_adr])
         self.senses_model = Senses(truth, n, m.opt.timestep)
         self._delay_steps = round(truth.actuation_delay_ms / 1000.0 / m.opt.timestep)
