@@ -23,7 +23,6 @@ import os
 import select
 import threading
 import time
-import tty
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Self
@@ -35,6 +34,7 @@ from inkarm.hardware.dynamixel import protocol as p
 from inkarm.hardware.dynamixel.instructions import EmulatedBus, EmulatedServo
 from inkarm.hardware.dynamixel.physics import JointPhysics, Mount, ServoBank, SimpleJoints
 from inkarm.hardware.dynamixel.tables import BAUD_RATES, table
+from inkarm.hardware.pty import close_quietly, open_raw_pty
 
 MAX_CATCH_UP_S = 0.05
 FAULT_KINDS = ("silent", "crc", "late", "overload", "overheat", "watchdog", "disconnect")
@@ -141,9 +141,7 @@ class DynamixelEmulator:
     # --- life cycle ----------------------------------------------------------------------------
     def start(self) -> str:
         """Open the pty, start serving; returns the port name to connect to."""
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)
-        self.port = os.ttyname(self._slave)
+        self._master, self._slave, self.port = open_raw_pty()
         self._running = True
         self._t0 = time.monotonic()
         self._thread = threading.Thread(target=self._serve, name="dynamixel-emulator",
@@ -160,12 +158,7 @@ class DynamixelEmulator:
         self._running = False
         if self._thread is not None:
             self._thread.join(timeout=2.0)
-        for fd in (self._master, self._slave):
-            if fd >= 0:
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
+        close_quietly(self._master, self._slave)
         self._master = self._slave = -1
 
     def __enter__(self) -> Self:
@@ -262,12 +255,8 @@ class DynamixelEmulator:
             raise
         finally:
             self._running = False
-            if self._master >= 0:  # a disconnect: the host sees the port vanish
-                try:
-                    os.close(self._master)
-                except OSError:
-                    pass
-                self._master = -1
+            close_quietly(self._master)  # a disconnect: the host sees the port vanish
+            self._master = -1
 
     def _answer(self, packet: p.Packet, t_arrival: float) -> None:
         self.stats.packets += 1

@@ -24,18 +24,17 @@ closing (a disconnect) at the k-th line.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import select
 import threading
 import time
-import tty
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Self
 
 from inkarm.errors import InputError
 from inkarm.hardware.plotter.machine import GrblMachine, PenConfig
+from inkarm.hardware.pty import close_quietly, open_raw_pty
 
 RX_BUFFER = 128  # GRBL 1.1's serial receive buffer [bytes]
 MAX_REPLIES_KEPT = 10_000
@@ -143,9 +142,7 @@ class GrblEmulator:
 
     def start(self) -> str:
         """Open the pseudo-terminal, start both threads, return the port path."""
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)
-        self.port = os.ttyname(self._slave)
+        self._master, self._slave, self.port = open_raw_pty()
         self._wall0 = time.monotonic()
         self._threads = [threading.Thread(target=self._receive, name="grbl-rx", daemon=True),
                          threading.Thread(target=self._protocol, name="grbl-main", daemon=True)]
@@ -167,10 +164,7 @@ class GrblEmulator:
         with self._lock:
             if self.canvas is not None and self.canvas.in_contact:
                 self.canvas.lift()
-        for fd in (self._master, self._slave):
-            if fd >= 0:
-                with contextlib.suppress(OSError):
-                    os.close(fd)
+        close_quietly(self._master, self._slave)
         self._master = self._slave = -1
 
     def __enter__(self) -> Self:
@@ -297,8 +291,7 @@ class GrblEmulator:
             machine.raise_alarm(fault.code)
         else:
             self._stop.set()
-            with contextlib.suppress(OSError):
-                os.close(self._master)
+            close_quietly(self._master)
             self._master = -1
 
     def _write(self, lines: list[str]) -> bool:
