@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from inkarm.errors import InputError
 
 
@@ -41,3 +43,15 @@ def check_ranges(obj, ranges: dict[str, Range]) -> None:
             if isinstance(v, bool) or not bounds.contains(float(v)):
                 what = "numbers" if isinstance(value, tuple | list) else "a number"
                 raise InputError(f"expected {what} in {bounds}, got {v}", key=name, value=value)
+
+
+def outside(values, low: float, high: float) -> float | None:
+    """The first of ``values`` outside [low, high] (NaN counts as outside), else None."""
+    arr = np.asarray(values, dtype=float).ravel()
+    bad = ~((arr >= low) & (arr <= high))
+    return float(arr[np.argmax(bad)]) if bad.any() else None
+
+
+def expected_in(low: float, high: float, unit: str, what: str = "numbers") -> str:
+    """``expected numbers in [1e-06, 1e+06] mm`` (the start of a range message)."""
+    return f"expected {what} in [{low:g}, {high:g}]{' ' + unit if unit else ''}"

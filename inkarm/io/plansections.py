@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from inkarm.core.plan import GaussianTarget, StrokePlan, check_covariance
+from inkarm.core.ranges import expected_in, outside
 from inkarm.errors import InkarmError, PlanError, ScenarioError
 from inkarm.io.toml import TomlReader, describe
 from inkarm.models.covariances import MAX_BASIS
@@ -34,8 +35,6 @@ from inkarm.models.lqt.config import (
     VARIANCE_RANGE,
     coordinate_error,
     covariance_error,
-    expected_in,
-    outside,
 )
 
 TARGET_KEYS = ("mean", "cov", "std", "angle")

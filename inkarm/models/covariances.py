@@ -31,7 +31,8 @@ def semi_tied_covariances(m: int, H, h, rho: float = 0.0, seed=None) -> np.ndarr
     if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
         raise InputError(f"expected a positive integer number of targets, got {m!r}", key="m",
                          value=m)
-    from inkarm.models.lqt.config import VARIANCE_RANGE, expected_in, outside
+    from inkarm.core.ranges import expected_in, outside
+    from inkarm.models.lqt.config import VARIANCE_RANGE
 
     basis = _basis(H)
     if not _positive(h):

@@ -48,9 +48,10 @@ from __future__ import annotations
 import numpy as np
 
 from inkarm.core import budget
+from inkarm.core.ranges import expected_in
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
-from inkarm.models.lqt.config import MAX_TIME, coordinate_error, expected_in
+from inkarm.models.lqt.config import MAX_TIME, coordinate_error
 from inkarm.models.minjerk import minimum_jerk_profile
 
 THESIS_CLOCK = 2.0  # seed 002 sec. 3.2: t in [0, 2]

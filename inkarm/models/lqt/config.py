@@ -39,6 +39,7 @@ import numpy as np
 
 from inkarm.core import budget
 from inkarm.core.plan import StrokePlan
+from inkarm.core.ranges import expected_in, outside
 from inkarm.errors import InputError, PlanError
 
 MAX_ORDER = 7
@@ -53,18 +54,6 @@ MAX_TIME = 3600.0  # segment_time, durations, pauses [s]
 MAX_VELOCITY = 1e10  # [mm/s]
 SOLVERS = ("auto", "cholesky", "augmented", "batch")
 DISCRETISATIONS = ("euler", "zoh")
-
-
-def outside(values, low: float, high: float) -> float | None:
-    """The first of ``values`` outside [low, high] (NaN counts as outside), else None."""
-    arr = np.asarray(values, dtype=float).ravel()
-    bad = ~((arr >= low) & (arr <= high))
-    return float(arr[np.argmax(bad)]) if bad.any() else None
-
-
-def expected_in(low: float, high: float, unit: str, what: str = "numbers") -> str:
-    """``expected numbers in [1e-06, 1e+06] mm`` (the start of a range message)."""
-    return f"expected {what} in [{low:g}, {high:g}]{' ' + unit if unit else ''}"
 
 
 def coordinate_error(values) -> str | None:
