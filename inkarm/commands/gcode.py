@@ -45,12 +45,16 @@ def load_drawing(source: str):
         from inkarm.core.trajectory import Drawing
 
         return Drawing.from_npz(path)
-    if suffix == ".toml":
-        from inkarm.jobs.plotter import page_size_mm
-        from inkarm.jobs.scenario import load_scenario, place, source_drawing
+    if suffix == ".toml":  # placed on its sheet, as `inkarm draw --backend plotter` places it
+        from inkarm.errors import InkarmError
+        from inkarm.jobs.plotter import page_size_mm, placed_on_sheet
+        from inkarm.jobs.scenario import load_scenario
 
         scenario = load_scenario(path)
-        return place(source_drawing(scenario), scenario.placement, page_size_mm(scenario))
+        try:
+            return placed_on_sheet(scenario, page_size_mm(scenario))
+        except InkarmError as e:
+            raise e.within(file=scenario.path) from None
     raise InputError(f"{source}: expected a scenario (.toml) or a drawing "
                      f"({', '.join(DRAWING_SUFFIXES)})", key="source", value=source)
 

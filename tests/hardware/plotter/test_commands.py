@@ -4,6 +4,7 @@ import json
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -120,3 +121,14 @@ def test_draw_check_on_the_plotter_sends_nothing(tmp_path, capsys):
     assert main(["draw", str(scenario), "--backend", "plotter", "--check", "--out",
                  str(tmp_path / "o")]) == 2
     assert "beyond the 210 x 297 mm sheet" in capsys.readouterr().err
+
+
+def test_gcode_refuses_a_scenario_drawn_off_its_sheet(tmp_path, capsys):
+    scenario = tmp_path / "off.toml"
+    text = Path("inkarm/data/default.toml").read_text()
+    scenario.write_text(text.replace("centre_mm = [105.0, 148.5]", "centre_mm = [195.0, 148.5]"))
+    out = tmp_path / "off.gcode"
+    assert main(["gcode", str(scenario), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "off.toml" in err and "placement" in err and "beyond the 210 x 297 mm sheet" in err
+    assert not out.exists()
