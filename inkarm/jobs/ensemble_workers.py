@@ -8,11 +8,14 @@ own process, puts every core to work on every part. The members of a share are t
 as in one big batch (a member's simulation does not depend on the others).
 
 Why persistent and forked: a process that starts Python and imports MuJoCo costs about a second,
-what a share of a small ensemble costs. The workers are forked from this process (the modules
-already imported; a few milliseconds each) when first needed and kept, each waiting for its next
-share, so a sweep of several ensembles starts them once (:func:`shutdown_workers` ends them;
-they are daemons, ended with this process too). Where fork is not the platform's way, they are
-started by a forkserver that has imported the ensemble's modules once.
+what a share of a small ensemble costs. The first share runs in this process (it would wait
+otherwise); the others' workers are forked from this process (the modules already imported;
+a few milliseconds each) when first needed and kept, each waiting for its next share, so a
+sweep of several ensembles starts them once (:func:`shutdown_workers` ends them; they are
+daemons, ended with this process too). The fork freezes what the worker inherits
+(``gc.freeze``): it never collects an object of this process, such as a batch whose threads
+it does not have. Where fork is not the platform's way, they are started by a forkserver that
+has imported the ensemble's modules once.
 
 What travels back: each item pickled, with every 2-D array of at least :data:`PAGE_BYTES` (the
 canvas's page rasters) sent as its non-zero box only and rebuilt on zeroed pages (bit for bit;
@@ -28,6 +31,7 @@ from __future__ import annotations
 
 import atexit
 import ctypes
+import gc
 import io
 import itertools
 import mmap
@@ -182,7 +186,13 @@ class _Workers:
             receive, send = context.Pipe(duplex=False)
             process = context.Process(target=_serve, args=(receive, self.results), daemon=True,
                                       name="inkarm-ensemble-worker")
-            process.start()
+            # A forked worker must never collect what it inherited: a batch of this process's
+            # (its threads not forked) would join threads that do not exist there and abort.
+            gc.freeze()
+            try:
+                process.start()
+            finally:
+                gc.unfreeze()
             receive.close()
             self.processes.append(process)
             self.tasks.append(send)
@@ -277,62 +287,101 @@ def worker_cpu_seconds() -> float:
 
 
 def stream_shares(work: Callable[..., Iterator], shares: list[tuple],
-                  progress: Callable[[float, str], None] | None = None) -> Iterator:
-    """Run ``work(*share, progress=...)`` for every share at once, each in its own worker
-    process; yield the items of share 0 in order, then those of share 1, and so on, as they
-    arrive. ``work`` is a module-level generator function (sent by reference).
+                  progress: Callable[[float, str], None] | None = None,
+                  here: bool = True) -> Iterator:
+    """Run ``work(*share, progress=...)`` for every share at once, share 0 in this process
+    (``here``; else in a worker too) and each other in its own worker process; yield the items
+    of share 0 in order, then those of share 1, and so on. ``work`` is a module-level generator
+    function (sent by reference). This process's share is iterated as its items are asked for,
+    so what it does per item (a member's inking) runs while the workers go on.
 
     ``progress(fraction, phase)`` gets the fraction of the share furthest behind (so it never
     goes back), with that share's phase."""
-    pool, kept = _take(len(shares))
+    first = 1 if here else 0
+    if len(shares) == first:
+        yield from work(*shares[0], progress=progress)
+        return
+    pool, kept = _take(len(shares) - first)
     finished = False
     try:
         ident = next(_ids)
-        for share, args in enumerate(shares):
-            pool.tasks[share].send((ident, share, work, args, progress is not None))
-        yield from _collect(pool, ident, len(shares), progress)
+        for share in range(first, len(shares)):
+            pool.tasks[share - first].send((ident, share, work, shares[share],
+                                            progress is not None))
+        inbox = _Inbox(pool, ident, len(shares), progress)
+        if here:
+            def report(fraction: float, phase: str) -> None:
+                inbox.report(0, fraction, phase)
+                inbox.drain()
+
+            yield from work(*shares[0], progress=report if progress is not None else None)
+        yield from inbox.items(first)
         finished = True
     finally:
         _give_back(pool, kept, finished)
 
 
-def _collect(pool: _Workers, ident: int, n_shares: int,
-             progress: Callable[[float, str], None] | None) -> Iterator:
-    waiting: dict[tuple[int, int], bytes] = {}
-    counts: dict[int, int] = {}
-    fractions = [0.0] * n_shares
-    phases = [""] * n_shares
-    reported = -1.0
-    share, index = 0, 0
-    while share < n_shares:
-        if (share, index) in waiting:
-            yield pickle.loads(waiting.pop((share, index)))
-            index += 1
-            continue
-        if counts.get(share) == index:
-            share, index = share + 1, 0
-            continue
+class _Inbox:
+    """What the workers of one ensemble sent: items waiting to be yielded, shares done, the
+    progress of each share."""
+
+    def __init__(self, pool: _Workers, ident: int, n_shares: int,
+                 progress: Callable[[float, str], None] | None):
+        self.pool, self.ident, self.progress = pool, ident, progress
+        self.waiting: dict[tuple[int, int], bytes] = {}
+        self.counts: dict[int, int] = {}
+        self.fractions = [0.0] * n_shares
+        self.phases = [""] * n_shares
+        self.reported = -1.0
+
+    def report(self, share: int, fraction: float, phase: str) -> None:
+        self.fractions[share], self.phases[share] = fraction, phase
+        if self.progress is None:
+            return
+        slowest = int(np.argmin(self.fractions))
+        if self.fractions[slowest] > self.reported:
+            self.reported = self.fractions[slowest]
+            self.progress(self.reported, self.phases[slowest] or phase)
+
+    def drain(self) -> None:
+        """Take every message already sent, without waiting."""
+        while self.receive(timeout=0.0):
+            pass
+
+    def receive(self, timeout: float) -> bool:
+        """Take one message (waiting up to ``timeout`` [s]); False when none came. Raises a
+        worker's error, or names a worker that died."""
         try:
-            tag, kind, origin, payload = pool.results.get(timeout=_POLL_S)
+            tag, kind, origin, payload = self.pool.results.get(timeout=timeout) if timeout \
+                else self.pool.results.get_nowait()
         except queue.Empty:
-            dead = pool.dead()
+            dead = self.pool.dead()
             if dead:
                 raise InkarmError(f"{dead}; the ensemble is lost") from None
-            continue
-        if tag != ident:
-            continue
+            return False
+        if tag != self.ident:
+            return True
         if kind == "item":
-            waiting[(origin, payload[0])] = payload[1]
+            self.waiting[(origin, payload[0])] = payload[1]
         elif kind == "done":
-            counts[origin], pid, _cpu_by_pid[pid] = payload
+            self.counts[origin], pid, _cpu_by_pid[pid] = payload
         elif kind == "error":
             raise payload
-        elif kind == "progress" and progress is not None:
-            fractions[origin], phases[origin] = payload
-            slowest = int(np.argmin(fractions))
-            if fractions[slowest] > reported:
-                reported = fractions[slowest]
-                progress(reported, phases[slowest] or payload[1])
+        elif kind == "progress":
+            self.report(origin, *payload)
+        return True
+
+    def items(self, share: int) -> Iterator:
+        """The items of the workers' shares from ``share`` on, in order."""
+        index = 0
+        while share < len(self.fractions):
+            if (share, index) in self.waiting:
+                yield pickle.loads(self.waiting.pop((share, index)))
+                index += 1
+            elif self.counts.get(share) == index:
+                share, index = share + 1, 0
+            else:
+                self.receive(timeout=_POLL_S)
 
 
 __all__ = ["PAGE_BYTES", "available_cpus", "nonzero_box", "pack", "shutdown_workers",

@@ -5,6 +5,7 @@ workers."""
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import os
 import pickle
@@ -77,14 +78,16 @@ def numbered(first: int, count: int, progress=None):
         yield first + k, os.getpid()
 
 
-def broken(message: str, progress=None):
+def broken(message: str | None, progress=None):
     yield 1
-    raise InputError(message, key="share")
+    if message:
+        raise InputError(message, key="share")
 
 
 def dying(code: int, progress=None):
-    os._exit(code)
-    yield  # pragma: no cover
+    if code:
+        os._exit(code)
+    yield from ()
 
 
 class Unpicklable(Exception):
@@ -92,41 +95,71 @@ class Unpicklable(Exception):
         super().__init__(a)
 
 
-def unpicklable(_, progress=None):
-    raise Unpicklable("odd", 2)
-    yield  # pragma: no cover
+def unpicklable(fail: bool, progress=None):
+    if fail:
+        raise Unpicklable("odd", 2)
+    yield from ()
 
 
-def test_shares_stream_in_order_from_kept_workers():
+@pytest.mark.parametrize("here", [True, False])
+def test_shares_stream_in_order_from_kept_workers(here):
     reports = []
     items = list(stream_shares(numbered, [(0, 3), (100, 5), (200, 1)],
-                               lambda f, phase: reports.append(f)))
+                               lambda f, phase: reports.append(f), here=here))
     assert [k for k, _ in items] == [0, 1, 2, 100, 101, 102, 103, 104, 200]
-    pids = {pid for _, pid in items}
-    assert len(pids) == 3 and os.getpid() not in pids
+    pid_of = dict(items)
+    pids = [pid_of[0], pid_of[100], pid_of[200]]
+    assert len(set(pids)) == 3 and os.getpid() not in pids[1:]
+    assert (pids[0] == os.getpid()) == here  # share 0 in this process
     assert reports == sorted(reports) and reports[-1] == 1.0  # the slowest share's, never back
-    again = {pid for _, pid in stream_shares(numbered, [(0, 1), (1, 1), (2, 1)])}
-    assert again == pids  # kept: a sweep starts its workers once
+    again = dict(stream_shares(numbered, [(0, 1), (100, 1), (200, 1)], here=here))
+    assert [again[100], again[200]] == pids[1:]  # kept: a sweep starts its workers once
 
 
 def test_an_error_in_a_worker_is_raised_here_and_the_workers_end():
     with pytest.raises(InputError, match="share broke") as err:
-        list(stream_shares(broken, [("share broke",), ("share broke",)]))
+        list(stream_shares(broken, [(None,), ("share broke",)]))
     assert err.value.key == "share"
     assert workers_alive() == []
     with pytest.raises(InkarmError, match="(?s)an ensemble worker failed:.*Unpicklable"):
-        list(stream_shares(unpicklable, [(0,), (1,)]))
+        list(stream_shares(unpicklable, [(False,), (True,)]))
 
 
 def test_a_worker_that_dies_is_named():
     with pytest.raises(InkarmError, match=r"ensemble worker \d \(pid \d+\) ended with exit "
                                           r"code 7; the ensemble is lost"):
-        list(stream_shares(dying, [(7,), (7,)]))
+        list(stream_shares(dying, [(0,), (7,)]))
     assert workers_alive() == []
 
 
+def collecting(progress=None):
+    gc.collect()  # whatever the worker inherited and could collect, it collects now
+    yield os.getpid()
+
+
+@pytest.mark.sim
+def test_a_threaded_batch_left_to_the_collector_here_does_not_kill_a_worker(risky):
+    from inkarm.sim.batch import BatchPlant, member_model
+    from inkarm.sim.cell import Cell
+    from inkarm.sim.imperfections import PlantTruth
+
+    cell = Cell(risky.cell, risky.robot)
+    gc.disable()  # the batch stays uncollected garbage until the worker collects it
+    try:
+        plant = BatchPlant([member_model(cell, PlantTruth())] * 2, cell, PlantTruth(), [0, 1],
+                           nthread=2)
+        cycle = {"plant": plant}
+        cycle["cycle"] = cycle
+        del plant, cycle
+        ensemble_workers.shutdown_workers()  # forked now, with the garbage
+        (_, worker) = list(stream_shares(collecting, [(), ()]))
+    finally:
+        gc.enable()
+    assert worker != os.getpid()
+
+
 def test_a_caller_that_stops_ends_the_workers():
-    items = stream_shares(numbered, [(0, 2), (10, 2)])
+    items = stream_shares(numbered, [(0, 2), (10, 2), (20, 2)])
     assert next(items)[0] == 0
     assert len(workers_alive()) >= 2
     items.close()
