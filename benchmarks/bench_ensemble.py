@@ -1,23 +1,29 @@
 """Throughput of ensembles: N plants of one scenario that differ in their random imperfections
-(``plant.seed`` = 0 .. N-1), batched (:func:`inkarm.jobs.ensemble.run_ensemble`: one
-``mujoco.batch`` simulation, the controller vectorised over members) against the same N runs on
-a process pool of :func:`inkarm.jobs.run.run` (one process per CPU, each returning its status,
-metrics and simulated time), in the same process, on the same machine.
+(``plant.seed`` = 0 .. N-1), batched (:func:`inkarm.jobs.ensemble.iter_ensemble`: the members
+in one share per CPU, each share one ``mujoco.batch`` simulation driven by the vectorised
+controller in its own worker process) against the same N runs on a process pool of
+:func:`inkarm.jobs.run.run` (the reference: one spawned process per CPU, each returning its
+status, metrics and simulated time), in the same process, on the same machine.
 
 Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]
-[--repeat R]`` (R interleaved runs of each executor, medians; default 1: the pool takes about a
-minute for 64 members on two cores). Prints
-one markdown table: wall time, members per second, the aggregate real-time factor (simulated
-seconds of all members over the wall time) and the throughput ratio against the process pool,
-for the batch on one MuJoCo thread and on one per CPU, and the CPU time per member (all threads,
-and the workers with their start; on a shared machine the wall-clock ratio moves with the other
-tenants' load, the CPU ratio much less); then the largest difference of a metric
-between the pool and the batch, member by member. Default: 64 members
-of ``scenarios/realistic_iiwa.toml`` (the default letter on the realistic plant whose
-``[plant.random]`` ranges make the ensemble; ``--quick``: 8). Both sides ink every member's
-canvas and compute its metrics, and keep (status, metrics, simulated time) of each member, one
-page at a time (:func:`inkarm.jobs.ensemble.iter_ensemble`); the pool's time includes starting
-its workers.
+[--repeat R]`` (R interleaved runs of each executor, medians; default 1: the pool takes about
+15 s for 64 members on two cores). Prints one markdown table: wall time, members per second,
+the aggregate real-time factor (simulated seconds of all members over the wall time), the
+throughput ratio against the process pool, the CPU time per member (all processes and threads:
+the pool's workers with their start, the ensemble's workers from their fork) and its ratio; then
+the largest difference of a metric between the pool and the batch, member by member. On a
+shared machine the wall-clock ratio moves with the other tenants' load, the CPU ratio much less:
+the load average is printed with the table.
+
+Executors: the pool (reference); the batch in this process (one share, MuJoCo on every CPU:
+the controller, inking and metrics on one core); one share per CPU with the workers started in
+the measurement (``shutdown_workers`` first: the fork of each worker is counted, as the pool's
+start is); and one share per CPU on the workers kept from the previous ensemble (what each
+ensemble of a sweep after the first costs). Default: 64 members of
+``scenarios/realistic_iiwa.toml`` (the default letter on the realistic plant whose
+``[plant.random]`` ranges make the ensemble; ``--quick``: 8). Every executor inks every
+member's canvas and computes its metrics, and keeps (status, metrics, simulated time) of each
+member, one page at a time.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from inkarm.jobs.ensemble import iter_ensemble
+from inkarm.jobs.ensemble_workers import shutdown_workers, worker_cpu_seconds
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.jobs.sweep_design import with_point
@@ -47,10 +54,12 @@ def one_member(path: str, seed: int) -> tuple[str, dict, float]:
 
 
 def cpu_seconds() -> float:
-    """CPU time [s] of this process (all its threads) and of its children that ended."""
+    """CPU time [s] of this process (all its threads), of its children that ended and of the
+    kept ensemble workers (children that have not ended)."""
     own, children = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
                                                       resource.RUSAGE_CHILDREN))
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    return (own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+            + worker_cpu_seconds())
 
 
 def pooled(path: str, seeds: list[int], workers: int) -> tuple[float, float, float, list]:
@@ -64,31 +73,17 @@ def pooled(path: str, seeds: list[int], workers: int) -> tuple[float, float, flo
     return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 
 
-def batched(path: str, seeds: list[int], nthread: int) -> tuple[float, float, float, list]:
-    """(wall [s], CPU [s], simulated [s], per-member results) of one batched ensemble."""
+def batched(path: str, seeds: list[int], processes: int, nthread: int = 0, cold: bool = False
+            ) -> tuple[float, float, float, list]:
+    """(wall [s], CPU [s], simulated [s], per-member results) of one batched ensemble in
+    ``processes`` shares (1: in this process, on ``nthread`` MuJoCo threads); ``cold``: the
+    kept workers are ended first, so that starting them is measured."""
+    if cold:
+        shutdown_workers()
     start, cpu = time.perf_counter(), cpu_seconds()
     results = [(r.status, r.metrics, float(r.log.time[-1] - r.log.time[0]))
-               for r in iter_ensemble(load_scenario(path), seeds, nthread=nthread)]
-    wall = time.perf_counter() - start
-    return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
-
-
-def _batch_chunk(path: str, seeds: list[int]) -> list:
-    return batched(path, seeds, 1)[3]
-
-
-def batched_processes(path: str, seeds: list[int], workers: int
-                      ) -> tuple[float, float, float, list]:
-    """(wall [s], CPU [s], simulated [s], per-member results) of one batched ensemble per
-    worker process, the seeds split evenly (what stays per member in Python, its canvas and
-    metrics, then runs on every core too)."""
-    start, cpu = time.perf_counter(), cpu_seconds()
-    chunks = [seeds[k::workers] for k in range(workers) if seeds[k::workers]]
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=len(chunks), mp_context=context) as pool:
-        parts = list(pool.map(_batch_chunk, [path] * len(chunks), chunks))
-    by_seed = {seed: r for chunk, part in zip(chunks, parts) for seed, r in zip(chunk, part)}
-    results = [by_seed[seed] for seed in seeds]
+               for r in iter_ensemble(load_scenario(path), seeds, nthread=nthread,
+                                      processes=processes)]
     wall = time.perf_counter() - start
     return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 
@@ -105,13 +100,14 @@ def main() -> int:
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     scenario = load_scenario(args.scenario)
     executors = [(f"process pool, {cpus} workers (reference)",
-                  lambda: pooled(args.scenario, seeds, cpus))]
-    for threads in sorted({1, cpus}):
-        executors.append((f"batched (mujoco.batch, {threads} thread{'s' * (threads > 1)})",
-                          lambda t=threads: batched(args.scenario, seeds, t)))
+                  lambda: pooled(args.scenario, seeds, cpus)),
+                  (f"batched, one process (mujoco.batch, {cpus} threads)",
+                   lambda: batched(args.scenario, seeds, 1, cpus))]
     if cpus > 1:
-        executors.append((f"batched, one batch per process ({cpus} processes)",
-                          lambda: batched_processes(args.scenario, seeds, cpus)))
+        executors += [(f"batched, {cpus} worker processes, started in the run",
+                       lambda: batched(args.scenario, seeds, cpus, cold=True)),
+                      (f"batched, {cpus} worker processes, kept from the previous ensemble",
+                       lambda: batched(args.scenario, seeds, cpus))]
     # Interleaved repeats, so that a busy minute on a shared machine hits every executor alike.
     walls: dict[str, list[float]] = {name: [] for name, _ in executors}
     cpus_used: dict[str, list[float]] = {name: [] for name, _ in executors}
@@ -126,7 +122,9 @@ def main() -> int:
              *last[name]) for name, _ in executors]
     reference, reference_cpu = n / rows[0][1], rows[0][2] / n
     print(f"## Ensembles: {n} plants of {scenario.title!r}\n")
-    print(f"Median of {args.repeat} run{'s' * (args.repeat > 1)} each.\n")
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"Median of {args.repeat} run{'s' * (args.repeat > 1)} each, {cpus} CPUs; load "
+          f"average after the runs (1, 5, 15 min): {load}.\n")
     print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio | "
           "CPU per member [s] | CPU ratio |")
     print("|---|---|---|---|---|---|---|")
@@ -134,6 +132,7 @@ def main() -> int:
         print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
               f"{n / wall / reference:.2f}x | {cpu / n:.3f} | {reference_cpu / (cpu / n):.2f}x |")
     pool, batch = rows[0][4], rows[-1][4]
+    shutdown_workers()
     same_status = sum(a[0] == b[0] for a, b in zip(pool, batch))
     worst = max(((abs(a[1][k] - b[1][k]), k) for a, b in zip(pool, batch) for k in a[1]
                  if k != "realtime_factor" and k in b[1]), default=(0.0, "none"))
