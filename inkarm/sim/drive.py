@@ -66,7 +66,9 @@ class JointDrive:
         self.kp, self.ki, self.kd = (np.asarray(g, dtype=float) for g in
                                      (gains.kp, gains.ki, gains.kd))
         self.limit = np.asarray(gains.integral_limit, dtype=float)
+        self._floor = -self.limit
         self.h = float(step_s)
+        self.kp_h = self.kp * self.h
         self.alpha = self.h / (velocity_filter_s + self.h)
         n = len(self.kp)
         self.integral = np.zeros(n)
@@ -76,11 +78,13 @@ class JointDrive:
         self.q_prev: np.ndarray | None = None
         self.compliance = np.zeros(n)  # 1 / k of a series spring [rad/(N m)], 0 where rigid
         self.lead = np.zeros(n)
+        self._elastic = False
 
     def elastic(self, joints: np.ndarray, stiffness: np.ndarray) -> None:
         """Joints ``joints`` have series springs of ``stiffness`` [N m/rad]: the motor leads by
         the deflection, the link-side integral runs at ``ELASTIC_INTEGRAL_SCALE``."""
         self.compliance[joints] = 1.0 / np.asarray(stiffness, dtype=float)
+        self._elastic = True
         self.ki = self.ki.copy()
         self.ki[joints] *= ELASTIC_INTEGRAL_SCALE
 
@@ -91,12 +95,13 @@ class JointDrive:
         if self.q_goal is not None and q_link is not None and self.since > 0.0:
             error = self.q_goal + self.qd_goal * self.since - q_link
             self.integral = np.minimum(np.maximum(
-                self.integral + (self.ki * self.since) * error, -self.limit), self.limit)
+                self.integral + (self.ki * self.since) * error, self._floor), self.limit)
         n = len(self.kp)
         self.q_goal = np.asarray(q, dtype=float)
         self.qd_goal = np.zeros(n) if qd is None else np.asarray(qd, dtype=float)
         self.tau_ff = np.zeros(n) if tau_ff is None else np.asarray(tau_ff, dtype=float)
-        self.lead = self.compliance * self.tau_ff
+        if self._elastic:
+            self.lead = self.compliance * self.tau_ff
         self.since = 0.0
 
     def velocity(self, q_measured: np.ndarray, qd_exact: np.ndarray | None) -> np.ndarray:
@@ -119,8 +124,8 @@ class JointDrive:
     def affine_control(self) -> tuple[np.ndarray, np.ndarray]:
         """The set point as the control u of an affine actuator (tau = u - K_p q - K_d qd):
         u at the first physics step of the set point and its increase per step, K_p qd* h."""
-        u = self.kp * self.q_goal + self.tau_ff + self.kd * self.qd_goal + self.integral
-        return u, self.kp * self.qd_goal * self.h
+        u = self.kp * self.q_goal + (self.tau_ff + self.kd * self.qd_goal + self.integral)
+        return u, self.kp_h * self.qd_goal
 
     @property
     def active(self) -> bool:
