@@ -315,8 +315,9 @@ class MujocoPlant:
             time=self.data.time,
             q=q_measured,
             qd=qd_reported,
-            torque=(self._actuator_force[self._arm_ctrl].copy() if self._affine else
-                    np.minimum(np.maximum(self._motor_torque, -self._limit), self._limit)),
+            # (every command is clamped to the limits when it is applied)
+            torque=(self._actuator_force[self._arm_ctrl] if self._affine else
+                    self._motor_torque).copy(),
             force=self.senses_model.force(self._pen_force),
             tip_mm=self._tip_mm(),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
