@@ -23,7 +23,8 @@ ensemble of a sweep after the first costs). Default: 64 members of
 ``scenarios/realistic_iiwa.toml`` (the default letter on the realistic plant whose
 ``[plant.random]`` ranges make the ensemble; ``--quick``: 8). Every executor inks every
 member's canvas and computes its metrics, and keeps (status, metrics, simulated time) of each
-member, one page at a time.
+member (:func:`summary`), computed where the member was drawn: the pool's workers return it,
+the ensemble's get it as ``keep``; pages do not travel on either side.
 """
 
 from __future__ import annotations
@@ -40,17 +41,21 @@ from pathlib import Path
 
 from inkarm.jobs.ensemble import iter_ensemble
 from inkarm.jobs.ensemble_workers import shutdown_workers, worker_cpu_seconds
-from inkarm.jobs.run import run
+from inkarm.jobs.run import Run, run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.jobs.sweep_design import with_point
 
 DEFAULT = Path(__file__).resolve().parent.parent / "scenarios" / "realistic_iiwa.toml"
 
 
-def one_member(path: str, seed: int) -> tuple[str, dict, float]:
-    """(status, metrics, simulated [s]) of the scenario at ``path`` with ``plant.seed``."""
-    result = run(with_point(load_scenario(path), {"plant.seed": seed}))
+def summary(result: Run) -> tuple[str, dict, float]:
+    """What both sides keep of a member: (status, metrics, simulated [s])."""
     return result.status, result.metrics, float(result.log.time[-1] - result.log.time[0])
+
+
+def one_member(path: str, seed: int) -> tuple[str, dict, float]:
+    """The summary of the scenario at ``path`` with ``plant.seed``."""
+    return summary(run(with_point(load_scenario(path), {"plant.seed": seed})))
 
 
 def cpu_seconds() -> float:
@@ -81,9 +86,8 @@ def batched(path: str, seeds: list[int], processes: int, nthread: int = 0, cold:
     if cold:
         shutdown_workers()
     start, cpu = time.perf_counter(), cpu_seconds()
-    results = [(r.status, r.metrics, float(r.log.time[-1] - r.log.time[0]))
-               for r in iter_ensemble(load_scenario(path), seeds, nthread=nthread,
-                                      processes=processes)]
+    results = list(iter_ensemble(load_scenario(path), seeds, nthread=nthread,
+                                 processes=processes, keep=summary))
     wall = time.perf_counter() - start
     return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 

@@ -28,7 +28,9 @@ partial Runs are kept).
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -57,20 +59,22 @@ from inkarm.sim.cell import Cell, kinematic_model
 
 def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                  progress: Callable[[float, str], None] | None = None,
-                 processes: int = 0) -> list[Run]:
+                 processes: int = 0, keep: Callable[[Run], Any] | None = None) -> list:
     """Draw ``scenario`` on the plants of ``plant.seed`` = each of ``seeds``, batched; return
     one :class:`Run` per seed, in order (failed members are Runs with status "failed", the
     others go on). ``processes``: shares of the members, each one batch in its own worker
     process (0: one per CPU; 1: one batch in this process); ``nthread``: MuJoCo threads in all
     (0: one per CPU), shared among the processes; ``progress(fraction, phase)`` as for
-    :func:`inkarm.jobs.run.run`, for the member furthest behind. Every Run holds its page:
-    :func:`iter_ensemble` yields them one at a time instead."""
-    return list(iter_ensemble(scenario, seeds, nthread, progress, processes))
+    :func:`inkarm.jobs.run.run`, for the member furthest behind; ``keep(run)``: what to keep of
+    each Run, computed in the process that made it (only that travels back, not the page; a
+    module-level function, sent to the workers by name), returned instead of the Runs. Every
+    Run holds its page: :func:`iter_ensemble` yields them one at a time instead."""
+    return list(iter_ensemble(scenario, seeds, nthread, progress, processes, keep))
 
 
 def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                   progress: Callable[[float, str], None] | None = None,
-                  processes: int = 0) -> Iterator[Run]:
+                  processes: int = 0, keep: Callable[[Run], Any] | None = None) -> Iterator:
     """:func:`run_ensemble` as a generator: the members are yielded in order as their shares
     deliver them (in one process: the whole ensemble is simulated at the first ``next``, then
     each member's canvas is inked and its metrics computed as it is yielded), so a caller that
@@ -108,22 +112,36 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
         check_batchable([scenario.plant.realised(s) for s in seeds])
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
+    if keep is not None:
+        try:
+            pickle.dumps(keep)
+        except (pickle.PicklingError, AttributeError, TypeError) as e:
+            raise InputError(f"keep must be a module-level function (the worker processes get "
+                             f"it by name), not {keep!r} ({e})", key="keep",
+                             value=keep) from None
     cpus = available_cpus()
     shares = [list(part) for part in np.array_split(seeds, min(processes or cpus, len(seeds)))]
     threads = max(1, (nthread or cpus) // len(shares))
     if len(shares) == 1:
-        yield from share_runs(scenario, drawing, seeds, nthread, len(seeds), progress=progress)
+        yield from share_runs(scenario, drawing, seeds, nthread, len(seeds), keep,
+                              progress=progress)
         return
+    # With keep, only summaries travel: the shares all go to workers (malloc tuned for pages,
+    # see ensemble_workers) and this process stays free; without, the first share is drawn
+    # here, so that half the pages need not travel.
     yield from stream_shares(share_runs, [(scenario, drawing, [int(s) for s in share], threads,
-                                           len(seeds)) for share in shares], progress)
+                                           len(seeds), keep) for share in shares], progress,
+                             here=keep is None)
 
 
 def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: int,
-               members: int, progress: Callable[[float, str], None] | None = None
-               ) -> Iterator[Run]:
-    """The Runs of ``seeds``, one share of an ensemble of ``members`` drawing the placed
-    ``drawing``, as one batch on ``nthread`` MuJoCo threads (0: all CPUs). Each log's wall time
-    is the share's over ``members``: the shares run at once, so that is the ensemble's."""
+               members: int, keep: Callable[[Run], Any] | None = None,
+               progress: Callable[[float, str], None] | None = None) -> Iterator:
+    """The Runs of ``seeds`` (or ``keep`` of each), one share of an ensemble of ``members``
+    drawing the placed ``drawing``, as one batch on ``nthread`` MuJoCo threads (0: all CPUs).
+    Each log's wall time is the share's over ``members``: the shares run at once, so that is
+    the ensemble's."""
+    keep = keep or _whole
     cell = Cell(scenario.cell, scenario.robot)
     believed = kinematic_model(cell)
     try:
@@ -145,14 +163,18 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
         log = result.log if isinstance(result, RunFault) else result
         log.wall_s *= len(seeds) / members
         if isinstance(result, RunFault):
-            yield Run(member, FAILED, drawing, log, canvas,
-                      _metrics(log, drawing, believed, canvas), reason=str(result),
-                      notes=log.notes)
+            yield keep(Run(member, FAILED, drawing, log, canvas,
+                           _metrics(log, drawing, believed, canvas), reason=str(result),
+                           notes=log.notes))
             continue
         metrics = _metrics(result, drawing, believed, canvas)
         shortfalls = judge(metrics, scenario.controller.force_n)
-        yield Run(member, DEGRADED if shortfalls else OK, drawing, result, canvas, metrics,
-                  reason="; ".join(shortfalls), notes=result.notes)
+        yield keep(Run(member, DEGRADED if shortfalls else OK, drawing, result, canvas,
+                       metrics, reason="; ".join(shortfalls), notes=result.notes))
+
+
+def _whole(run: Run) -> Run:
+    return run
 
 
 __all__ = ["iter_ensemble", "run_ensemble", "share_runs"]
