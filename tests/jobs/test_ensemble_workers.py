@@ -201,6 +201,25 @@ def test_shares_in_workers_equal_one_batch_here(risky):
     assert {"draw", "descend"} <= {phase for _, phase in reports}
 
 
+def seed_status_ink(run):
+    return run.scenario.plant.seed, run.status, run.metrics["ink_chamfer_mm"], os.getpid()
+
+
+@pytest.mark.sim
+def test_keep_is_computed_in_the_workers_and_only_it_comes_back(risky):
+    seeds = [9, 0, 3, 4]
+    here = [seed_status_ink(r)[:3] for r in run_ensemble(risky, seeds, processes=1)]
+    kept = run_ensemble(risky, seeds, processes=2, keep=seed_status_ink)
+    assert [k[:3] for k in kept] == here
+    assert os.getpid() not in {k[3] for k in kept}  # every share in a worker
+
+
+def test_keep_that_cannot_reach_the_workers_is_refused(risky):
+    with pytest.raises(InputError, match="keep must be a module-level function") as err:
+        run_ensemble(risky, [0, 1], keep=lambda run: run.status)
+    assert err.value.key == "keep"
+
+
 @pytest.mark.sim
 def test_ctrl_c_stops_every_share_and_ends_the_workers(risky):
     def interrupt(fraction, phase):
