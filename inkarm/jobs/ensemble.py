@@ -10,7 +10,8 @@ arrays: the plan and the feed-forward along it depend only on the nominal model,
 computed once. The controller, the inking and the metrics are Python on one core, so the
 members are split into one contiguous share per CPU (``processes``), each share such a batch in
 a kept worker process (:mod:`inkarm.jobs.ensemble_workers`), its Runs streamed back in member
-order; ``processes=1`` runs one batch in this process, on ``nthread`` MuJoCo threads.
+order; ``processes=1`` runs one batch in this process, on ``nthread`` MuJoCo threads (as
+does a daemonic process, such as a pool's worker, which may not start processes).
 
 The Runs equal those of :func:`run` member by member: same status, reason, log rows, metrics
 and ink (bit for bit in the tests), whatever the shares (a member's simulation does not depend
@@ -39,7 +40,7 @@ from inkarm.core.budget import require_memory
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.ink.canvas import Canvas, require_raster_memory
-from inkarm.jobs.ensemble_workers import available_cpus, stream_shares
+from inkarm.jobs.ensemble_workers import available_cpus, may_start_workers, stream_shares
 from inkarm.jobs.run import (
     DEGRADED,
     FAILED,
@@ -120,6 +121,8 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                              f"it by name), not {keep!r} ({e})", key="keep",
                              value=keep) from None
     cpus = available_cpus()
+    if not may_start_workers():  # in a daemonic process (a pool's worker): one share, here
+        processes = 1
     shares = [list(part) for part in np.array_split(seeds, min(processes or cpus, len(seeds)))]
     threads = max(1, (nthread or cpus) // len(shares))
     if len(shares) == 1:

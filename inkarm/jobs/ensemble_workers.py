@@ -64,6 +64,12 @@ def available_cpus() -> int:
     return os.cpu_count() or 1
 
 
+def may_start_workers() -> bool:
+    """Whether this process may have worker processes (a daemonic one, such as a pool's
+    worker, may not)."""
+    return not multiprocessing.current_process().daemon
+
+
 # -- packing: pages as their non-zero boxes -----------------------------------------------------
 
 def _rebuilt(shape: tuple[int, int], dtype: str, box: tuple[int, int, int, int] | None,
@@ -384,5 +390,5 @@ class _Inbox:
                 self.receive(timeout=_POLL_S)
 
 
-__all__ = ["PAGE_BYTES", "available_cpus", "nonzero_box", "pack", "shutdown_workers",
+__all__ = ["PAGE_BYTES", "available_cpus", "may_start_workers", "nonzero_box", "pack", "shutdown_workers",
            "stream_shares", "worker_cpu_seconds"]

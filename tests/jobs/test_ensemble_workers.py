@@ -233,6 +233,25 @@ def test_ctrl_c_stops_every_share_and_ends_the_workers(risky):
     assert [r.status for r in after] == ["ok", "failed"]
 
 
+def ensemble_in(scenario, answer):
+    answer.send([r.status for r in run_ensemble(scenario, [0, 9], processes=2)])
+
+
+@pytest.mark.sim
+def test_a_daemonic_process_draws_its_ensemble_itself(risky):
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+    daemon = context.Process(target=ensemble_in, args=(risky, send), daemon=True)
+    gc.freeze()  # (see ensemble_workers: a fork must not collect this process's batches)
+    try:
+        daemon.start()
+    finally:
+        gc.unfreeze()
+    assert receive.recv() == ["ok", "failed"]  # not "daemonic processes may not have children"
+    daemon.join()
+    assert daemon.exitcode == 0
+
+
 @pytest.mark.parametrize("kwargs, key", [({"processes": -1}, "processes"),
                                          ({"nthread": -2}, "nthread")])
 def test_negative_counts_are_refused(risky, kwargs, key):
