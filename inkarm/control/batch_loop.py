@@ -87,7 +87,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     attribute holds the log to the safe stop), as :func:`run_drawing` would have.
 
     Raises UnreachableError before moving, and InputError for a torque-mode ``config``
-    (position mode only). ``progress(fraction, phase)`` is called about ten times per simulated
+    (position mode only) or one that probes the paper. ``progress(fraction, phase)`` is called about ten times per simulated
     second with the plan fraction and phase of the member furthest behind."""
     wall0 = _time.perf_counter()
     config = config or LoopConfig()
@@ -95,6 +95,10 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         raise InputError(f"the batched ensemble runs position commands only, not "
                          f"{config.command!r}", key="command", value=config.command,
                          choices=("position",))
+    if config.probe_paper:
+        raise InputError("the batched ensemble does not probe the paper first; run these "
+                         "members one by one, or without probe_paper", key="probe_paper",
+                         value=True)
     kin = ArmKinematics.of(model)
     if gains.n != kin.n:
         raise InputError(f"{gains.n} joints, but the kinematic model has {kin.n}", key="gains")
@@ -155,7 +159,8 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     commanded: list[np.ndarray] = []  # plan row of each member at each period
     far, fast = np.zeros(N, dtype=np.intp), np.zeros(N, dtype=np.intp)
     saturated = np.zeros((N, n), dtype=np.intp)
-    t_first = None
+    now = getattr(plant, "now", None)  # as in run_drawing
+    t_first = now() if now is not None else None
     period = 0
     members = np.arange(N)
 

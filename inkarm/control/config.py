@@ -84,6 +84,9 @@ class LoopConfig:
         speed_limits: What to do when the planned joint speed exceeds a joint's limit in the
             robot profile: "slow" (draw slower, stretching time by the excess, and say so) or
             "refuse" (raise, naming the joint).
+        probe_paper: Before drawing, touch the paper at three points of the drawing's path and
+            fit its plane (:mod:`inkarm.control.probe`), so that the first stroke already knows
+            the sheet's height and tilt.
     """
 
     force_n: float = 1.0
@@ -114,6 +117,7 @@ class LoopConfig:
     stop_s: float = 0.06
     friction_adaptation: float = 2e4
     lookahead_s: float = 0.0
+    probe_paper: bool = False
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -36,6 +36,7 @@ from inkarm.control.friction import FrictionCompensation
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.pid import JointPID, PIDGains
+from inkarm.control.probe import probe_drawing, probe_points
 from inkarm.control.reference import (
     JointReference,
     JointSpeedError,
@@ -111,6 +112,7 @@ def run_drawing(
     progress: Callable[[float, str], None] | None = None,
     ik: IKConfig | None = None,
     speed_limits: np.ndarray | None = None,
+    surface: SurfaceEstimate | None = None,
 ) -> DrawLog:
     """Draw ``drawing`` (page [mm], [s]) with ``plant``; return the log of every control period.
 
@@ -118,11 +120,22 @@ def run_drawing(
     and the inertia come from it. Raises UnreachableError before moving when a point is out of
     reach (or a joint would exceed ``speed_limits`` [rad/s] with ``config.speed_limits =
     "refuse"``), and SimulationError (with the log so far in its ``log`` attribute) when the
-    plant diverges; a KeyboardInterrupt carries the log so far the same way. ``progress(fraction, phase)`` is called about ten times per simulated
+    plant diverges; a KeyboardInterrupt carries the log so far the same way. With
+    ``config.probe_paper`` the paper is probed first (:mod:`inkarm.control.probe`; the log is the
+    drawing's, its notes say what the probe found); ``surface``, when given, is the paper plane
+    known so far, and is updated while drawing. ``progress(fraction, phase)`` is called about ten times per simulated
     second. The plant is left as it is at the end (the caller closes it).
     """
-    wall0 = _time.perf_counter()
     config = config or LoopConfig()
+    probed: tuple[str, ...] = ()
+    if config.probe_paper:
+        surface = SurfaceEstimate() if surface is None else surface
+        probing = dataclasses.replace(config, probe_paper=False, go_home=False)
+        run_drawing(probe_drawing(drawing), plant, model, gains, probing, ik=ik,
+                    speed_limits=speed_limits, surface=surface)
+        points = len(probe_points(drawing))
+        probed = (f"probed the paper at {points} points of the path: {surface.describe()}",)
+    wall0 = _time.perf_counter()
     kin = ArmKinematics.of(model)
     placement = model.placement
     if gains.n != kin.n:
@@ -171,7 +184,8 @@ def run_drawing(
                                     config.friction_adaptation)
 
     z_corr = 0.0  # force integrator's correction along the normal, [m] (positive = deeper)
-    surface = SurfaceEstimate()  # the paper's height along the normal, learnt while drawing
+    # the paper's height along the normal, learnt while drawing (and probing, when given)
+    surface = SurfaceEstimate() if surface is None else surface
     force_f = 0.0  # low-passed sensed force [N]
     lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
     lookahead_rows = int(lookahead_rows)
@@ -180,7 +194,10 @@ def run_drawing(
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
     state = None
-    t_first = None
+    # The time of the first period: the plant's clock where it has one (a reading may be
+    # older: a plant used before has delayed readings from the start), else the first reading's.
+    now = getattr(plant, "now", None)
+    t_first = now() if now is not None else None
     try:
         while i < n_ref:
             state = read()
@@ -281,12 +298,12 @@ def run_drawing(
         partial = _with_plan_columns(log, ref, ref_row, row, ref_blend)
         partial.phase[stop_from:] = LIFT
         partial.wall_s = _time.perf_counter() - wall0
-        partial.notes = notes
+        partial.notes = probed + notes
         err.log = partial
         raise
     result = _with_plan_columns(log, ref, ref_row, row, ref_blend)
     result.wall_s = _time.perf_counter() - wall0
-    result.notes = notes
+    result.notes = probed + notes
     if progress is not None:
         progress(1.0, PHASES[phases[-1]])
     return result

@@ -48,6 +48,14 @@ class SurfaceEstimate:
             # (Python floats: height() runs every control period.)
             self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), self.rhs).tolist())
 
+    def describe(self) -> str:
+        """The plane in words: its height at the first sample and its tilt."""
+        if self.origin is None:
+            return "no sample of the paper"
+        a, b, c = self.coef
+        return (f"the sheet {1000.0 * a:+.2f} mm along the normal from where the model puts it, "
+                f"tilted {np.degrees(np.arctan(np.hypot(b, c))):.2f} deg ({self.count} samples)")
+
     def height(self, x: float, y: float) -> float:
         if self.origin is None:
             return 0.0

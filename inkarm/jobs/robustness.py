@@ -47,10 +47,13 @@ BOUNDS = {"tracking_rms_mm": 0.3, "ink_chamfer_mm": 0.3, "gap_mm": 0.0, "force_b
 SAFE_WITHIN_S = 0.1
 
 
-def overrides(plant: dict, knows_latency: bool = True) -> dict:
+def overrides(plant: dict, knows_latency: bool = True, probe: bool = False) -> dict:
     """Scenario overrides for ``plant``; with ``knows_latency`` its actuation delay is the
-    controller's ``lookahead_s`` (what a user who measured the latency would set)."""
+    controller's ``lookahead_s`` (what a user who measured the latency would set); with
+    ``probe`` the controller probes the paper before drawing."""
     out = {f"plant.{k}": v for k, v in plant.items()}
+    if probe:
+        out["controller.probe_paper"] = True
     if knows_latency and plant.get("actuation_delay_ms"):
         out["controller.lookahead_s"] = plant["actuation_delay_ms"] / 1000.0
     return out

@@ -247,6 +247,10 @@ class BatchPlant:
         ring["q"][slot], ring["qd"][slot], ring["torque"][slot] = q, qd, self.motor
         ring["force"][slot], ring["tip"][slot] = force, self._tip_mm()
 
+    def now(self) -> float:
+        """The members' shared simulation time [s] (readings may be older)."""
+        return self.time
+
     def read(self) -> BatchState:
         """Every member's reading ``sensing_delay_ms`` old (members that no longer step keep
         their last)."""

@@ -323,6 +323,10 @@ class MujocoPlant:
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
         )
 
+    def now(self) -> float:
+        """The simulation's time [s] (a reading may be older: ``sensing_delay_ms``)."""
+        return self.data.time
+
     def read(self) -> SimState:
         """The state at the current time as the devices report it (tip from the current
         kinematics, force from the last physics step), ``sensing_delay_ms`` old."""
