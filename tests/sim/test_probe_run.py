@@ -57,3 +57,28 @@ def test_the_batched_ensemble_refuses_to_probe():
     with pytest.raises(InputError, match="does not probe the paper") as info:
         run_ensemble(scenario, [0, 1])
     assert "probe_paper" in str(info.value)
+
+
+def test_a_plant_with_delayed_readings_draws_a_second_drawing_as_well_as_its_first():
+    """The loop places each reading on the plan by the plant's clock, not by its first reading
+    (which, on a plant used before, is already late)."""
+    from inkarm.control.loop import run_drawing
+    from inkarm.jobs.run import _substeps, placed_within_budget
+    from inkarm.sim.cell import Cell, kinematic_model
+    from inkarm.sim.perturb import plant_model
+    from inkarm.sim.plant import MujocoPlant
+
+    scenario = load_scenario("scenarios/quick_stroke.toml").with_overrides(
+        {"plant.sensing_delay_ms": 2.0, "plant.actuation_delay_ms": 2.0,
+         "controller.lookahead_s": 0.002})
+    cell = Cell(scenario.cell, scenario.robot)
+    truth = scenario.plant.realised()
+    plant = MujocoPlant(plant_model(cell, truth), cell=cell, truth=truth,
+                        substeps=_substeps(scenario.robot.control_period_s,
+                                           scenario.cell.timestep))
+    drawing, model = placed_within_budget(scenario, cell), kinematic_model(cell)
+    logs = [run_drawing(drawing, plant, model, scenario.robot.gains, scenario.controller)
+            for _ in range(2)]
+    rms = [float(np.sqrt(np.mean(log.tracking_error() ** 2))) for log in logs]
+    assert logs[1].time[0] > logs[0].time[-1]
+    assert rms[1] < 1.5 * rms[0] + 0.01, rms
