@@ -8,11 +8,13 @@ own process, puts every core to work on every part. The members of a share are t
 as in one big batch (a member's simulation does not depend on the others).
 
 Why persistent and forked: a process that starts Python and imports MuJoCo costs about a second,
-what a share of a small ensemble costs. The first share runs in this process (it would wait
-otherwise); the others' workers are forked from this process (the modules already imported;
-a few milliseconds each) when first needed and kept, each waiting for its next share, so a
-sweep of several ensembles starts them once (:func:`shutdown_workers` ends them; they are
-daemons, ended with this process too). The fork freezes what the worker inherits
+what a share of a small ensemble costs. The first share runs in this process (``here``: it
+would wait otherwise, and its items need not travel); the others' workers are forked from this
+process (the modules already imported; a few milliseconds each) when first needed and kept,
+each waiting for its next share, so a sweep of several ensembles starts them once
+(:func:`shutdown_workers` ends them; they are daemons, ended with this process too). A worker
+tells its malloc to keep what it frees (each member allocates the pages of ink the previous one
+freed: no page faults). The fork freezes what the worker inherits
 (``gc.freeze``): it never collects an object of this process, such as a batch whose threads
 it does not have. Where fork is not the platform's way, they are started by a forkserver that
 has imported the ensemble's modules once.
