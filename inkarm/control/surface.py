@@ -49,12 +49,14 @@ class SurfaceEstimate:
             self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), self.rhs).tolist())
 
     def describe(self) -> str:
-        """The plane in words: its height at the first sample and its tilt."""
+        """The plane in words: the pen's depth beyond the model's sheet at the first sample (the
+        sheet's height and the arm's sag together: what the commands need) and its tilt."""
         if self.origin is None:
             return "no sample of the paper"
         a, b, c = self.coef
-        return (f"the sheet {1000.0 * a:+.2f} mm along the normal from where the model puts it, "
-                f"tilted {np.degrees(np.arctan(np.hypot(b, c))):.2f} deg ({self.count} samples)")
+        return (f"the pen pressed {1000.0 * a:+.2f} mm along the normal beyond where the model "
+                f"puts the sheet, on a plane tilted {np.degrees(np.arctan(np.hypot(b, c))):.2f} "
+                f"deg ({self.count} samples)")
 
     def height(self, x: float, y: float) -> float:
         if self.origin is None:

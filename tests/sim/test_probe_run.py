@@ -36,7 +36,7 @@ def test_the_probe_finds_the_sheet_and_the_first_stroke_starts_on_it(letter):
     believed = run(letter.with_overrides(SHEET))
     assert probed.ok and believed.ok
     (note,) = [n for n in probed.notes if n.startswith("probed the paper")]
-    found = re.search(r"at 3 points .* sheet ([+-][0-9.]+) mm .* tilted ([0-9.]+) deg", note)
+    found = re.search(r"at 3 points .* pressed ([+-][0-9.]+) mm .* tilted ([0-9.]+) deg", note)
     depth, tilt = float(found.group(1)), float(found.group(2))
     assert 2.0 < depth < 4.0 and 1.4 < tilt < 2.2  # 3 mm lower (less the nib's sink), 2 deg
     assert first_stroke_force_error(probed) < first_stroke_force_error(believed)
