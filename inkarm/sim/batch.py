@@ -44,7 +44,7 @@ from inkarm.sim import perturb
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_TIP, Cell
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
-from inkarm.sim.plant import affine_drives, native_drive, route_mujoco_warnings
+from inkarm.sim.plant import _index, affine_drives, native_drive, route_mujoco_warnings
 
 # Run-time truths the batched plant reproduces (all members alike); the rest are refused.
 RUNTIME_SUPPORTED = ("encoder_ticks_per_rev", "q_noise_rad", "velocity", "force_noise_n",
@@ -137,10 +137,12 @@ class BatchPlant:
         names = cell.robot.joint_names
         self.n = n = len(names)
         joints = [mujoco.mj_name2id(m0, mujoco.mjtObj.mjOBJ_JOINT, j) for j in names]
-        self._qpos_adr = np.array([m0.jnt_qposadr[j] for j in joints])
-        self._dof_adr = np.array([m0.jnt_dofadr[j] for j in joints])
+        # (slices where the addresses are consecutive: views, not copies, every step)
+        self._qpos_adr = _index([m0.jnt_qposadr[j] for j in joints])
+        self._dof_adr = _index([m0.jnt_dofadr[j] for j in joints])
         dof_of_actuator = {int(m0.jnt_dofadr[m0.actuator_trnid[a, 0]]): a for a in range(m0.nu)}
-        self._arm_ctrl = np.array([dof_of_actuator[int(d)] for d in self._dof_adr])
+        dofs = np.arange(m0.nv)[self._dof_adr]
+        self._arm_ctrl = _index([dof_of_actuator[int(d)] for d in dofs])
         self._limit = np.stack([m.actuator_ctrlrange[self._arm_ctrl, 1] for m in models])
         if self.native:
             for m, limit in zip(models, self._limit):
@@ -174,6 +176,7 @@ class BatchPlant:
         self._to_page = to_page.copy()
         self._page_offset = np.einsum("ki,kij->kj", site_xpos[:, origin], to_page)
         self._touches: list = []
+        self._everyone = np.ones(N, dtype=bool)
         self._stacked: tuple | None = None
         self.max_joint_speed = float(max_joint_speed)
         self._warnings = self._warning_counts()
@@ -303,20 +306,30 @@ class BatchPlant:
         """Advance members ``ids`` (sorted) one control period; keep their touches. Returns the
         members that diverged, with the error each would have raised."""
         ids = np.asarray(ids, dtype=np.int32)
+        every = len(ids) == self.n_members  # (whole-array writes then: no fancy indexing)
         b = self.batch
         vel = int(mujoco.mjtStage.mjSTAGE_VEL)
         for _ in range(self.substeps):
             self._actuate()
             if not self.native:
-                self._ctrl[np.ix_(ids, self._arm_ctrl)] = self.motor[ids]
-            b.step(ids, 1, vel)
+                if every:
+                    self._ctrl[:, self._arm_ctrl] = self.motor
+                else:
+                    self._ctrl[np.ix_(ids, np.arange(self._ctrl.shape[1])[self._arm_ctrl])] = \
+                        self.motor[ids]
+            b.step(None if every else ids, 1, vel)
             if self.native:  # the drives' torques of the step just taken
                 self.motor = self._actuator_force[:, self._arm_ctrl].copy()
             self.time += self.h
             force = self._sensordata[:, self._normals].sum(axis=1)
-            self.pen_force[ids] = force[ids]
-            self._record_touches(ids, force)
-            self._tip_prev[ids] = self._tip_xpos[ids]
+            if every:
+                self.pen_force = force.copy()  # (force itself is kept with the touches)
+                self._record_touches(None, force)
+                self._tip_prev = self._tip_xpos.copy()
+            else:
+                self.pen_force[ids] = force[ids]
+                self._record_touches(ids, force)
+                self._tip_prev[ids] = self._tip_xpos[ids]
             self.steps += 1
             if not self.ideal:
                 q = self._position(self._qpos[:, self._qpos_adr].copy())
@@ -330,14 +343,17 @@ class BatchPlant:
                 self._record(q, qd)
         return self._diverged(ids)
 
-    def _record_touches(self, ids: np.ndarray, force: np.ndarray) -> None:
+    def _record_touches(self, ids: np.ndarray | None, force: np.ndarray) -> None:
         """Keep this step's pen forces and tip positions (page [mm], of the state the step
-        left) of members ``ids``; :meth:`feed` gives them to a canvas afterwards."""
+        left) of members ``ids`` (None: all); :meth:`feed` gives them to a canvas afterwards."""
         page = self._tip_prev
         A, o = self._to_page, self._page_offset
         x, y, z = page[:, 0], page[:, 1], page[:, 2]
         px = x * A[:, 0, 0] + y * A[:, 1, 0] + z * A[:, 2, 0] - o[:, 0]
         py = x * A[:, 0, 1] + y * A[:, 1, 1] + z * A[:, 2, 1] - o[:, 1]
+        if ids is None:
+            self._touches.append((self.time - self.h, self._everyone, force, px, py))
+            return
         stepped = np.zeros(self.n_members, dtype=bool)
         stepped[ids] = True
         self._touches.append((self.time - self.h, stepped, np.where(stepped, force, 0.0),
