@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from inkarm.core.log import PHASES
 from inkarm.errors import InkarmError, InputError
 from inkarm.jobs import ensemble_workers
 from inkarm.jobs.ensemble import iter_ensemble, run_ensemble
@@ -198,7 +199,9 @@ def test_shares_in_workers_equal_one_batch_here(risky):
     assert shared[1].canvas.image.tobytes() == here[1].canvas.image.tobytes()
     fractions = [f for f, _ in reports]
     assert len(reports) > 10 and fractions == sorted(fractions) and fractions[-1] == 1.0
-    assert {"draw", "descend"} <= {phase for _, phase in reports}
+    # (the phase is the slowest share's at each report: which share that is depends on timing)
+    assert "descend" in {phase for _, phase in reports} and \
+        {phase for _, phase in reports} <= set(PHASES)
 
 
 def seed_status_ink(run):
