@@ -62,16 +62,19 @@ class PencilInk:
             raise InputError(f"PencilInk expects a seed that is an integer >= 0, got "
                              f"{self.seed!r}", key="seed", value=self.seed)
         try:
-            self.profile  # noqa: B018 -- a bad grade or profile file is refused here
+            profile = resolve_profile(self.grade)
         except InkarmError as e:
             if e.key is None:
                 e.key = "grade"
             raise
+        # held, not a field: mark() runs at every physics step, and resolving a file grade
+        # stats the file
+        object.__setattr__(self, "_profile", profile)
 
     @property
     def profile(self) -> PencilProfile:
-        """The grade's texture statistics (cached per file)."""
-        return resolve_profile(self.grade)
+        """The grade's texture statistics, resolved when the ink is made."""
+        return self._profile
 
     @property
     def line_width_mm(self) -> float:
