@@ -39,6 +39,7 @@ from inkarm.control.watchdog import SATURATION, SPEED_TOLERANCE, Watchdog
 from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError, RunFault
+from inkarm.models.minjerk import minimum_jerk_profile
 from inkarm.robots.gains import PIDGains
 from inkarm.robots.kinematic import KinematicModel
 
@@ -279,8 +280,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         zero = np.zeros(n)
         for m in stopping:
             stop_k[m] += 1
-            s = min(int(stop_k[m]) / stop_ticks, 1.0)
-            goal = stop_q0[m] + (10 * s**3 - 15 * s**4 + 6 * s**5) * stop_lift[m]
+            goal = stop_q0[m] + float(minimum_jerk_profile(stop_k[m] / stop_ticks)) * stop_lift[m]
             q_goal[m], qd_goal[m], tau_goal[m] = goal, zero, kin.bias(goal, zero)
             log_rows(np.array([m]), state, np.minimum(i, n_ref - 1))
         active = np.flatnonzero(mode != DONE)

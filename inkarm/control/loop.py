@@ -50,6 +50,7 @@ from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.plant import Plant, PositionCommand, TorqueCommand
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError, RunFault, SimulationError
+from inkarm.models.minjerk import minimum_jerk_profile
 from inkarm.robots.kinematic import KinematicModel
 
 # Extra slowing on top of the measured excess when a reference is slowed to its speed limits.
@@ -127,9 +128,10 @@ def run_drawing(
     second. The plant is left as it is at the end (the caller closes it).
     """
     config = config or LoopConfig()
+    # the paper's height along the normal, learnt while drawing (and probing)
+    surface = SurfaceEstimate() if surface is None else surface
     probed: tuple[str, ...] = ()
     if config.probe_paper:
-        surface = SurfaceEstimate() if surface is None else surface
         probing = dataclasses.replace(config, probe_paper=False, go_home=False)
         run_drawing(probe_drawing(drawing), plant, model, gains, probing, ik=ik,
                     speed_limits=speed_limits, surface=surface)
@@ -184,8 +186,6 @@ def run_drawing(
                                     config.friction_adaptation)
 
     z_corr = 0.0  # force integrator's correction along the normal, [m] (positive = deeper)
-    # the paper's height along the normal, learnt while drawing (and probing, when given)
-    surface = SurfaceEstimate() if surface is None else surface
     force_f = 0.0  # low-passed sensed force [N]
     lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
     lookahead_rows = int(lookahead_rows)
@@ -322,8 +322,7 @@ def _safe_stop(plant, log, ref_row, row, i, state, normal_q, config, ticks, torq
     lift = -(config.hover_mm + travel_mm) / 1000.0 * normal_q[i]
     zero = np.zeros_like(q0)
     for k in range(1, ticks + ticks // 2 + 1):
-        s = min(k / ticks, 1.0)
-        goal = q0 + (10 * s**3 - 15 * s**4 + 6 * s**5) * lift
+        goal = q0 + float(minimum_jerk_profile(k / ticks)) * lift
         state = plant.read()
         if torque_mode:
             plant.command(TorqueCommand(update(goal, state.q, state.qd, zero,

@@ -141,7 +141,7 @@ def _servo_firmware(robot, step_s: float):
     position commands its simulated plant runs as it would on its servos (goals shaped as
     :class:`inkarm.hardware.dynamixel.plant.DynamixelPlant` sends them). With torque commands
     the servos are in current mode and the host's loop drives them. None for other robots."""
-    if "position_p" not in robot.backends.get("dynamixel", {}):
+    if not robot.servo_firmware:
         return None
     from inkarm.jobs.dynamixel import joint_firmware
 

@@ -116,6 +116,12 @@ class RobotProfile:
         return self.drive_gains if self.drive_gains is not None else self.gains
 
     @property
+    def servo_firmware(self) -> bool:
+        """Its joints are Dynamixel servos with position-loop registers
+        (``[backends.dynamixel] position_p``): position goals go through their firmware."""
+        return "position_p" in self.backends.get("dynamixel", {})
+
+    @property
     def n(self) -> int:
         """Number of actuated joints."""
         return len(self.joints)
