@@ -130,9 +130,8 @@ class DynamixelPlant:
             self._amps_per_nm = np.array([
                 1.0 / (servo_model(m).torque_constant_nm_per_a * (2 if j in cfg.shadows else 1))
                 for j, m in enumerate(cfg.models)])
-            self._current_max = np.array([
-                servo_model(m).current_unit_ma * 1e-3 * table(m)["current_limit"].default
-                for m in cfg.models])
+            self._current_max = self._current_unit * np.array([
+                table(m)["current_limit"].default for m in cfg.models])
         self.trace: list[tuple] = []
         self.fault: DynamixelFault | None = None
         self.safe_after_s: float | None = None
@@ -295,8 +294,7 @@ class DynamixelPlant:
         tau = np.clip(tau, -self.profile.torque_limits, self.profile.torque_limits)
         amps = np.clip(self.calibration.direction * tau * self._amps_per_nm,
                        -self._current_max, self._current_max)
-        units = [round(a / (servo_model(m).current_unit_ma * 1e-3))
-                 for a, m in zip(amps, self.config.models)]
+        units = [round(a / unit) for a, unit in zip(amps, self._current_unit)]
         try:
             self.bus.sync_write(self.config.ids, "goal_current", units)
             if not self._watchdog_armed:
