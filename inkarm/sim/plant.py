@@ -230,7 +230,7 @@ class MujocoPlant:
             mujoco.mj_forward(m, d)
             # The link side sees tau_c held over a step: keep sqrt(k / J_link) h <= 1.
             dense = np.zeros((m.nv, m.nv))
-            mujoco.mj_fullM(m, dense, d.qM) if hasattr(d, "qM") else mujoco.mj_fullM(m, d, dense)
+            mujoco.mj_fullM(m, d, dense)
             link_inertia = np.diag(dense)[loose]
             omega = float(np.max(np.sqrt(self.transmission.k / np.maximum(link_inertia, 1e-9))))
             split = max(1, int(np.ceil(omega * m.opt.timestep)))
