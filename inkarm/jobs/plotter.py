@@ -44,18 +44,24 @@ def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
     return drawing
 
 
+def prepared(scenario: Scenario, profile: str | None):
+    """The pen profile, the sheet's size [mm] and the drawing placed on it; errors name the
+    scenario file."""
+    try:
+        pen = load_profile(profile)
+        size = page_size_mm(scenario)
+        return pen, size, placed_on_sheet(scenario, size)
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+
+
 def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str | None = None,
                          baudrate: int = 115200, time_scale: float = 1.0, progress=None,
                          canvas: Canvas | None = None, dt: float = 0.01) -> Run:
     """Draw ``scenario`` on the GRBL plotter at ``port``; a failed job (``error:N``,
     ``ALARM:N``, a disconnect) returns a Run with status "failed", the reason naming the
     G-code line, the log so far and the pen lifted."""
-    try:
-        pen = load_profile(profile)
-        size = page_size_mm(scenario)
-        drawing = placed_on_sheet(scenario, size)
-    except InkarmError as e:
-        raise e.within(file=scenario.path) from None
+    pen, size, drawing = prepared(scenario, profile)
     streamer = GrblStreamer(port, baudrate, time_scale=time_scale)
     try:
         streamer.wake()
@@ -114,12 +120,7 @@ def check_plotter_scenario(scenario: Scenario, profile: str | None = None) -> st
     from inkarm.hardware.plotter.gcode import drawing_to_gcode
     from inkarm.hardware.plotter.timing import estimate_seconds
 
-    try:
-        pen = load_profile(profile)
-        size = page_size_mm(scenario)
-        drawing = placed_on_sheet(scenario, size)
-    except InkarmError as e:
-        raise e.within(file=scenario.path) from None
+    pen, _, drawing = prepared(scenario, profile)
     job = drawing_to_gcode(drawing, pen)
     return (f"ok: {scenario.title!r}, {len(drawing.strokes)} strokes on the sheet; "
             f"{len(job.lines)} G-code lines for pen profile {pen.name!r}, about "
