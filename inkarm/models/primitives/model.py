@@ -121,7 +121,7 @@ class PrimitiveModel:
                 raise InputError("expected probabilities in [0, 1]", key=name)
         if not np.allclose(arrays["start"].sum(axis=1), 1.0, atol=1e-6):
             raise InputError("each chain's initial distribution must sum to 1", key="start")
-        C = 0.5 * (arrays["C"] + arrays["C"].T)
+        C = arrays["C"] = 0.5 * (arrays["C"] + arrays["C"].T)
         if np.linalg.eigvalsh(C).min() <= 0:
             raise InputError("expected a symmetric positive definite covariance", key="C")
         if not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
@@ -130,11 +130,9 @@ class PrimitiveModel:
         channels = tuple(str(c) for c in self.channels) or tuple(f"y{d}" for d in range(D))
         if len(channels) != D:
             raise InputError(f"expected {D} channel names, got {len(channels)}", key="channels")
-        for name, value in (("W", W), ("C", C), ("scale", scale), ("channels", channels),
+        for name, value in (("W", W), ("scale", scale), ("channels", channels),
                             ("rate_hz", float(self.rate_hz)), *arrays.items()):
-            if name != "C":
-                object.__setattr__(self, name, value)
-        object.__setattr__(self, "C", C)
+            object.__setattr__(self, name, value)
 
     @property
     def n_chains(self) -> int:
