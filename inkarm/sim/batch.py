@@ -44,7 +44,13 @@ from inkarm.sim import perturb
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_TIP, Cell
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
-from inkarm.sim.plant import _index, affine_drives, native_drive, route_mujoco_warnings
+from inkarm.sim.plant import (
+    _index,
+    affine_drives,
+    divergence_error,
+    native_drive,
+    route_mujoco_warnings,
+)
 
 # Run-time truths the batched plant reproduces (all members alike); the rest are refused.
 RUNTIME_SUPPORTED = ("encoder_ticks_per_rev", "q_noise_rad", "velocity", "force_noise_n",
@@ -393,21 +399,12 @@ class BatchPlant:
         out: dict[int, SimulationError] = {}
         for k in np.flatnonzero(bad):
             m = int(ids[k])
-            where = f"simulation diverged at t = {self.time:.4f} s"
-            why = "unstable gains, too large a time step or absurd torques"
             names = [mujoco.mjtWarning(w).name for w, a, b in
                      zip(_DIVERGENCE_WARNINGS, warnings[m], self._warnings[m]) if a > b]
-            if names or not np.isfinite(qvel[k]).all():
-                warned = f" (MuJoCo warned {', '.join(names)})" if names else ""
-                out[m] = SimulationError(f"{where}: non-finite or huge joint state{warned}; {why}")
-                continue
-            j = int(np.argmax(np.abs(qvel[k])))
-            model = self._models[m]
-            joint = model.joint(model.dof_jntid[j])
-            unit = "m/s" if joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE else "rad/s"
-            out[m] = SimulationError(
-                f"{where}: {joint.name} moves at {abs(qvel[k, j]):.1f} {unit}, above the "
-                f"{self.max_joint_speed:.1f} divergence threshold; {why}")
+            error = divergence_error(self._models[m], self.time, qvel[k], names,
+                                     self.max_joint_speed, bool(np.isfinite(qvel[k]).all()))
+            if error is not None:
+                out[m] = error
         self._warnings = warnings
         return out
 

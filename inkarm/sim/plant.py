@@ -72,6 +72,25 @@ def _index(addresses: list[int]) -> slice | np.ndarray:
     return np.array(addresses)
 
 
+def divergence_error(model: mujoco.MjModel, time: float, qvel: np.ndarray, warned: list[str],
+                     max_speed: float, finite: bool = True) -> SimulationError | None:
+    """The error of a simulation that diverged at ``time`` [s]: MuJoCo ``warned`` of a bad
+    qpos/qvel/qacc or the state is not ``finite``, else the fastest joint of ``qvel`` above
+    ``max_speed`` [rad/s or m/s]; None when neither."""
+    where = f"simulation diverged at t = {time:.4f} s"
+    why = "unstable gains, too large a time step or absurd torques"
+    if warned or not finite:
+        note = f" (MuJoCo warned {', '.join(warned)})" if warned else ""
+        return SimulationError(f"{where}: non-finite or huge joint state{note}; {why}")
+    j = int(np.argmax(np.abs(qvel)))
+    if abs(qvel[j]) <= max_speed:
+        return None  # (a norm over the threshold, no single joint)
+    joint = model.joint(model.dof_jntid[j])
+    unit = "m/s" if joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE else "rad/s"
+    return SimulationError(f"{where}: {joint.name} moves at {abs(qvel[j]):.1f} {unit}, above the "
+                           f"{max_speed:.1f} divergence threshold; {why}")
+
+
 def native_drive(has_drive: bool, truth: PlantTruth, has_transmission: bool) -> bool:
     """Whether the joint drives run as MuJoCo actuators (see :class:`JointDrive`): exact
     encoders and velocity (the actuator sees the true state), no transmission between motor
@@ -477,20 +496,10 @@ class MujocoPlant:
         d = self.data
         warnings = self._warning_counts()
         names = [w.name for w, a, b in zip(_DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
-        where = f"simulation diverged at t = {d.time:.4f} s"
-        why = "unstable gains, too large a time step or absurd torques"
-        if names or not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
-            warned = f" (MuJoCo warned {', '.join(names)})" if names else ""
-            raise SimulationError(f"{where}: non-finite or huge joint state{warned}; {why}")
-        j = int(np.argmax(np.abs(d.qvel)))
-        if abs(d.qvel[j]) <= self.max_joint_speed:
-            return  # the norm was over the threshold, no single joint is
-        joint = self.model.joint(self.model.dof_jntid[j])
-        unit = "m/s" if joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE else "rad/s"
-        raise SimulationError(
-            f"{where}: {joint.name} moves at {abs(d.qvel[j]):.1f} {unit}, above the "
-            f"{self.max_joint_speed:.1f} divergence threshold; {why}"
-        )
+        finite = bool(np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all())
+        error = divergence_error(self.model, d.time, d.qvel, names, self.max_joint_speed, finite)
+        if error is not None:
+            raise error
 
     def brake(self) -> None:
         """Engage the joint brakes (as a real arm does on a safety stop): every arm joint held
