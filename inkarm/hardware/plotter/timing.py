@@ -40,14 +40,14 @@ def simulate(lines: Iterable[str], settings: dict[int, float] | None = None,
     pending = list(lines)
     n = len(pending)
     line_end = np.full(n, np.nan)
-    taken = 0
+    taken = marked = 0
     while True:
         while taken < n and machine.accepts_line():
             machine.take_line(pending[taken])
             taken += 1
             machine.pump()
         machine.pump()
-        _record(machine, line_end, taken)
+        marked = _record(machine, line_end, taken, marked)
         if machine.alarm:
             raise RuntimeError(f"line {machine.lines_done}: ALARM:{machine.alarm} "
                                f"({'; '.join(machine.outbox[-3:])})")
@@ -57,23 +57,24 @@ def simulate(lines: Iterable[str], settings: dict[int, float] | None = None,
         if not math.isfinite(dt):
             dt = 1e-3
         machine.advance(max(dt, 1e-9))
-    _record(machine, line_end, taken)
+    _record(machine, line_end, taken, marked)
     # Lines that only set state end when the line before them did.
     line_end = np.fmax.accumulate(np.nan_to_num(line_end, nan=0.0))
     return Schedule(machine.time, line_end,
                     np.array(trace, dtype=float) if trace is not None else None)
 
 
-def _record(machine: GrblMachine, line_end: np.ndarray, taken: int) -> None:
+def _record(machine: GrblMachine, line_end: np.ndarray, taken: int, marked: int) -> int:
     """Mark the lines whose work is behind the machine now: every line before the oldest
-    block still in the planner (and before the line being worked on)."""
+    block still in the planner (and before the line being worked on). The first ``marked``
+    lines are marked already; returns how many are now."""
     blocks = machine.planner.blocks
     oldest = blocks[0].line if blocks else taken + 1
     if machine.work or machine.time < machine.dwell_until:
         oldest = min(oldest, machine.lines_done)
     done = max(0, min(oldest - 1, taken))
-    todo = np.isnan(line_end[:done])
-    line_end[:done][todo] = machine.time
+    line_end[marked:done] = machine.time
+    return max(marked, done)
 
 
 def estimate_seconds(lines: Iterable[str], settings: dict[int, float] | None = None,
