@@ -68,16 +68,21 @@ def pen_path(model: PrimitiveModel, Y: np.ndarray, start=(0.0, 0.0),
     """
     Y = np.asarray(Y, dtype=float)
     names = list(model.channels)
-    ix = names.index("dx") if "dx" in names else 0
-    iy = names.index("dy") if "dy" in names else min(1, model.dim - 1)
     steps = Y * model.scale
-    pos = np.vstack([np.zeros(2), np.cumsum(steps[:, [ix, iy]], axis=0)]) + np.asarray(start)
+    pos = np.vstack([np.zeros(2), np.cumsum(steps[:, _xy_channels(model)], axis=0)]) + start
     t = np.arange(len(pos)) / model.rate_hz
     pressure = None
     if "dp" in names:
         level = pressure0 + np.concatenate([[0.0], np.cumsum(steps[:, names.index("dp")])])
         pressure = np.clip(level, 0.0, 1.0)
     return Trajectory(t=t, pos=pos, pressure=pressure)
+
+
+def _xy_channels(model: PrimitiveModel) -> list[int]:
+    """Indices of the x and y channels: those named ``dx``, ``dy``, else the first two."""
+    names = model.channels
+    return [names.index("dx") if "dx" in names else 0,
+            names.index("dy") if "dy" in names else min(1, model.dim - 1)]
 
 
 def scribble(model: PrimitiveModel, duration_s: float, seed: int = 0,
@@ -106,8 +111,7 @@ def reconstruction_error_mm(model: PrimitiveModel, Y: np.ndarray, mask: np.ndarr
     """(B,) mean distance [mm] between each sequence's pen path and its reconstruction's, both
     integrated from the same start (channels ``dx``, ``dy``)."""
     recon = reconstruct(model, expectations)
-    names = list(model.channels)
-    ix = [names.index("dx"), names.index("dy")] if "dx" in names else [0, 1]
+    ix = _xy_channels(model)
     steps = (Y - recon)[..., ix] * model.scale[ix] * mask[..., None]
     drift = np.linalg.norm(np.cumsum(steps, axis=0), axis=-1)          # (T, B)
     return (drift * mask).sum(axis=0) / mask.sum(axis=0)
