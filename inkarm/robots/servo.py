@@ -241,7 +241,7 @@ class ServoFirmware:
         integral and the error history are cleared (no jump). ``which``: a boolean mask (n,)
         of the servos to reset (default all)."""
         p = np.broadcast_to(np.asarray(present_ticks, dtype=float), (self.n,)).copy()
-        if which is None or not hasattr(self, "profile"):
+        if which is None:
             self.profile = _ProfileState(p, np.zeros(self.n), np.zeros(self.n))
             self._integral = np.zeros(self.n)
             self._last_error = np.zeros(self.n)
