@@ -47,6 +47,7 @@ from inkarm.ink.pencil_profile import OFFSETS, PencilProfile
 GAUSS3 = np.outer([1.0, 2.0, 1.0], [1.0, 2.0, 1.0]) / 16.0
 # Every neighbour of a 3x3 neighbourhood: (row, column) step and the index of its offset.
 _NEIGHBOURS = tuple((s * dr, s * dc, k) for k, (dr, dc) in enumerate(OFFSETS) for s in (1, -1))
+_NEIGHBOUR_OFFSET = np.array([k for _, _, k in _NEIGHBOURS])  # each neighbour's offset index
 _TINY = 1e-12
 
 
@@ -153,7 +154,7 @@ def repair(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile,
     marginal_cdf = np.cumsum(_level_marginal(profile.full_hist, levels))
     grey_table, grey_cdf = _greys_per_level(profile.full_hist, levels)
     padded_mask = np.pad(mask, 1)
-    offset_of = np.array([k for _, _, k in _NEIGHBOURS])[:, None]
+    offset_of = _NEIGHBOUR_OFFSET[:, None]
     n_line = int(mask.sum())
     rows, cols = np.indices(mask.shape)
     # each colour's pixels and which of their neighbours lie on the line: fixed over sweeps
@@ -314,7 +315,7 @@ def _draw_candidate(neighbour_levels: np.ndarray, neighbour_in: np.ndarray,
     m = neighbour_levels.shape[1]
     which = rng.integers(0, len(_NEIGHBOURS), size=m)
     cols = np.arange(m)
-    offset = np.array([k for _, _, k in _NEIGHBOURS])[which]
+    offset = _NEIGHBOUR_OFFSET[which]
     inside = neighbour_in[which, cols]
     cdf = np.where(inside[:, None], cond_cdf[offset, neighbour_levels[which, cols]],
                    marginal_cdf[None, :])
