@@ -40,7 +40,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from inkarm.jobs.ensemble import iter_ensemble
-from inkarm.jobs.ensemble_workers import shutdown_workers, worker_cpu_seconds
+from inkarm.jobs.ensemble_workers import available_cpus, shutdown_workers, worker_cpu_seconds
 from inkarm.jobs.run import Run, run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.jobs.sweep_design import with_point
@@ -101,7 +101,7 @@ def main() -> int:
     args = parser.parse_args()
     n = args.members or (8 if args.quick else 64)
     seeds = list(range(n))
-    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cpus = available_cpus()
     scenario = load_scenario(args.scenario)
     executors = [(f"process pool, {cpus} workers (reference)",
                   lambda: pooled(args.scenario, seeds, cpus)),

@@ -12,12 +12,12 @@ loop only runs. Default: 32 runs of the embedded default letter (``--quick``: 8)
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from inkarm.jobs.ensemble_workers import available_cpus
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.jobs.sweep import run_sweep
@@ -62,7 +62,7 @@ def main() -> int:
     n = args.runs or (8 if args.quick else 32)
     scenario = load_scenario(args.scenario)
     points = make_points([{}], tuple(range(n)))
-    workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    workers = available_cpus()
     rows = [("serial loop (reference)", *serial(scenario, points))]
     rows.append((f"process pool, {workers} workers", *pooled(scenario, points, "process", workers)))
     try:

@@ -21,7 +21,6 @@ import hashlib
 import itertools
 import json
 import multiprocessing
-import os
 import signal
 import time
 from collections.abc import Callable, Iterator
@@ -33,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.errors import InkarmError, InputError, SimulationError
+from inkarm.jobs.ensemble_workers import available_cpus
 from inkarm.jobs.outputs import strict_json
 from inkarm.jobs.scenario import Scenario
 from inkarm.jobs.sweep_design import Point, with_point
@@ -222,8 +222,7 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
     todo = [p for p in points if p.point_id not in done]
     summary = SweepSummary(total=len(points), skipped=len(points) - len(todo))
     if workers is None:
-        workers = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-                      else (os.cpu_count() or 1))
+        workers = available_cpus()
     results = (ray_results(scenario, todo, ray_address) if executor == "ray"
                else process_results(scenario, todo, max(1, min(workers, len(todo)))))
     if progress is not None:
