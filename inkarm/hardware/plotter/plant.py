@@ -169,12 +169,13 @@ class GrblPlant:
         measured lateness."""
         plan = simulate(self.lines, self.settings, samples=True)
         warp = self._clock_warp(plan.line_end_s)
-        ends = warp(plan.line_end_s)[np.asarray(self.command_line, dtype=int)]
+        line_end = warp(plan.line_end_s)
         samples = plan.samples.copy()
         samples[:, 0] = warp(samples[:, 0])
         forward = np.concatenate(([True], samples[1:, 0] > np.maximum.accumulate(
             samples[:-1, 0])))
-        return ends, Schedule(plan.seconds, warp(plan.line_end_s), samples[forward])
+        return (line_end[np.asarray(self.command_line, dtype=int)],
+                Schedule(plan.seconds, line_end, samples[forward]))
 
     def _clock_warp(self, line_end_s: np.ndarray):
         """Model time -> device time, shifted at each answered dwell (see :meth:`schedule`)."""
