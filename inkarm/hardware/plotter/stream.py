@@ -297,10 +297,7 @@ class GrblStreamer:
                 self.state.ack_times[number] = self.clock()
                 self._last_ok_time = self.clock()
             return
-        if line.startswith("error:"):
-            self._fail(f"{line} at G-code line {self._oldest()}", self._oldest())
-            return
-        if line.startswith("ALARM:"):
+        if line.startswith(("error:", "ALARM:")):
             self._fail(f"{line} at G-code line {self._oldest()}", self._oldest())
             return
         if line:
