@@ -80,6 +80,8 @@ def _read(f, path: Path) -> PenRecording:
         what = f"unknown column {unknown[0]!r}" if unknown else "a column is repeated"
         raise InputError(f"line 1: {what}; expected t,x,y[,pressure]", file=str(path),
                          key=unknown[0] if unknown else None)
+    bounds = [(0.0, 1.0) if n == "pressure" else (-MAX_TIME_S, MAX_TIME_S) if n == "t"
+              else (-MAX_COORD_MM, MAX_COORD_MM) for n in names]
     rows: list[list[float]] = []
     linenos: list[int] = []
     limit = STEPS.value
@@ -90,14 +92,12 @@ def _read(f, path: Path) -> PenRecording:
             raise InputError(f"line {number}: {len(row)} values, expected {len(names)} "
                              f"({','.join(names)})", file=str(path))
         values = []
-        for name, cell in zip(names, row):
+        for name, (low, bound), cell in zip(names, bounds, row):
             try:
                 value = float(cell)
             except ValueError:
                 raise InputError(f"line {number}, column {name}: not a number: {cell!r}",
                                  file=str(path), key=name, value=cell) from None
-            bound = {"t": MAX_TIME_S, "pressure": 1.0}.get(name, MAX_COORD_MM)
-            low = 0.0 if name == "pressure" else -bound
             if not (math.isfinite(value) and low <= value <= bound):
                 raise InputError(f"line {number}, column {name}: {value!r} is outside "
                                  f"[{low:g}, {bound:g}]", file=str(path), key=name, value=value)
