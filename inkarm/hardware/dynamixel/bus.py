@@ -26,7 +26,7 @@ import serial
 
 from inkarm.errors import InputError, SimulationError
 from inkarm.hardware.dynamixel import protocol as p
-from inkarm.hardware.dynamixel.tables import COMMON, decode
+from inkarm.hardware.dynamixel.tables import COMMON, decode, to_unsigned
 
 STATE_ADDRESS, STATE_SIZE = 126, 10  # present current (2), velocity (4), position (4)
 _REG = {r.name: r for r in COMMON}
@@ -212,7 +212,7 @@ class DynamixelBus:
     def write(self, servo_id: int, name: str, value: int) -> None:
         """An acknowledged write of register ``name``; a status error raises."""
         reg = _REG[name]
-        data = list((int(value) & ((1 << 8 * reg.size) - 1)).to_bytes(reg.size, "little"))
+        data = _encode(reg, value)
 
         def call():
             result, error = self.packet.writeTxRx(self.port, servo_id, reg.address, reg.size,
@@ -272,12 +272,15 @@ class DynamixelBus:
         reg = _REG[name]
         writer = sdk.GroupSyncWrite(self.port, self.packet, reg.address, reg.size)
         for i, v in zip(ids, values):
-            writer.addParam(i, list((int(v) & ((1 << 8 * reg.size) - 1)).to_bytes(reg.size,
-                                                                                   "little")))
+            writer.addParam(i, _encode(reg, v))
         self._try(lambda: (writer.txPacket(), 0, None), None, f"sync write {name}")
 
     def reboot(self, servo_id: int) -> None:
         self._try(lambda: (*self.packet.reboot(self.port, servo_id), None), servo_id, "reboot")
+
+
+def _encode(reg, value) -> list[int]:
+    return list(to_unsigned(value, reg.size).to_bytes(reg.size, "little"))
 
 
 def _ping(packet, port, servo_id):
