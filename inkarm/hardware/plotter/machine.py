@@ -193,13 +193,10 @@ class GrblMachine:
             self._pen_command(self._pen_before_stop)
 
     def soft_reset(self) -> None:
-        """0x18: kill motion (ALARM:3 when it was moving), spindle off, flush, banner."""
+        """0x18: kill motion (ALARM:3 when it was moving), spindle off, flush (the power-up
+        state clears the planner, the work queue, a hold and homing), banner."""
         moving = not self.planner.empty and self.planner.speed > 0
         self._pen_command(False)
-        self.planner.clear()
-        self.work.clear()
-        self.hold = False
-        self.homing = False
         if moving:
             self.outbox.append(f"ALARM:{ALARM_ABORT_CYCLE}")
         self._power_up()
