@@ -200,12 +200,7 @@ def with_point(scenario: Scenario, overrides: dict) -> Scenario:
 def validate(scenario: Scenario, points: list[Point]) -> None:
     """Apply every point's overrides to ``scenario`` with the scenario's own checks, before
     anything runs; the first bad one is refused, naming the point and the key."""
-    seen: set = set()
     for p in points:
-        signature = json.dumps(p.overrides(), sort_keys=True)
-        if signature in seen:
-            continue
-        seen.add(signature)
         try:
             with_point(scenario, p.overrides())
         except InkarmError as e:
