@@ -76,10 +76,8 @@ def initial_model(batch: Batch, config: PrimitivesConfig, rng: np.random.Generat
     M, K = config.n_chains, config.n_states
     Y = batch.Y[batch.mask]
     D = Y.shape[1]
-    mean_var = float(np.mean(np.var(Y, axis=0))) if len(Y) > 1 else 1.0
-    floor = max(mean_var, 1e-12) * max(config.min_variance, 1e-12)
     C = np.cov(Y.T, bias=True).reshape(D, D) if len(Y) > 1 else np.eye(D)
-    C = _floored(C, floor)
+    C = _floored(C, Y, config)
     W = rng.standard_normal((M, K, D)) * np.sqrt(np.diag(C))
     W[:, 0] = 0.0
     onset = min(len(batch.lengths) / batch.n_obs, 0.5)
@@ -91,7 +89,11 @@ def initial_model(batch: Batch, config: PrimitivesConfig, rng: np.random.Generat
                           channels=channels)
 
 
-def _floored(C: np.ndarray, floor: float) -> np.ndarray:
+def _floored(C: np.ndarray, Y: np.ndarray, config: PrimitivesConfig) -> np.ndarray:
+    """C symmetrised, its eigenvalues floored at ``min_variance`` times the mean variance of
+    the data Y (N, D)."""
+    mean_var = float(np.mean(np.var(Y, axis=0))) if len(Y) > 1 else 1.0
+    floor = max(mean_var, 1e-12) * max(config.min_variance, 1e-12)
     C = 0.5 * (C + C.T)
     values, vectors = np.linalg.eigh(C)
     if values.min() >= floor:
@@ -116,10 +118,7 @@ def m_step(model: PrimitiveModel, batch: Batch, post: Posterior,
     W_active = np.linalg.lstsq(G, A.T, rcond=None)[0].T      # = A G^+ (minimum norm)
     W = np.zeros_like(model.W)
     W[:, 1:] = W_active.T.reshape(M, K - 1, D)
-    n = len(Y)
-    C = (Y.T @ Y - W_active @ A.T) / n
-    mean_var = float(np.mean(np.var(Y, axis=0))) if n > 1 else 1.0
-    C = _floored(C, max(mean_var, 1e-12) * max(config.min_variance, 1e-12))
+    C = _floored((Y.T @ Y - W_active @ A.T) / len(Y), Y, config)
 
     starts = batch.lengths > 0
     start = np.stack([c.gamma[0][starts].mean(axis=0) for c in post.chains])
