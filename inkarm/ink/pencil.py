@@ -131,13 +131,12 @@ def _resample(points: np.ndarray, forces: np.ndarray):
     forces (N,) and unit tangents (N, 2)."""
     step = np.r_[True, np.any(np.abs(np.diff(points, axis=0)) > 1e-9, axis=1)]
     points, forces = points[step], forces[step]
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(points, axis=0).T))]
-    n = math.ceil(arc[-1]) + 1
-    s = np.linspace(0.0, arc[-1], n)
     if points.shape[0] == 1:
         return points.copy(), forces.copy(), np.array([[0.0, 1.0]])
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(points, axis=0).T))]
+    s = np.linspace(0.0, arc[-1], math.ceil(arc[-1]) + 1)  # at least 2: the points differ
     centres = np.column_stack([np.interp(s, arc, points[:, 0]), np.interp(s, arc, points[:, 1])])
-    tangents = np.gradient(centres, axis=0) if n > 1 else np.diff(points[:2], axis=0)
+    tangents = np.gradient(centres, axis=0)
     norm = np.hypot(tangents[:, 0], tangents[:, 1])[:, None]
     tangents = np.where(norm > 1e-12, tangents / np.maximum(norm, 1e-12), [0.0, 1.0])
     return centres, np.interp(s, arc, forces), tangents
