@@ -18,7 +18,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 
 from inkarm.core.trajectory import Trajectory
-from inkarm.models.primitives.generate import pen_path
+from inkarm.models.primitives.generate import pen_path, reconstruct
 from inkarm.models.primitives.model import PrimitiveModel
 from inkarm.plots.figure import Figure, figure_of, new_axes, new_figure
 
@@ -116,9 +116,8 @@ def plot_timing(model: PrimitiveModel, Y: np.ndarray, expectations: np.ndarray,
     left.set_xlabel("time [s]")
     left.set_ylabel("primitive")
     left.set_title("timing code: P(active), onsets")
-    recon = np.einsum("mtk,mkd->td", expectations[:, :T], model.W)
     data_path = pen_path(model, Y)
-    recon_path = pen_path(model, recon)
+    recon_path = pen_path(model, reconstruct(model, expectations[:, :T, None])[:, 0])
     right.plot(*data_path.pos.T, color="0.7", lw=4, label="sample")
     _pressure_line(right, recon_path, width=1.2)
     for k, m in onsets:
