@@ -183,6 +183,17 @@ class DynamixelBus:
             raise DynamixelFault(f"{self.who(servo_id)}: {p.error_text(error & 0x7F)} on {what}",
                                  servo_id, p.error_text(error & 0x7F))
 
+    def _sync_read(self, reader: _SyncRead, ids, what: str) -> None:
+        def call():
+            result = reader.txRxPacket()
+            if result == sdk.COMM_SUCCESS and any(len(reader.data_dict[i]) != reader.data_length
+                                                  for i in ids):
+                result = sdk.COMM_RX_CORRUPT  # a stray packet of that id: try again
+            return result, 0, None
+
+        self._last_reader = reader
+        self._try(call, -1, what)
+
     # --- transactions --------------------------------------------------------------------------
     def ping(self, servo_id: int) -> tuple[int, int] | None:
         """(model number, firmware version), or None when nothing answers."""
@@ -230,16 +241,7 @@ class DynamixelBus:
             reader.clearParam()
             for i in ids:
                 reader.addParam(i)
-
-        def call():
-            result = reader.txRxPacket()
-            if result == sdk.COMM_SUCCESS and any(len(reader.data_dict[i]) != STATE_SIZE
-                                                  for i in ids):
-                result = sdk.COMM_RX_CORRUPT  # a stray packet of that id: try again
-            return result, 0, None
-
-        self._last_reader = reader
-        self._try(call, -1, "sync read the state")
+        self._sync_read(reader, ids, "sync read the state")
         positions, velocities, currents = [], [], []
         for i in ids:
             current, velocity, position = struct.unpack("<hii", bytes(reader.data_dict[i]))
@@ -255,15 +257,7 @@ class DynamixelBus:
         reader = _SyncRead(self.port, self.packet, reg.address, reg.size)
         for i in ids:
             reader.addParam(i)
-        def call():
-            result = reader.txRxPacket()
-            if result == sdk.COMM_SUCCESS and any(len(reader.data_dict[i]) != reg.size
-                                                  for i in ids):
-                result = sdk.COMM_RX_CORRUPT
-            return result, 0, None
-
-        self._last_reader = reader
-        self._try(call, -1, f"sync read {name}")
+        self._sync_read(reader, ids, f"sync read {name}")
         return {i: decode(reg, int.from_bytes(bytes(reader.data_dict[i]), "little"))
                 for i in ids}
 
