@@ -252,19 +252,14 @@ class GrblEmulator:
             self.stats.idle_since_s = machine.time
         self.stats.machine_time_s = machine.time
         if machine.outbox:
-            replies = [r for r in machine.outbox]
-            self.stats.replies.extend(replies)
-            out.extend(replies)
+            self.stats.replies.extend(machine.outbox)
+            out.extend(machine.outbox)
             machine.outbox.clear()
         return out
 
     def _take_lines(self, machine: GrblMachine, out: list[str]) -> None:
         while machine.accepts_line() and self._rx and not self._stop.is_set():
-            newline = -1
-            for i, b in enumerate(self._rx):
-                if b in (0x0A, 0x0D):
-                    newline = i
-                    break
+            newline = next((i for i, b in enumerate(self._rx) if b in (0x0A, 0x0D)), -1)
             if newline < 0:  # move what there is into the line buffer, as GRBL reads chars
                 self._line += self._rx
                 self._rx.clear()
