@@ -71,6 +71,12 @@ class SweepSummary:
     interrupted: bool = False
 
 
+def failed_row(point: Point, reason: str = "") -> dict:
+    """``point``'s table row before (or without) a run: failed, with ``reason``."""
+    return {"point_id": point.point_id, "index": point.index, "seed": point.seed,
+            **point.params, "status": "failed", "reason": reason}
+
+
 def run_point(scenario: Scenario, point: Point) -> PointResult:
     """Run ``scenario`` with ``point``'s overrides and seed; every failure becomes the row's
     status and reason."""
@@ -80,8 +86,7 @@ def run_point(scenario: Scenario, point: Point) -> PointResult:
     from inkarm.jobs.run import run
 
     start = time.perf_counter()
-    row: dict = {"point_id": point.point_id, "index": point.index, "seed": point.seed,
-                 **point.params, "status": "failed", "reason": ""}
+    row = failed_row(point)
     box = grey = None
     rows, px_per_mm = 0, 0.0
     try:
@@ -194,9 +199,7 @@ def ray_results(scenario: Scenario, points: list[Point],
                 try:
                     yield ray.get(ref)
                 except ray.exceptions.RayError as e:  # the worker died, not the run
-                    yield PointResult({"point_id": point.point_id, "index": point.index,
-                                       "seed": point.seed, **point.params, "status": "failed",
-                                       "reason": f"ray: {type(e).__name__}: {e}"},
+                    yield PointResult(failed_row(point, f"ray: {type(e).__name__}: {e}"),
                                       None, None, 0, 0.0)
     finally:
         for ref in pending:
