@@ -26,8 +26,8 @@ from inkarm.hardware.plotter.gcode import drawing_to_gcode
 from inkarm.hardware.plotter.profiles import load_profile
 from inkarm.hardware.plotter.stream import GrblStreamer
 from inkarm.hardware.plotter.timing import estimate_seconds
-from inkarm.jobs.plotter import page_size_mm
-from inkarm.jobs.scenario import load_scenario, place, source_drawing
+from inkarm.jobs.plotter import page_size_mm, placed_on_sheet
+from inkarm.jobs.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -68,7 +68,7 @@ def main() -> None:
     args = parser.parse_args()
     repeats = 1 if args.quick else 3
     scenario = load_scenario(ROOT / "scenarios" / "text_inkarm.toml")
-    drawing = place(source_drawing(scenario), scenario.placement, page_size_mm(scenario))
+    drawing = placed_on_sheet(scenario, page_size_mm(scenario))
     profile = load_profile("servo")
     gen_s, job = median_time(lambda: drawing_to_gcode(drawing, profile, optimise=True), repeats)
     word = job.lines

@@ -15,8 +15,8 @@ from inkarm.hardware.plotter.profiles import load_profile
 from inkarm.hardware.plotter.stream import GrblError, GrblStreamer, parse_status
 from inkarm.hardware.plotter.timing import estimate_seconds
 from inkarm.ink.canvas import Canvas
-from inkarm.jobs.plotter import page_size_mm, run_plotter_scenario
-from inkarm.jobs.scenario import load_scenario, place, source_drawing
+from inkarm.jobs.plotter import page_size_mm, placed_on_sheet, run_plotter_scenario
+from inkarm.jobs.scenario import load_scenario
 
 pytestmark = pytest.mark.hardware_emulated
 
@@ -174,7 +174,7 @@ def test_parse_fault_and_its_errors():
 
 def placed(path=None):
     scenario = load_scenario(path)
-    return scenario, place(source_drawing(scenario), scenario.placement, page_size_mm(scenario))
+    return scenario, placed_on_sheet(scenario, page_size_mm(scenario))
 
 
 # The emulator counts every line it receives; before the job, the sender sent $X and $$.
