@@ -44,13 +44,13 @@ def add_emulate_parser(sub) -> None:
 def run_emulate(args: argparse.Namespace) -> int:
     from inkarm.hardware.dynamixel.config import DynamixelConfig
     from inkarm.hardware.dynamixel.emulator import (
-        DynamixelEmulator,
-        SimpleJoints,
         parse_fault,
+        simple_emulator,
         specs_for_profile,
     )
     from inkarm.jobs.dynamixel import twin_emulator
     from inkarm.jobs.scenario import load_scenario
+    from inkarm.sim.cell import Cell
 
     if args.out is not None and Path(args.out).suffix.lower() != ".png":
         raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
@@ -64,17 +64,12 @@ def run_emulate(args: argparse.Namespace) -> int:
     profile = scenario.robot
     if args.simple:
         cfg = DynamixelConfig.of(profile)
-        emulator = DynamixelEmulator(specs_for_profile(cfg, profile.n),
-                                     SimpleJoints.at(profile.home_q, inertia=0.02, damping=0.5),
-                                     baudrate=args.baudrate or cfg.baudrate, faults=faults,
-                                     byte_timing=not args.no_byte_timing)
+        emulator = simple_emulator(specs_for_profile(cfg, profile.n), profile.home_q, faults,
+                                   args.baudrate or cfg.baudrate,
+                                   byte_timing=not args.no_byte_timing)
     else:
         emulator = twin_emulator(scenario, faults, args.baudrate,
                                  byte_timing=not args.no_byte_timing)
-
-    if not args.simple:
-        from inkarm.sim.cell import Cell
-
         cell = Cell(scenario.cell, profile)
         (w, h), (x, y) = cell.paper_size_mm, cell.paper_centre_mm
         print(f"twin's sheet: {w:g} x {h:g} mm centred at ({x:g}, {y:g}) mm", file=sys.stderr)
