@@ -269,12 +269,11 @@ def write_figures(out_dir: str | Path, keys: list[str], metrics: list[str]) -> l
 
     out = Path(out_dir)
     table = read_results(out)
-    columns = set(table.column_names)
     folder = out / FIGURES_DIR
     folder.mkdir(exist_ok=True)
     written = []
     data = {name: table.column(name).to_pylist() for name in table.column_names}
-    for metric in [m for m in metrics if m in columns]:
+    for metric in [m for m in metrics if m in data]:
         for key in keys:
             others = [k for k in keys if k != key]
             group = data[others[0]] if len(keys) == 2 else None
