@@ -7,8 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from inkarm.commands._serve import serve
-from inkarm.errors import InputError
+from inkarm.commands._serve import check_png, serve
 
 
 def add_emulate_parser(sub) -> None:
@@ -52,8 +51,7 @@ def run_emulate(args: argparse.Namespace) -> int:
     from inkarm.jobs.scenario import load_scenario
     from inkarm.sim.cell import Cell
 
-    if args.out is not None and Path(args.out).suffix.lower() != ".png":
-        raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
+    check_png(args.out)
     faults = [parse_fault(text) for text in args.fault]
     scenario = load_scenario(args.scenario)
     robot = args.robot or (None if args.scenario else "wx250s")

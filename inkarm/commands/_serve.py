@@ -7,10 +7,19 @@ import signal
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
+
+from inkarm.errors import InputError
 
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
+
+
+def check_png(out: str | None) -> None:
+    """Refuse an ``--out`` that does not name a .png file, before the emulator is built."""
+    if out is not None and Path(out).suffix.lower() != ".png":
+        raise InputError(f"{out}: expected a .png file name", key="--out", value=out)
 
 
 def serve(emulator, banner: Callable[[str], str], out: str | None = None) -> None:

@@ -10,10 +10,9 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from pathlib import Path
 
 from inkarm.commands._dynamixel import add_emulate_parser
-from inkarm.commands._serve import serve
+from inkarm.commands._serve import check_png, serve
 from inkarm.errors import InputError
 
 
@@ -108,8 +107,7 @@ def _run_grbl(args: argparse.Namespace) -> int:
     from inkarm.hardware.plotter.machine import PenConfig
     from inkarm.ink.canvas import Canvas
 
-    if args.out is not None and Path(args.out).suffix.lower() != ".png":
-        raise InputError(f"{args.out}: expected a .png file name", key="--out", value=args.out)
+    check_png(args.out)
     faults = [parse_fault(text) for text in args.fault]
     settings = tuple(_setting(text) for text in args.setting)
     pen = PenConfig() if args.pen == "servo" else PenConfig(contact_z_mm=0.0)
