@@ -49,10 +49,9 @@ class PlotterStroke:
 
 @dataclass(frozen=True, eq=False)
 class GcodeJob:
-    """G-code lines and, for each, the stroke it draws (-1 outside strokes)."""
+    """G-code lines."""
 
     lines: list[str]
-    stroke: np.ndarray
 
     def text(self) -> str:
         return "\n".join(self.lines) + "\n"
@@ -176,19 +175,15 @@ def drawing_to_gcode(drawing: Drawing, profile: PenProfile, *, optimise: bool = 
         return f"X{fmt.format(p[0] / unit)} Y{fmt.format(p[1] / unit)}"
 
     lines: list[str] = ["G20" if profile.units == "in" else "G21", *profile.header]
-    owner: list[int] = [-1] * len(lines)
-    for k, s in enumerate(strokes):
-        body = [f"G0 {xy(s.points[0])}", *profile.pen_lines(True)]
+    for s in strokes:
+        lines += [f"G0 {xy(s.points[0])}", *profile.pen_lines(True)]
         feed = None
         for p, v in zip(s.points[1:], s.speed[1:], strict=True):
             line = f"G1 {xy(p)}"
             if feed is None or abs(v - feed) > 0.02 * feed:
                 feed = float(v)
                 line += f" F{feed * 60 / unit:.1f}"
-            body.append(line)
-        body += profile.pen_lines(False)
-        lines += body
-        owner += [k] * len(body)
+            lines.append(line)
+        lines += profile.pen_lines(False)
     lines += list(profile.footer)
-    owner += [-1] * len(profile.footer)
-    return GcodeJob(lines, np.array(owner, dtype=np.int32))
+    return GcodeJob(lines)
