@@ -123,7 +123,7 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
     cpus = available_cpus()
     if not may_start_workers():  # in a daemonic process (a pool's worker): one share, here
         processes = 1
-    shares = [list(part) for part in np.array_split(seeds, min(processes or cpus, len(seeds)))]
+    shares = [part.tolist() for part in np.array_split(seeds, min(processes or cpus, len(seeds)))]
     threads = max(1, (nthread or cpus) // len(shares))
     if len(shares) == 1:
         yield from share_runs(scenario, drawing, seeds, nthread, len(seeds), keep,
@@ -132,9 +132,8 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
     # With keep, only summaries travel: the shares all go to workers (malloc tuned for pages,
     # see ensemble_workers) and this process stays free; without, the first share is drawn
     # here, so that half the pages need not travel.
-    yield from stream_shares(share_runs, [(scenario, drawing, [int(s) for s in share], threads,
-                                           len(seeds), keep) for share in shares], progress,
-                             here=keep is None)
+    yield from stream_shares(share_runs, [(scenario, drawing, share, threads, len(seeds), keep)
+                                          for share in shares], progress, here=keep is None)
 
 
 def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: int,
