@@ -114,13 +114,13 @@ def _run_dynamixel(scenario: Scenario, options: BackendOptions, progress: Progre
     return run_dynamixel(scenario, options.port, calibration=options.profile, progress=progress)
 
 
-register(Backend("sim", "the MuJoCo arm of the scenario (default)", False, _run_sim))
 def _check_plotter(scenario: Scenario, options: BackendOptions) -> str:
     from inkarm.jobs.plotter import check_plotter_scenario
 
     return check_plotter_scenario(scenario, profile=options.profile)
 
 
+register(Backend("sim", "the MuJoCo arm of the scenario (default)", False, _run_sim))
 register(Backend("plotter", "a GRBL 1.1 pen plotter on a serial port", True, _run_plotter,
                  _check_plotter))
 register(Backend("dynamixel", "a Dynamixel X-series arm (Protocol 2.0) on a serial port", True,
