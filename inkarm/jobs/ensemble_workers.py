@@ -209,9 +209,6 @@ class _Workers:
     def size(self) -> int:
         return len(self.processes)
 
-    def alive(self) -> bool:
-        return all(p.is_alive() for p in self.processes)
-
     def dead(self) -> str | None:
         """A sentence naming a worker that has ended, or None."""
         for k, p in enumerate(self.processes):
@@ -253,7 +250,7 @@ def _take(size: int) -> tuple[_Workers, bool]:
     global _pool, _busy
     with _lock:
         if not _busy:
-            if _pool is not None and (_pool.size < size or not _pool.alive()):
+            if _pool is not None and (_pool.size < size or _pool.dead()):
                 _pool.close(now=True)
                 _pool = None
             if _pool is None:
