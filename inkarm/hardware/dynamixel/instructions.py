@@ -108,6 +108,12 @@ class EmulatedBus:
             return []
         return [(servo, servo.status(error, params))]
 
+    def _addressed(self, packet: p.Packet, target: EmulatedServo | None) -> list[EmulatedServo]:
+        """Every servo that hears a broadcast, else the target (if it answers)."""
+        if packet.servo_id == p.BROADCAST_ID:
+            return [s for s in self.servos if not s.silent]
+        return [target] if target else []
+
     def _write(self, servo: EmulatedServo, address: int, data: bytes) -> int:
         error = servo.memory.write(address, data)
         if not error and self.on_write is not None:
@@ -148,9 +154,8 @@ class EmulatedBus:
         address = packet.params[0] | packet.params[1] << 8
         data = packet.params[2:]
         if packet.servo_id == p.BROADCAST_ID:
-            for s in self.servos:
-                if not s.silent:
-                    self._write(s, address, data)
+            for s in self._addressed(packet, target):
+                self._write(s, address, data)
             return []
         level = target.memory.get("status_return_level") if target is not None else None
         error = self._write_with_shadows(packet.servo_id, address, data, target)
@@ -160,8 +165,7 @@ class EmulatedBus:
         if len(packet.params) < 3:
             return self._reply(target, p.REG_WRITE, p.DATA_LENGTH_ERROR)
         address = packet.params[0] | packet.params[1] << 8
-        servos = [s for s in self.servos if not s.silent] \
-            if packet.servo_id == p.BROADCAST_ID else ([target] if target else [])
+        servos = self._addressed(packet, target)
         error = 0
         for s in servos:
             error, _ = s.memory.check_write(address, packet.params[2:])
@@ -171,8 +175,7 @@ class EmulatedBus:
         return self._reply(target, p.REG_WRITE, error)
 
     def action(self, packet, target):
-        servos = [s for s in self.servos if not s.silent] \
-            if packet.servo_id == p.BROADCAST_ID else ([target] if target else [])
+        servos = self._addressed(packet, target)
         if target is not None and target.registered is None:
             return self._reply(target, p.ACTION, p.INSTRUCTION_ERROR)
         for s in servos:
@@ -197,9 +200,7 @@ class EmulatedBus:
         return replies
 
     def reboot(self, packet, target):
-        servos = [s for s in self.servos if not s.silent] \
-            if packet.servo_id == p.BROADCAST_ID else ([target] if target else [])
-        for s in servos:
+        for s in self._addressed(packet, target):
             s.pending_reboot = True
         return self._reply(target, p.REBOOT)
 
