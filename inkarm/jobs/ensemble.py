@@ -85,10 +85,10 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
         raise InputError("an ensemble needs at least one seed", key="seeds", value=seeds)
     if len(set(seeds)) != len(seeds):
         raise InputError(f"the seeds repeat: {seeds}", key="seeds", value=seeds)
-    if processes < 0 or nthread < 0:
-        raise InputError(f"processes and nthread count CPUs (0: all); got processes = "
-                         f"{processes}, nthread = {nthread}", key="processes" if processes < 0
-                         else "nthread", value=processes if processes < 0 else nthread)
+    for key, value in (("processes", processes), ("nthread", nthread)):
+        if value < 0:
+            raise InputError(f"processes and nthread count CPUs (0: all); got processes = "
+                             f"{processes}, nthread = {nthread}", key=key, value=value)
     cell = Cell(scenario.cell, scenario.robot)
     if scenario.controller.command != "position":
         raise InputError(f"the batched ensemble runs position commands only, not "
