@@ -168,21 +168,15 @@ def drawing_to_gcode(drawing: Drawing, profile: PenProfile, *, optimise: bool = 
     if optimise:
         strokes = order_strokes(strokes)
     strokes = [resample_stroke(s, profile.max_line_rate_hz) for s in strokes]
-    unit = profile.unit_mm
-    fmt = f"{{:.{profile.precision}f}}"
-
-    def xy(p) -> str:
-        return f"X{fmt.format(p[0] / unit)} Y{fmt.format(p[1] / unit)}"
-
-    lines: list[str] = ["G20" if profile.units == "in" else "G21", *profile.header]
+    lines = profile.start_lines()
     for s in strokes:
-        lines += [f"G0 {xy(s.points[0])}", *profile.pen_lines(True)]
+        lines += [f"G0 {profile.xy(*s.points[0])}", *profile.pen_lines(True)]
         feed = None
         for p, v in zip(s.points[1:], s.speed[1:], strict=True):
-            line = f"G1 {xy(p)}"
+            line = f"G1 {profile.xy(*p)}"
             if feed is None or abs(v - feed) > 0.02 * feed:
                 feed = float(v)
-                line += f" F{feed * 60 / unit:.1f}"
+                line += f" {profile.feed(feed)}"
             lines.append(line)
         lines += profile.pen_lines(False)
     lines += list(profile.footer)

@@ -60,7 +60,7 @@ class GrblPlant:
         self.clipped = 0  # moves asked faster than the profile's max_draw_speed_mm_s
         self._t0: float | None = None
         self._closed = False
-        self._queue(["G20" if profile.units == "in" else "G21", *profile.header])
+        self._queue(profile.start_lines())
         self._z_pen = any("Z" in line.upper() for line in profile.pen_down)
 
     # -- the Plant protocol --------------------------------------------------------------------
@@ -81,18 +81,16 @@ class GrblPlant:
         if isinstance(command, PenCommand):
             self._queue(self.profile.pen_lines(command.down))
         elif isinstance(command, PositionCommand):
-            x, y = (float(v) * 1000.0 / self.profile.unit_mm for v in command.q[:2])
-            p = self.profile.precision
+            xy = self.profile.xy(*(float(v) * 1000.0 for v in command.q[:2]))
             if command.qd is None:
-                self._queue([f"G0 X{x:.{p}f} Y{y:.{p}f}"])
+                self._queue([f"G0 {xy}"])
             else:
                 speed = float(np.linalg.norm(command.qd[:2])) * 1000.0
                 if speed > self.profile.max_draw_speed_mm_s * 1.0001:
                     self.clipped += 1
                 speed = min(max(speed, self.profile.min_draw_speed_mm_s),
                             self.profile.max_draw_speed_mm_s)
-                feed = speed * 60.0 / self.profile.unit_mm
-                self._queue([f"G1 X{x:.{p}f} Y{y:.{p}f} F{feed:.1f}"])
+                self._queue([f"G1 {xy} {self.profile.feed(speed)}"])
         else:
             raise InputError(unsupported(self, command))
         self.command_line.append(len(self.lines) - 1)

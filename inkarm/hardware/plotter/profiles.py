@@ -59,6 +59,19 @@ class PenProfile:
         """Millimetres per G-code unit."""
         return 25.4 if self.units == "in" else 1.0
 
+    def start_lines(self) -> list[str]:
+        """The units line (``G21`` or ``G20``) and the header: what every job starts with."""
+        return ["G20" if self.units == "in" else "G21", *self.header]
+
+    def xy(self, x_mm: float, y_mm: float) -> str:
+        """The ``X Y`` words of a point [mm], in the profile's units and precision."""
+        p, unit = self.precision, self.unit_mm
+        return f"X{x_mm / unit:.{p}f} Y{y_mm / unit:.{p}f}"
+
+    def feed(self, speed_mm_s: float) -> str:
+        """The ``F`` word of a speed [mm/s] (G-code feeds are per minute)."""
+        return f"F{speed_mm_s * 60.0 / self.unit_mm:.1f}"
+
     def pen_lines(self, down: bool) -> list[str]:
         """The lines that put the pen down (or lift it), with their dwell."""
         lines = list(self.pen_down if down else self.pen_up)
