@@ -86,11 +86,6 @@ def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: i
     return emulator
 
 
-def twin_canvas(emulator: DynamixelEmulator) -> Canvas:
-    """What :class:`~inkarm.hardware.dynamixel.emulator.EmulatorProcess` brings back."""
-    return emulator.canvas
-
-
 def run_dynamixel(scenario: Scenario, port: str, canvas: Canvas | None = None,
                   calibration: str | Path | None = None, trace_path: str | Path | None = None,
                   progress=None) -> Run:
@@ -201,6 +196,7 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     the metrics computed on its ink. ``backend`` overrides keys of the profile's
     ``[backends.dynamixel]`` (``latency_ms``, ``watchdog_ms``: a loaded machine answers late)."""
     import functools
+    import operator
 
     from inkarm.hardware.dynamixel.emulator import EmulatorProcess
 
@@ -210,7 +206,7 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
         robot = dataclasses.replace(scenario.robot, backends=backends)
         scenario = dataclasses.replace(scenario, robot=robot)
     emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults)),
-                               twin_canvas)
+                               operator.attrgetter("canvas"))  # the twin's ink comes back
     port = emulator.start()
     try:
         result = run_dynamixel(scenario, port, trace_path=trace_path, progress=progress)
@@ -234,6 +230,5 @@ __all__ = [
     "joint_firmware",
     "run_dynamixel",
     "simulate_servo_arm",
-    "twin_canvas",
     "twin_emulator",
 ]
