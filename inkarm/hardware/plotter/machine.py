@@ -304,7 +304,7 @@ class GrblMachine:
             raise GcodeError(26, "no axis words")
         if motion in (2, 3) and not ({"I", "J"} & set(values)):
             raise GcodeError(26, "an arc needs I or J (R is not supported)")
-        if "F" in values and values["F"] <= 0 and motion not in (0,):
+        if "F" in values and values["F"] <= 0 and motion != 0:
             raise GcodeError(22, "feed rate must be > 0")
         units = block.g.get("units", modal["units"])
         scale = 25.4 if units == 20 else 1.0
@@ -332,8 +332,9 @@ class GrblMachine:
                     self.offset[i] = self.planned[i] - axes[a] * scale
             axes = {}
             motion = None
-        if motion is not None and axes:
+        if motion is not None:
             modal["motion"] = motion
+        if motion is not None and axes:
             target = self.planned.copy()
             for i, a in enumerate("XYZ"):
                 if a in axes:
@@ -344,8 +345,6 @@ class GrblMachine:
                 self._queue_line(target, motion)
             else:
                 self._queue_arc(target, values, scale, clockwise=motion == 2)
-        elif motion is not None:
-            modal["motion"] = motion
         if block.m.get("stopping") in (2, 30):
             self.work.extend([("sync",), ("spindle", False, self.spindle_s)])
             modal["spindle"] = 5
