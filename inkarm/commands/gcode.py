@@ -7,7 +7,7 @@ import argparse
 import os
 from pathlib import Path
 
-from inkarm.errors import InputError
+from inkarm.errors import InkarmError, InputError
 from inkarm.io.outputs import atomic_file
 
 DRAWING_SUFFIXES = (".svg", ".csv", ".npz")
@@ -46,7 +46,6 @@ def load_drawing(source: str):
 
         return Drawing.from_npz(path)
     if suffix == ".toml":  # placed on its sheet, as `inkarm draw --backend plotter` places it
-        from inkarm.errors import InkarmError
         from inkarm.jobs.plotter import page_size_mm, placed_on_sheet
         from inkarm.jobs.scenario import load_scenario
 
