@@ -158,14 +158,13 @@ class DynamixelPlant:
         problems, missing = [], set()
         for servo_id, model in expected.items():
             found = bus.ping(servo_id)
-            if found is None or MODEL_NAMES.get(found[0]) != model:
-                missing.add(servo_id)
-            if found is None:
-                problems.append(f"{bus.who(servo_id)}: no reply (expected a {model})")
-            elif MODEL_NAMES.get(found[0]) != model:
-                name = MODEL_NAMES.get(found[0], f"model number {found[0]}")
-                problems.append(f"{bus.who(servo_id)}: a {name} answers, the profile expects a "
-                                f"{model}")
+            name = None if found is None else MODEL_NAMES.get(found[0], f"model number {found[0]}")
+            if name == model:
+                continue
+            missing.add(servo_id)
+            problems.append(f"{bus.who(servo_id)}: no reply (expected a {model})" if name is None
+                            else f"{bus.who(servo_id)}: a {name} answers, the profile expects a "
+                            f"{model}")
         for j, sid in cfg.shadows.items():
             if sid not in missing:
                 secondary = bus.read(sid, "secondary_id")
