@@ -10,7 +10,12 @@ import pytest
 
 from inkarm.hardware.dynamixel.bus import _PortHandler
 from inkarm.hardware.dynamixel.config import DynamixelConfig
-from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, ServoSpec, specs_for_profile
+from inkarm.hardware.dynamixel.emulator import (
+    DynamixelEmulator,
+    ServoSpec,
+    simple_emulator,
+    specs_for_profile,
+)
 from inkarm.hardware.dynamixel.physics import Mount, SimpleJoints
 from inkarm.robots.registry import load_robot
 
@@ -55,8 +60,6 @@ def arm_emulator():
 
     def make(profile, byte_timing=False, faults=(), **kw) -> DynamixelEmulator:
         specs = specs_for_profile(DynamixelConfig.of(profile), profile.n, **kw)
-        return DynamixelEmulator(specs,
-                                 SimpleJoints.at(profile.home_q, inertia=0.02, damping=0.5),
-                                 byte_timing=byte_timing, faults=faults)
+        return simple_emulator(specs, profile.home_q, faults, byte_timing=byte_timing)
 
     return make
