@@ -39,16 +39,13 @@ from inkarm.control.batch_loop import run_drawings
 from inkarm.core.budget import require_memory
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, InputError, RunFault
-from inkarm.ink.canvas import Canvas, require_raster_memory
+from inkarm.ink.canvas import require_raster_memory
 from inkarm.jobs.ensemble_workers import available_cpus, may_start_workers, stream_shares
 from inkarm.jobs.run import (
-    DEGRADED,
-    FAILED,
-    OK,
     Run,
-    _metrics,
     _substeps,
-    judge,
+    failed_run,
+    finished_run,
     placed_within_budget,
     simulated_seconds,
 )
@@ -95,7 +92,7 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                          f"{scenario.controller.command!r}", key="controller.command",
                          value=scenario.controller.command,
                          choices=("position",)).within(file=scenario.path)
-    if "position_p" in scenario.robot.backends.get("dynamixel", {}):
+    if scenario.robot.servo_firmware:
         raise InputError(f"the batched ensemble drives joints with the profile's [drive] gains; "
                          f"{scenario.robot.name!r} runs its servos' firmware in position mode: "
                          f"run its members one by one (inkarm.jobs.run.run)", key="robot",
@@ -159,20 +156,14 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
         raise e.within(file=scenario.path) from None
     for k, (seed, result) in enumerate(zip(seeds, results)):
         member = with_point(scenario, {"plant.seed": seed})
-        canvas = Canvas(size_mm=cell.paper_size_mm, px_per_mm=scenario.ink.px_per_mm,
-                        ink=scenario.ink.make())
+        canvas = scenario.ink.canvas(cell.paper_size_mm)
         plant.feed(k, canvas)
         log = result.log if isinstance(result, RunFault) else result
         log.wall_s *= len(seeds) / members
         if isinstance(result, RunFault):
-            yield keep(Run(member, FAILED, drawing, log, canvas,
-                           _metrics(log, drawing, believed, canvas), reason=str(result),
-                           notes=log.notes))
-            continue
-        metrics = _metrics(result, drawing, believed, canvas)
-        shortfalls = judge(metrics, scenario.controller.force_n)
-        yield keep(Run(member, DEGRADED if shortfalls else OK, drawing, result, canvas,
-                       metrics, reason="; ".join(shortfalls), notes=result.notes))
+            yield keep(failed_run(member, drawing, result, canvas, believed))
+        else:
+            yield keep(finished_run(member, drawing, result, canvas, believed))
 
 
 def _whole(run: Run) -> Run:

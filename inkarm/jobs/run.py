@@ -116,10 +116,7 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         log = run_drawing(drawing, plant, believed, scenario.robot.gains, scenario.controller,
                           progress=progress, speed_limits=scenario.robot.speed_limits)
     except RunFault as e:
-        partial = getattr(e, "log", None)
-        return Run(scenario, FAILED, drawing, partial, canvas,
-                   _metrics(partial, drawing, believed, canvas), reason=str(e),
-                   notes=partial.notes if partial is not None else ())
+        return failed_run(scenario, drawing, e, canvas, believed)
     except KeyboardInterrupt as e:
         partial = getattr(e, "log", None)
         raise RunInterrupted(Run(scenario, INTERRUPTED, drawing, partial, canvas,
@@ -129,10 +126,25 @@ def run(scenario: Scenario, progress: Callable[[float, str], None] | None = None
         raise e.within(file=scenario.path, key="controller" if controller else None) from None
     finally:
         plant.close()
+    return finished_run(scenario, drawing, log, canvas, believed)
+
+
+def finished_run(scenario: Scenario, drawing: Drawing, log: DrawLog, canvas: Canvas,
+                 believed) -> Run:
+    """The Run of a drawing that finished: ok, or degraded naming the bounds it missed."""
     metrics = _metrics(log, drawing, believed, canvas)
     shortfalls = judge(metrics, scenario.controller.force_n)
     return Run(scenario, DEGRADED if shortfalls else OK, drawing, log, canvas, metrics,
                reason="; ".join(shortfalls), notes=log.notes)
+
+
+def failed_run(scenario: Scenario, drawing: Drawing, fault: RunFault, canvas: Canvas,
+               believed) -> Run:
+    """The Run a watchdog stopped: the fault as its reason, the log to the safe stop (the
+    fault's ``log``) and the metrics of that partial log."""
+    log = getattr(fault, "log", None)
+    return Run(scenario, FAILED, drawing, log, canvas, _metrics(log, drawing, believed, canvas),
+               reason=str(fault), notes=log.notes if log is not None else ())
 
 
 def _servo_firmware(robot, step_s: float):
