@@ -23,7 +23,7 @@ from inkarm.control.loop import run_drawing
 from inkarm.core.plant import PositionCommand, TorqueCommand
 from inkarm.errors import InkarmError, RunFault
 from inkarm.hardware.dynamixel.calibration import calibration_path, load_calibration
-from inkarm.hardware.dynamixel.config import DynamixelConfig
+from inkarm.hardware.dynamixel.config import DynamixelConfig, with_dynamixel
 from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, Fault, specs_for_profile
 from inkarm.hardware.dynamixel.plant import DynamixelPlant, servo_goal, servo_stiffness
 from inkarm.ink.canvas import Canvas
@@ -201,10 +201,7 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     from inkarm.hardware.dynamixel.emulator import EmulatorProcess
 
     if backend:
-        backends = dict(scenario.robot.backends)
-        backends["dynamixel"] = {**backends["dynamixel"], **backend}
-        robot = dataclasses.replace(scenario.robot, backends=backends)
-        scenario = dataclasses.replace(scenario, robot=robot)
+        scenario = dataclasses.replace(scenario, robot=with_dynamixel(scenario.robot, **backend))
     emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults)),
                                operator.attrgetter("canvas"))  # the twin's ink comes back
     port = emulator.start()

@@ -29,7 +29,7 @@ Every bad value is an :class:`inkarm.errors.InputError` naming ``backends.dynami
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -177,3 +177,10 @@ class DynamixelConfig:
     @property
     def mode_number(self) -> int:
         return OPERATING_MODES[self.operating_mode]
+
+
+def with_dynamixel(profile, **changes):
+    """``profile`` with keys of its ``[backends.dynamixel]`` table replaced by ``changes``."""
+    backends = dict(profile.backends)
+    backends["dynamixel"] = {**backends["dynamixel"], **changes}
+    return replace(profile, backends=backends)

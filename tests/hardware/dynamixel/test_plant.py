@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
@@ -11,6 +10,7 @@ import pytest
 from inkarm.core.plant import PenCommand, PositionCommand
 from inkarm.errors import InputError
 from inkarm.hardware.dynamixel.bus import DynamixelFault
+from inkarm.hardware.dynamixel.config import with_dynamixel
 from inkarm.hardware.dynamixel.emulator import FAULT_KINDS
 from inkarm.hardware.dynamixel.plant import DynamixelPlant
 
@@ -27,18 +27,12 @@ def eventually(check, timeout=2.0):
     return True
 
 
-def with_backend(profile, **changes):
-    backends = dict(profile.backends)
-    backends["dynamixel"] = {**backends["dynamixel"], **changes}
-    return dataclasses.replace(profile, backends=backends)
-
-
 def test_refuses_a_bus_that_does_not_match_naming_each_difference(wx250s, arm_emulator):
     emu = arm_emulator(wx250s)
     with emu:
         emu.servo(5).silent = True                         # the elbow's shadow is missing
         emu.servo(3).memory.set("secondary_id", 9)         # the shoulder's shadow is misset
-        wrong = with_backend(wx250s, models=["XM430-W350"] * 5 + ["XM540-W270"])
+        wrong = with_dynamixel(wx250s, models=["XM430-W350"] * 5 + ["XM540-W270"])
         with pytest.raises(InputError) as info:
             DynamixelPlant(emu.port, wrong)
     message = str(info.value)
@@ -129,7 +123,7 @@ def test_current_mode_sends_torques_as_goal_currents(wx250s, arm_emulator):
     from inkarm.core.plant import TorqueCommand
     from inkarm.robots.servo import SERVO_MODELS
 
-    arm = with_backend(wx250s, operating_mode="current", models=["XM430-W350"] * 6,
+    arm = with_dynamixel(wx250s, operating_mode="current", models=["XM430-W350"] * 6,
                        on_fault="torque_off", on_close="torque_off")
     with arm_emulator(arm) as emu:
         plant = DynamixelPlant(emu.port, arm)
@@ -155,7 +149,7 @@ def test_current_mode_needs_current_sensing_and_a_release_on_faults(wx250s):
     from inkarm.hardware.dynamixel.config import DynamixelConfig
 
     with pytest.raises(InputError, match="XL430-W250 do not"):
-        DynamixelConfig.of(with_backend(wx250s, operating_mode="current"))
+        DynamixelConfig.of(with_dynamixel(wx250s, operating_mode="current"))
     with pytest.raises(InputError, match="cannot lift the pen or hold by itself"):
-        DynamixelConfig.of(with_backend(wx250s, operating_mode="current",
+        DynamixelConfig.of(with_dynamixel(wx250s, operating_mode="current",
                                         models=["XM430-W350"] * 6))
