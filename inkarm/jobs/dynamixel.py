@@ -138,8 +138,7 @@ def joint_firmware(profile, period_s: float) -> JointServos:
     the pure simulation of the arm the emulator serves."""
     cfg = DynamixelConfig.of(profile)
     gains = FirmwareGains(**{k: np.asarray(v, dtype=float) for k, v in cfg.gains.items()})
-    counts = [2.0 if j in cfg.shadows else 1.0 for j in range(cfg.n)]
-    return JointServos(cfg.models, gains, period_s, counts)
+    return JointServos(cfg.models, gains, period_s, cfg.servos_per_joint)
 
 
 class ServoGoals:

@@ -75,6 +75,11 @@ class DynamixelConfig:
         """Every servo on the bus: the joints' then the shadows'."""
         return (*self.ids, *self.shadows.values())
 
+    @property
+    def servos_per_joint(self) -> np.ndarray:
+        """How many servos drive each joint, (n,): 2 where a shadow doubles it."""
+        return np.array([2.0 if j in self.shadows else 1.0 for j in range(self.n)])
+
     @classmethod
     def from_table(cls, data: Mapping, joint_count: int, joint_names=(), source: str = "",
                    ) -> DynamixelConfig:

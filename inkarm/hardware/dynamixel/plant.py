@@ -60,10 +60,10 @@ def servo_stiffness(config: DynamixelConfig, period_s: float) -> tuple[np.ndarra
         m = servo_model(model)
         p_tbl = config.gains["position_p"][j] if "position_p" in config.gains else \
             m.position_pid_default[2]
-        count = 2 if j in config.shadows else 1
-        k[j] = count * p_tbl / 128.0 * m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
-        d[j] = count * m.stall_torque_nm / m.no_load_speed_rad_s
-    k = np.maximum(k, 1e-6)
+        k[j] = p_tbl / 128.0 * m.ticks_per_rev / (2 * np.pi) * m.stall_torque_nm / 885
+        d[j] = m.stall_torque_nm / m.no_load_speed_rad_s
+    count = config.servos_per_joint
+    k, d = np.maximum(count * k, 1e-6), count * d
     return k, d / k + period_s
 
 
@@ -127,9 +127,8 @@ class DynamixelPlant:
         self.current_mode = cfg.operating_mode == "current"
         if self.current_mode:  # torques from the host, as goal currents
             self.commands = frozenset({"torque"})
-            self._amps_per_nm = np.array([
-                1.0 / (servo_model(m).torque_constant_nm_per_a * (2 if j in cfg.shadows else 1))
-                for j, m in enumerate(cfg.models)])
+            self._amps_per_nm = 1.0 / (cfg.servos_per_joint * np.array([
+                servo_model(m).torque_constant_nm_per_a for m in cfg.models]))
             self._current_max = self._current_unit * np.array([
                 table(m)["current_limit"].default for m in cfg.models])
         self.trace: list[tuple] = []
