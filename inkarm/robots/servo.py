@@ -201,7 +201,6 @@ class ServoFirmware:
         self.n = len(self.models)
         self.set_period(period_s)
         self.gains = gains
-        self._cache_key = None
         m = self.models
         self._stall = np.array([x.stall_torque_nm for x in m])
         self._w_noload = np.array([x.no_load_speed_rad_s for x in m])
@@ -220,21 +219,12 @@ class ServoFirmware:
         self.period_s = float(period_s)
         self._coeff_key = None
 
-    def _registers(self) -> dict[str, np.ndarray]:
-        # Converted once per FirmwareGains object: assign a new one (or use set_register).
-        if self._cache_key is not self.gains:
-            self._cache = {f.name: np.broadcast_to(np.asarray(getattr(self.gains, f.name),
-                                                              dtype=float), (self.n,))
-                           for f in fields(FirmwareGains)}
-            self._cache_key = self.gains
-        return self._cache
-
     def set_register(self, name: str, value) -> None:
         """Write one gain register (all servos, or an (n,) array)."""
         if name not in {f.name for f in fields(FirmwareGains)}:
             raise unknown_name("firmware register", name, [f.name for f in fields(FirmwareGains)])
         setattr(self.gains, name, np.broadcast_to(np.asarray(value, float), (self.n,)).copy())
-        self._cache_key = None
+        self._coeff_key = None
 
     def reset(self, present_ticks, which=None) -> None:
         """Torque on: the desired trajectory starts at rest at the present position, the
@@ -256,10 +246,12 @@ class ServoFirmware:
         self._last_error[m] = 0.0
 
     def _coefficients(self) -> dict[str, np.ndarray]:
-        """The registers in the units the loop uses, once per gains object."""
-        regs = self._registers()
-        if self._coeff_key is regs:
+        """The registers in the units the loop uses, once per FirmwareGains object and period
+        (assign a new one, or use :meth:`set_register`)."""
+        if self._coeff_key is self.gains:
             return self._coeff
+        regs = {f.name: np.broadcast_to(np.asarray(getattr(self.gains, f.name), dtype=float),
+                                        (self.n,)) for f in fields(FirmwareGains)}
         dt, cycle = self.period_s, FIRMWARE_CYCLE_S
         ticks_per_rad = 1.0 / self._rad_per_tick
         v_max = velocity_units_to_rad_s(regs["profile_velocity"]) * ticks_per_rad
@@ -282,7 +274,7 @@ class ServoFirmware:
             "tau_limit": np.where(np.isnan(limit), np.inf, limit),
             "duty_torque": self._stall / PWM_FULL_SCALE, "emf": self._stall / self._w_noload,
         }
-        self._coeff_key = regs
+        self._coeff_key = self.gains
         return self._coeff
 
     def advance_profile(self, goal_ticks) -> None:
