@@ -25,6 +25,8 @@ from inkarm.hardware.dynamixel.instructions import EmulatedServo
 from inkarm.hardware.dynamixel.tables import (
     CURRENT_BASED_POSITION_MODE,
     CURRENT_MODE,
+    EXTENDED_POSITION_MODE,
+    POSITION_MODE,
     PWM_MODE,
     VELOCITY_MODE,
 )
@@ -149,7 +151,8 @@ class ServoBank:
             feedforward_2nd=c("feedforward_2nd_gain"), profile_velocity=c("profile_velocity"),
             profile_acceleration=c("profile_acceleration"),
             current_limit=c("current_limit", np.inf), pwm_limit=c("pwm_limit"))
-        self._special = [k for k, mode in enumerate(self._mode) if mode not in (3, 4)]
+        self._special = [k for k, mode in enumerate(self._mode)
+                         if mode not in (POSITION_MODE, EXTENDED_POSITION_MODE)]
         self._dirty = False
 
     def _present(self, q: np.ndarray, qd: np.ndarray) -> None:
