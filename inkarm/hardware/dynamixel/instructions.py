@@ -115,10 +115,8 @@ class EmulatedBus:
         return [target] if target else []
 
     def _write(self, servo: EmulatedServo, address: int, data: bytes) -> int:
-        error = servo.memory.write(address, data)
+        error, names = servo.memory.write(address, data)
         if not error and self.on_write is not None:
-            end = address + len(data)
-            names = [r.name for r in servo.table.registers if address <= r.address < end]
             self.on_write(servo, names)
         return error
 

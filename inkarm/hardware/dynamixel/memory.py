@@ -113,14 +113,15 @@ class ServoMemory:
             return p.RESULT_FAIL
         return 0
 
-    def write(self, address: int, data: bytes) -> int:
-        """Apply a host write (all or nothing); returns the error number (0: done)."""
+    def write(self, address: int, data: bytes) -> tuple[int, list[str]]:
+        """Apply a host write (all or nothing); returns the error number (0: done) and the
+        names of the registers written."""
         error, writes = self.check_write(address, data)
         if error:
-            return error
+            return error, []
         for reg, value in writes:
             self.set(reg.name, value)
-        return 0
+        return 0, [reg.name for reg, _ in writes]
 
     # --- resets ------------------------------------------------------------------------------
     def reboot(self) -> None:
