@@ -35,10 +35,7 @@ class ServoMemory:
     def __init__(self, table: ControlTable, servo_id: int):
         self.table = table
         self.data = bytearray(table.size)
-        self._owner = [None] * table.size  # address -> Register
-        for reg in table.registers:
-            for a in range(reg.address, reg.address + reg.size):
-                self._owner[a] = reg
+        self._owner = table.by_address
         self.factory_reset(0xFF)
         self.set("id", servo_id)
 

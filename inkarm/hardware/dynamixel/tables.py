@@ -130,10 +130,19 @@ class ControlTable:
 
     def __post_init__(self):
         object.__setattr__(self, "_by_name", {r.name: r for r in self.registers})
+        owner: list[Register | None] = [None] * self.size
+        for reg in self.registers:
+            owner[reg.address:reg.address + reg.size] = [reg] * reg.size
+        object.__setattr__(self, "_by_address", tuple(owner))
 
     @property
     def by_name(self) -> Mapping[str, Register]:
         return self._by_name  # type: ignore[attr-defined]
+
+    @property
+    def by_address(self) -> tuple[Register | None, ...]:
+        """The register each byte of memory belongs to (None: reserved)."""
+        return self._by_address  # type: ignore[attr-defined]
 
     def __getitem__(self, name: str) -> Register:
         if name not in self.by_name:
