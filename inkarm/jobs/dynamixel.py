@@ -143,16 +143,11 @@ def joint_firmware(profile, period_s: float) -> JointServos:
 
 class ServoGoals:
     """A plant whose position goals pass through :func:`servo_goal` first, as
-    :class:`DynamixelPlant` sends them (every other call goes to ``plant``). The plant's
-    servo firmware is set to run at its physics step, which the plant may have refined (a
-    stiff gear train) after the firmware was built."""
+    :class:`DynamixelPlant` sends them (every other call goes to ``plant``)."""
 
     def __init__(self, plant, profile):
         self._plant = plant
         self.stiffness, self.lead_s = servo_stiffness(DynamixelConfig.of(profile), plant.dt)
-        firmware = getattr(plant, "firmware", None)
-        if isinstance(firmware, JointServos):
-            firmware.set_period(plant.dt / plant.substeps)
 
     def __getattr__(self, name):
         return getattr(self._plant, name)
