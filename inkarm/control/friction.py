@@ -30,13 +30,26 @@ class FrictionCompensation:
         self.estimate = np.asarray(model_friction, dtype=float).copy()
         self.ceiling = 4.0 * self.estimate + 2.0
         self.rate = gamma * dt
+        self._rates = np.full(len(self.estimate), self.rate)  # (array operands: no scalar casts)
+        self._zero = np.zeros(len(self.estimate))
 
-    def torque(self, qd_ref: np.ndarray, error: np.ndarray) -> np.ndarray:
-        """The friction feed-forward [N m] for this period; adapts the estimate."""
-        direction = np.tanh(qd_ref / SIGN_WIDTH)
-        if self.rate:  # (minimum/maximum: several times cheaper than np.clip on 7 numbers)
-            self.estimate = np.minimum(np.maximum(
-                self.estimate + self.rate * error * direction, 0.0), self.ceiling)
+    @staticmethod
+    def direction(qd_ref: np.ndarray) -> np.ndarray:
+        """The smooth sign tanh(qd* / w) of planned velocities ``qd_ref`` [rad/s] (any shape:
+        a whole plan's rows at once)."""
+        return np.tanh(qd_ref / SIGN_WIDTH)
+
+    def torque(self, direction: np.ndarray, error: np.ndarray | None) -> np.ndarray:
+        """The friction feed-forward [N m] for this period, given the plan's
+        :meth:`direction`; adapts the estimate to the joint ``error`` [rad] (unused, and may
+        be None, when the rate is 0)."""
+        if self.rate:  # F_hat + gamma dt e dir, clipped to [0, F_max], in place on one temporary
+            estimate = error * self._rates
+            estimate *= direction
+            estimate += self.estimate
+            np.maximum(estimate, self._zero, out=estimate)
+            np.minimum(estimate, self.ceiling, out=estimate)
+            self.estimate = estimate
         return self.estimate * direction
 
 

@@ -180,17 +180,24 @@ def run_drawing(
     read, command, step = plant.read, plant.command, plant.step
     log_time, log_q, log_qd, log_torque = log.time, log.q, log.qd, log.torque
     log_tip, log_force = log.tip, log.force
-    ref_row = np.zeros(len(log), dtype=np.intp)
+    ref_row = [0] * len(log)  # (Python lists: cheaper per period than numpy's items)
     nan_torque = np.full(kin.n, np.nan)
     friction = FrictionCompensation(kin.model.dof_frictionloss[kin.dof_adr], dt,
                                     config.friction_adaptation)
+    adapt_friction = bool(friction.rate)
+    # What depends on the plan row only, computed for all rows at once (the same bits as row by
+    # row): the friction's direction, the feed-forward's bias and inertia terms.
+    friction_direction = friction.direction(qd_ref)
+    planned_torque = plan_bias + inertia
 
     z_corr = 0.0  # force integrator's correction along the normal, [m] (positive = deeper)
     force_f = 0.0  # low-passed sensed force [N]
     lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
     lookahead_rows = int(lookahead_rows)
-    commanded = np.zeros(len(log), dtype=np.intp)  # reference row commanded at each log row
-    ref_blend = np.zeros(len(log))  # fraction of the way to the next commanded row
+    lookahead_step = lookahead_frac * (q_ref[1:] - q_ref[:-1])  # goal's share of the next row
+    commanded = [0] * len(log)  # reference row commanded at each log row
+    ref_blend = [0.0] * len(log)  # fraction of the way to the next commanded row
+    page_x, page_y = page_ref[:, 0].tolist(), page_ref[:, 1].tolist()
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
     state = None
@@ -231,7 +238,7 @@ def run_drawing(
                                 f"the paper, at t = {state.time:.3f} s",
                                 watchdog="paper_not_found", time_s=state.time)
                     if (phase == DRAW or holding) and abs(force_f - f_star) < settle_tol:
-                        x, y = page_ref[i, 0] / 1000.0, page_ref[i, 1] / 1000.0
+                        x, y = page_x[i] / 1000.0, page_y[i] / 1000.0
                         before = surface.height(x, y)
                         surface.add(x, y, before + z_corr)
                         z_corr -= surface.height(x, y) - before  # the same depth, shared anew
@@ -241,11 +248,11 @@ def run_drawing(
             # interpolated between plan rows; the feed-forward of the nearer row).
             c = min(i + lookahead_rows, n_ref - 1)
             pressing = phase == DRAW or (holding and waited > 0)
-            x, y = page_ref[c, 0], page_ref[c, 1]
+            x, y = page_x[c], page_y[c]
             depth = z_corr + surface.height(x / 1000.0, y / 1000.0)
-            q_goal = q_ref[c] + depth * normal_q[c]
+            q_goal = q_planned = q_ref[c] + depth * normal_q[c]
             if lookahead_frac and c + 1 < n_ref:
-                q_goal = q_goal + lookahead_frac * (q_ref[c + 1] - q_ref[c])
+                q_goal = q_planned + lookahead_step[c]
             if torque_mode:
                 feedforward = bias(state.q, state.qd) + inertia[c]
                 if pressing:
@@ -253,11 +260,13 @@ def run_drawing(
                 tau = update(q_goal, state.q, state.qd, qd_ref[c], feedforward)
                 command(TorqueCommand(tau))
             else:
-                q_then = q_ref[seen] + depth * normal_q[seen]
-                if blend:
-                    q_then = q_then + blend * (q_ref[min(seen + 1, n_ref - 1)] - q_ref[seen])
-                feedforward = plan_bias[c] + inertia[c] + friction.torque(
-                    qd_ref[c], q_then - state.q)
+                error = None
+                if adapt_friction:  # the joint error the friction estimate learns from
+                    q_then = q_planned if seen == c else q_ref[seen] + depth * normal_q[seen]
+                    if blend:
+                        q_then = q_then + blend * (q_ref[min(seen + 1, n_ref - 1)] - q_ref[seen])
+                    error = q_then - state.q
+                feedforward = planned_torque[c] + friction.torque(friction_direction[c], error)
                 if pressing:
                     feedforward += contact_tau[c]
                 tau = state.torque if state.torque is not None else nan_torque
@@ -270,9 +279,9 @@ def run_drawing(
             log_force[row] = force
             ref_row[row] = seen
             row += 1
-            p = page_ref[seen]
             # Joint-space moves (approach, home) run far above the sheet: their path is not gated.
-            error = 0.0 if phase in (APPROACH, HOME) else math.hypot(tip[0] - p[0], tip[1] - p[1])
+            error = 0.0 if phase in (APPROACH, HOME) else math.hypot(tip[0] - page_x[seen],
+                                                                     tip[1] - page_y[seen])
             check(state.time, state.q, state.qd, state.torque, force_f, error)
             step()
             if progress is not None and row % report_every == 0:
@@ -347,15 +356,15 @@ def _brake(plant) -> None:
         brake()
 
 
-def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: np.ndarray, k: int,
-                       blend: np.ndarray | None = None) -> DrawLog:
+def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: list[int], k: int,
+                       blend: list[float] | None = None) -> DrawLog:
     """The first ``k`` rows of ``log``, with the reference, phase and stroke of the plan rows
     ``ref_row`` filled in; the reference ``blend`` of the way to the next plan row."""
-    rows = ref_row[:k]
+    rows = np.asarray(ref_row[:k], dtype=np.intp)
     log.reference[:k] = ref.page_mm[rows]
-    if blend is not None and blend[:k].any():
+    w = None if blend is None else np.asarray(blend[:k])[:, None]
+    if w is not None and w.any():
         after = np.minimum(rows + 1, len(ref) - 1)
-        w = blend[:k, None]
         log.reference[:k] += w * (ref.page_mm[after] - ref.page_mm[rows])
     log.phase[:k] = ref.phase[rows]
     log.stroke[:k] = ref.stroke[rows]

@@ -28,20 +28,40 @@ class SurfaceEstimate:
     """
 
     def __init__(self, prior: float = 1e-3, refit_every: int = 10):
-        self.normal = np.zeros((3, 3))
-        self.rhs = np.zeros(3)
+        # The sums of the normal equations, on Python floats (add() runs every control period
+        # while drawing): sum 1, u, v, u^2, u v, v^2 and sum z, z u, z v, with (u, v) = (x - x0,
+        # y - y0).
+        self._sums = [0.0] * 9
         self.prior = prior
         self.refit_every = refit_every
         self.count = 0
         self.coef = (0.0, 0.0, 0.0)
         self.origin: tuple[float, float] | None = None
 
+    @property
+    def normal(self) -> np.ndarray:
+        """The 3 x 3 normal matrix of the samples (without the ridge)."""
+        n, su, sv, suu, suv, svv = self._sums[:6]
+        return np.array([[n, su, sv], [su, suu, suv], [sv, suv, svv]])
+
+    @property
+    def rhs(self) -> np.ndarray:
+        return np.array(self._sums[6:])
+
     def add(self, x: float, y: float, z: float) -> None:
         if self.origin is None:
             self.origin = (x, y)
-        row = np.array([1.0, x - self.origin[0], y - self.origin[1]])
-        self.normal += np.outer(row, row)
-        self.rhs += z * row
+        u, v = x - self.origin[0], y - self.origin[1]
+        s = self._sums
+        s[0] += 1.0
+        s[1] += u
+        s[2] += v
+        s[3] += u * u
+        s[4] += u * v
+        s[5] += v * v
+        s[6] += z
+        s[7] += z * u
+        s[8] += z * v
         self.count += 1
         if self.count == 1 or self.count % self.refit_every == 0:
             ridge = self.normal + np.diag([0.0, self.prior, self.prior])

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -46,15 +46,18 @@ class PlantState:
     errors: tuple[str, ...] = ()
 
 
-@dataclass(frozen=True, slots=True)
-class TorqueCommand:
+# Commands are immutable values (a plant may queue them). Named tuples rather than frozen
+# dataclasses: a controller builds one every control period, and a frozen dataclass's
+# constructor costs five times as much.
+
+
+class TorqueCommand(NamedTuple):
     """Hold joint torques ``torque`` (n,) in [N m] until the next command."""
 
     torque: np.ndarray
 
 
-@dataclass(frozen=True, slots=True)
-class PositionCommand:
+class PositionCommand(NamedTuple):
     """Joint position goals ``q`` (n,) in [rad] for a device with its own servo loop, with
     velocity [rad/s], acceleration [rad/s^2] and torque [N m] feed-forward where it takes
     them."""
@@ -65,8 +68,7 @@ class PositionCommand:
     torque: np.ndarray | None = None
 
 
-@dataclass(frozen=True, slots=True)
-class PenCommand:
+class PenCommand(NamedTuple):
     """Put a separately actuated pen down or lift it."""
 
     down: bool

@@ -74,6 +74,7 @@ class JointDrive:
         self.integral = np.zeros(n)
         self.q_goal = self.qd_goal = self.tau_ff = None
         self.since = 0.0
+        self._ki_since, self._gain_since = self.ki * 0.0, 0.0
         self.v = np.zeros(n)
         self.q_prev: np.ndarray | None = None
         self.compliance = np.zeros(n)  # 1 / k of a series spring [rad/(N m)], 0 where rigid
@@ -87,15 +88,25 @@ class JointDrive:
         self._elastic = True
         self.ki = self.ki.copy()
         self.ki[joints] *= ELASTIC_INTEGRAL_SCALE
+        self._gain_since = 0.0
 
     def set_point(self, q: np.ndarray, qd: np.ndarray | None, tau_ff: np.ndarray | None,
                   q_link: np.ndarray | None = None) -> None:
         """A new set point (from the host, after any actuation delay); ``q_link`` [rad], the
         links' measured position now, integrates the error the old set point left."""
-        if self.q_goal is not None and q_link is not None and self.since > 0.0:
-            error = self.q_goal + self.qd_goal * self.since - q_link
-            self.integral = np.minimum(np.maximum(
-                self.integral + (self.ki * self.since) * error, self._floor), self.limit)
+        since = self.since
+        if self.q_goal is not None and q_link is not None and since > 0.0:
+            if since != self._gain_since:  # (the same every period: K_i (t - t_cmd) once)
+                self._ki_since, self._gain_since = self.ki * since, since
+            # I + K_i (t - t_cmd) (q* + qd* (t - t_cmd) - q_link), clipped; in place on one
+            # temporary (this runs every control period)
+            integral = self.q_goal + self.qd_goal * since
+            integral -= q_link
+            integral *= self._ki_since
+            integral += self.integral
+            np.maximum(integral, self._floor, out=integral)
+            np.minimum(integral, self.limit, out=integral)
+            self.integral = integral
         n = len(self.kp)
         self.q_goal = np.asarray(q, dtype=float)
         self.qd_goal = np.zeros(n) if qd is None else np.asarray(qd, dtype=float)
@@ -124,7 +135,11 @@ class JointDrive:
     def affine_control(self) -> tuple[np.ndarray, np.ndarray]:
         """The set point as the control u of an affine actuator (tau = u - K_p q - K_d qd):
         u at the first physics step of the set point and its increase per step, K_p qd* h."""
-        u = self.kp * self.q_goal + (self.tau_ff + self.kd * self.qd_goal + self.integral)
+        rest = self.kd * self.qd_goal
+        rest += self.tau_ff
+        rest += self.integral
+        u = self.kp * self.q_goal
+        u += rest
         return u, self.kp_h * self.qd_goal
 
     @property

@@ -91,6 +91,17 @@ def divergence_error(model: mujoco.MjModel, time: float, qvel: np.ndarray, warne
                            f"{max_speed:.1f} divergence threshold; {why}")
 
 
+def _only_geom_touches(model: mujoco.MjModel, geom: int) -> bool:
+    """Whether every contact the model can make involves ``geom``: no explicit pairs, and no
+    two other geoms whose contype/conaffinity bits let them collide."""
+    if model.npair:
+        return False
+    kind, affinity = model.geom_contype, model.geom_conaffinity
+    others = [g for g in range(model.ngeom) if g != geom and (kind[g] or affinity[g])]
+    return not any(kind[a] & affinity[b] or kind[b] & affinity[a]
+                   for i, a in enumerate(others) for b in others[i + 1:])
+
+
 def native_drive(has_drive: bool, truth: PlantTruth, has_transmission: bool) -> bool:
     """Whether the joint drives run as MuJoCo actuators (see :class:`JointDrive`): exact
     encoders and velocity (the actuator sees the true state), no transmission between motor
@@ -191,6 +202,7 @@ class MujocoPlant:
             )
         self._slide_adr = m.jnt_qposadr[slide]
         self._contact = np.zeros(6)
+        self._only_tip_touches = _only_geom_touches(m, self._tip_geom)
         self._touching = False
         self._pen_force = 0.0
         self._closed = False
@@ -212,7 +224,7 @@ class MujocoPlant:
         self._page_offset = self.data.site_xpos[origin_site] @ self._to_page
         # The same map for the canvas's (x, y), on Python floats: a 3 x 2 product is cheaper
         # written out than as a numpy call (and sums in the same order, so gives the same bits).
-        self._page_xy = (*self._to_page[:, :2].ravel().tolist(), *self._page_offset[:2].tolist())
+        self._page_map = (*self._to_page.ravel().tolist(), *self._page_offset.tolist())
         self._timestep = float(m.opt.timestep)
         # Views into MjData (its arrays never move): an attribute of MjData builds a new array
         # object at each look-up, which the per-period calls would pay for again and again.
@@ -327,7 +339,15 @@ class MujocoPlant:
         return np.array([w.number for w in self._warning_stats])
 
     def _tip_mm(self) -> np.ndarray:
-        return self._tip_xpos @ self._to_page - self._page_offset
+        return np.array(self._tip_page())
+
+    def _tip_page(self) -> tuple[float, float, float]:
+        """Pen tip (x, y, z) in page [mm], on Python floats: a 3 x 3 map is cheaper written out
+        than as a numpy call (and sums in the same order as ``x @ A - o``, so gives its bits)."""
+        x, y, z = self._tip_xpos.tolist()
+        a00, a01, a02, a10, a11, a12, a20, a21, a22, o0, o1, o2 = self._page_map
+        return (a00 * x + a10 * y + a20 * z - o0, a01 * x + a11 * y + a21 * z - o1,
+                a02 * x + a12 * y + a22 * z - o2)
 
     def _snapshot(self, q_measured: np.ndarray, qd_reported: np.ndarray) -> SimState:
         return SimState(
@@ -358,8 +378,8 @@ class MujocoPlant:
         limits); a :class:`PositionCommand` goes to the drives (or servo firmware). Either
         reaches the joints ``actuation_delay_ms`` later."""
         kind = type(command)
-        if kind is not TorqueCommand and not (kind is PositionCommand and
-                                              "position" in self.commands):
+        if kind is not TorqueCommand and not (kind is PositionCommand and (
+                self.drive is not None or self.firmware is not None)):
             raise InputError(unsupported(self, command))
         if self._fast and kind is TorqueCommand:
             self._position_goal = None
@@ -397,11 +417,12 @@ class MujocoPlant:
             ramp = self._affine
             ctrl, arm, u, du, drive = self._ctrl, self._arm_ctrl, self._u, self._du, self.drive
         fast = self._fast and self._position_goal is None and not self._queue
+        h, senses = self._timestep, self.senses_model
         for _ in range(self.substeps):
             if ramp:  # the drives run in MuJoCo; the set point moves with its velocity
                 ctrl[arm] = u
                 u = u + du
-                drive.since += self._timestep
+                drive.since += h
             elif not fast:
                 self._actuate()
             mujoco.mj_step2(m, d)
@@ -411,7 +432,7 @@ class MujocoPlant:
                 self._touching = True
                 if canvas is not None:
                     # Forces and positions of this pass belong to time d.time - h.
-                    canvas.touch(self._tip_page_xy(), force, d.time - self._timestep)
+                    canvas.touch(self._tip_page()[:2], force, d.time - h)
             elif self._touching:
                 self._touching = False
                 if canvas is not None:
@@ -419,10 +440,10 @@ class MujocoPlant:
             mujoco.mj_step1(m, d)
             if not fast:
                 self._steps += 1
-                if not self.senses_model.ideal:
-                    q = self.senses_model.position(self._qpos[self._qpos_adr].copy())
-                    qd = self.senses_model.velocity(q, self._qvel[self._dof_adr].copy())
-                    self.senses_model.record(self._snapshot(q, qd))
+                if not senses.ideal:
+                    q = senses.position(self._qpos[self._qpos_adr].copy())
+                    qd = senses.velocity(q, self._qvel[self._dof_adr].copy())
+                    senses.record(self._snapshot(q, qd))
         if ramp:
             self._u = u
         self._check_divergence()
@@ -468,19 +489,19 @@ class MujocoPlant:
             self.data.qfrc_applied[np.arange(self.model.nv)[self._dof_adr][j]] = coupling
         self._ctrl[self._arm_ctrl] = tau
 
-    def _tip_page_xy(self) -> tuple[float, float]:
-        """Pen tip (x, y) in page [mm]: the first two columns of :meth:`_tip_mm`."""
-        x, y, z = self._tip_xpos.tolist()
-        a00, a01, a10, a11, a20, a21, o0, o1 = self._page_xy
-        return a00 * x + a10 * y + a20 * z - o0, a01 * x + a11 * y + a21 * z - o1
-
     def _tip_normal_force(self) -> float:
-        d = self.data
-        force, geom, tip = 0.0, d.contact.geom, self._tip_geom
+        m, d, contact = self.model, self.data, self._contact
+        force = 0.0
+        if self._only_tip_touches:  # (every contact is the tip's: no look at d.contact)
+            for i in range(d.ncon):
+                mujoco.mj_contactForce(m, d, i, contact)
+                force += contact[0]
+            return force
+        geom, tip = d.contact.geom, self._tip_geom
         for i in range(d.ncon):
             if geom[i, 0] == tip or geom[i, 1] == tip:
-                mujoco.mj_contactForce(self.model, d, i, self._contact)
-                force += self._contact[0]
+                mujoco.mj_contactForce(m, d, i, contact)
+                force += contact[0]
         return force
 
     def _check_divergence(self) -> None:
@@ -489,7 +510,7 @@ class MujocoPlant:
         # bad qpos/qvel/qacc; the slow path sorts out which.
         qvel, stats = self._qvel, self._warning_stats
         if (
-            float(qvel @ qvel) <= self._max_speed_sq
+            qvel.dot(qvel) <= self._max_speed_sq
             and stats[0].number + stats[1].number + stats[2].number == self._warning_total
         ):
             return

@@ -92,14 +92,16 @@ def test_collinear_samples_do_not_invent_a_slope_across_them():
 
 def test_friction_estimate_grows_while_a_joint_lags_in_its_direction_and_stays_bounded():
     comp = FrictionCompensation(np.array([1.0]), dt=0.01, gamma=1e3)
-    first = comp.torque(np.array([0.5]), np.array([0.0]))
+    forwards = comp.direction(np.array([0.5]))
+    assert forwards[0] == pytest.approx(np.tanh(50.0))
+    first = comp.torque(forwards, np.array([0.0]))
     assert first[0] == pytest.approx(np.tanh(50.0))
     for _ in range(100):
-        comp.torque(np.array([0.5]), np.array([0.001]))  # lagging while moving forwards
+        comp.torque(forwards, np.array([0.001]))  # lagging while moving forwards
     assert comp.estimate[0] == pytest.approx(1.0 + 100 * 1e3 * 0.01 * 0.001 * np.tanh(50.0))
     for _ in range(10000):
-        comp.torque(np.array([0.5]), np.array([1.0]))
+        comp.torque(forwards, np.array([1.0]))
     assert comp.estimate[0] == pytest.approx(6.0)  # 4 x model + 2 N m
     fixed = FrictionCompensation(np.array([1.0]), dt=0.01, gamma=0.0)
-    fixed.torque(np.array([0.5]), np.array([1.0]))
+    fixed.torque(forwards, None)  # (a fixed estimate needs no error)
     assert fixed.estimate[0] == 1.0
