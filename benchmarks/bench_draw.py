@@ -145,8 +145,8 @@ def drawing_rows(job: Job, repeat: int, cpu: int | None) -> list[tuple[str, ...]
     # medians say how much the machine disturbed this run.
     rows = [
         (
-            f"`inkarm draw`: first run of a fresh process, best of {repeat} (median "
-            f"{statistics.median(fresh):.1f})",
+            (f"`inkarm draw`: first run of a fresh process, best of {repeat} (median "
+             f"{statistics.median(fresh):.1f})"),
             f"{max(fresh):.1f}",
             f"MuJoCo alone {max(bares):.0f}",
             f"{max(fresh) / max(bares):.2f}",
@@ -154,8 +154,8 @@ def drawing_rows(job: Job, repeat: int, cpu: int | None) -> list[tuple[str, ...]
             _ok(max(fresh) >= RTF_TARGET),
         ),
         (
-            f"repeated in one process, best of {repeat} (sim {sim:.2f} s / median wall "
-            f"{1e3 * wall:.0f} ms)",
+            (f"repeated in one process, best of {repeat} (sim {sim:.2f} s / median wall "
+             f"{1e3 * wall:.0f} ms)"),
             f"{max(rtfs):.1f}",
             f"MuJoCo alone {max(bares):.0f}",
             f"{max(rtfs) / max(bares):.2f}",
