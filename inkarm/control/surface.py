@@ -38,16 +38,6 @@ class SurfaceEstimate:
         self.coef = (0.0, 0.0, 0.0)
         self.origin: tuple[float, float] | None = None
 
-    @property
-    def normal(self) -> np.ndarray:
-        """The 3 x 3 normal matrix of the samples (without the ridge)."""
-        n, su, sv, suu, suv, svv = self._sums[:6]
-        return np.array([[n, su, sv], [su, suu, suv], [sv, suv, svv]])
-
-    @property
-    def rhs(self) -> np.ndarray:
-        return np.array(self._sums[6:])
-
     def add(self, x: float, y: float, z: float) -> None:
         if self.origin is None:
             self.origin = (x, y)
@@ -64,9 +54,11 @@ class SurfaceEstimate:
         s[8] += z * v
         self.count += 1
         if self.count == 1 or self.count % self.refit_every == 0:
-            ridge = self.normal + np.diag([0.0, self.prior, self.prior])
+            n, su, sv, suu, suv, svv = s[:6]
+            normal = np.array([[n, su, sv], [su, suu, suv], [sv, suv, svv]])
+            ridge = normal + np.diag([0.0, self.prior, self.prior])
             # (Python floats: height() runs every control period.)
-            self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), self.rhs).tolist())
+            self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), s[6:]).tolist())
 
     def describe(self) -> str:
         """The plane in words: the pen's depth beyond the model's sheet at the first sample (the

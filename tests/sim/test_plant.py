@@ -190,3 +190,30 @@ def test_bad_arguments_are_refused(model):
         match="the model needs joint pen_slide, site and geom pen_tip and site paper_origin",
     ):
         MujocoPlant(spec.compile())
+
+
+def test_the_tip_force_skips_the_contact_list_only_when_nothing_else_can_touch():
+    from inkarm.sim.plant import _only_geom_touches
+
+    plain = build_model()
+    tip = mujoco.mj_name2id(plain, mujoco.mjtObj.mjOBJ_GEOM, "pen_tip")
+    assert _only_geom_touches(plain, tip)
+    spec = build_spec()
+    for name in ("table", "link7"):  # they could now collide (they never do here)
+        spec.geom(name).contype, spec.geom(name).conaffinity = 1, 1
+    crowded = spec.compile()
+    assert not _only_geom_touches(crowded, tip)
+    spec = build_spec()
+    spec.add_pair(geomname1="table", geomname2="link7")
+    assert not _only_geom_touches(spec.compile(), tip)
+    # Both ways of summing the tip's normal force read the same pressed pen.
+    kin = ArmKinematics(plain, "pen_tip", JOINT_NAMES)
+    page = page_placement(kin.model)
+    pressed = solve_ik(kin, page.to_robot([80.0, 120.0, -2.5]), page.pen_axis, HOME_Q,
+                       HOME_Q).q
+    forces = []
+    for m in (plain, crowded):
+        plant = MujocoPlant(m, q0=pressed)
+        assert plant._only_tip_touches is (m is plain)
+        forces.append(hold(plant, kin, pressed, 100).force)
+    assert forces[0] > 0.5 and forces[0] == forces[1]
