@@ -4,11 +4,10 @@ plotter, with its time estimate on the emulator's planner."""
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from inkarm.errors import InkarmError, InputError
-from inkarm.io.outputs import atomic_file
+from inkarm.io.outputs import atomic_file, check_out_file
 
 DRAWING_SUFFIXES = (".svg", ".csv", ".npz")
 
@@ -63,18 +62,10 @@ def run(args: argparse.Namespace) -> int:
     from inkarm.hardware.plotter.profiles import load_profile
     from inkarm.hardware.plotter.timing import estimate_seconds
 
-    out = Path(args.out)
-    if out.suffix.lower() not in (".gcode", ".nc", ".ngc"):
-        raise InputError(f"{out}: expected a .gcode (or .nc, .ngc) file name", key="--out",
-                         value=args.out)
-    if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
-        raise InputError(f"{out}: cannot write there ({out.parent} is not a writable folder)",
-                         key="--out", value=args.out)
+    out = check_out_file(args.out, "G-code", (".gcode", ".nc", ".ngc"), inputs=[args.source])
     if args.speed is not None and not 0 < args.speed <= 5000:
         raise InputError(f"expected a speed in (0, 5000] mm/s, got {args.speed:g}",
                          key="--speed", value=args.speed)
-    if Path(args.source).resolve() == out.resolve():
-        raise InputError(f"{out}: would overwrite the input", key="--out", value=args.out)
     profile = load_profile(args.profile)
     drawing = load_drawing(args.source)
     job = drawing_to_gcode(drawing, profile, optimise=args.optimise, speed_mm_s=args.speed)

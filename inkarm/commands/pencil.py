@@ -4,12 +4,11 @@ the pencil texture statistics of seed 002 ch. 4 from a scanned line, and what th
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.errors import InputError
-from inkarm.io.outputs import atomic_file, check_out_dir, staged
+from inkarm.io.outputs import atomic_file, check_out_dir, check_out_file, staged
 
 SHOW_FILES = ("profile.png", "line.png")
 
@@ -56,7 +55,7 @@ def _extract(args: argparse.Namespace) -> int:
     from inkarm.ink.pencil_extract import extract_profile, read_scan
     from inkarm.ink.pencil_profile import save_profile
 
-    out = _check_out_file(args.out, args.scan)
+    out = check_out_file(args.out, "profile", (".npz",), inputs=[args.scan])
     if not (args.dpi > 0 and args.dpi < 1e6):
         raise InputError(f"expected a resolution in (0, 1e6) dpi, got {args.dpi:g}",
                          key="--dpi", value=args.dpi)
@@ -113,20 +112,3 @@ def _show(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_out_file(out: Path, scan: Path) -> Path:
-    """The profile file to write, checked before any work: not a folder, its folder exists
-    and is writable, not the scan itself."""
-    text = str(out)
-    if not text.strip():
-        raise InputError("expected a file name, got an empty string", key="--out", value=text)
-    if out.is_dir():
-        raise InputError(f"{out} is a folder: expected a profile file name (.npz)",
-                         key="--out", value=text)
-    parent = out.absolute().parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write {out}: {parent} is not a writable folder",
-                         key="--out", value=text)
-    if out.exists() and scan.exists() and out.resolve() == scan.resolve():
-        raise InputError(f"{out} is the scan itself; choose another file", key="--out",
-                         value=text)
-    return out

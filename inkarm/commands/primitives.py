@@ -4,14 +4,13 @@ seed 004 (:mod:`inkarm.models.primitives`)."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.errors import InputError
-from inkarm.io.outputs import atomic_file
+from inkarm.io.outputs import atomic_file, check_out_file
 
 LETTER_PREFIX = "letter:"
 
@@ -85,24 +84,13 @@ def load_training_set(data: str, samples: int, styles: str, seed: int):
     return recording_training_set(data)
 
 
-def _check_model_out(out: Path) -> Path:
-    text = str(out)
-    if not text.strip() or out.is_dir():
-        raise InputError(f"expected a file name, got {text!r}", key="--out", value=text)
-    parent = out.absolute().parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write {out}: {parent} is not a writable folder",
-                         key="--out", value=text)
-    if out.suffix != ".npz":
-        raise InputError(f"expected a .npz file name, got {text!r}", key="--out", value=text)
-    return out
 
 
 def _learn(args) -> int:
     from inkarm.models.primitives import PrimitivesConfig, fit
     from inkarm.models.primitives.generate import reconstruction_error_mm
 
-    out = _check_model_out(args.out)
+    out = check_out_file(args.out, "model", (".npz",))
     with options_named(n_chains="--chains", n_states="--states", max_outer="--iterations",
                        max_inner="--sweeps", restarts="--restarts"):
         config = PrimitivesConfig(n_chains=args.chains, n_states=args.states,

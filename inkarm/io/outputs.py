@@ -45,6 +45,31 @@ def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
     return out
 
 
+def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
+                   inputs: Iterable[str | Path] = ()) -> Path:
+    """The ``--out`` file, checked before any work: a ``what`` file name (not empty, not a
+    folder) ending in one of ``suffixes`` (lower case, with the dot), in a writable folder, and
+    none of the ``inputs``, which it would overwrite."""
+    text = str(path)
+    if not text.strip():
+        raise InputError("expected a file name, got an empty string", key="--out", value=text)
+    out = Path(text)
+    expected = f"a {what} file name ({' or '.join(suffixes)})"
+    if out.is_dir():
+        raise InputError(f"{out} is a folder: expected {expected}", key="--out", value=text)
+    if out.suffix.lower() not in suffixes:
+        raise InputError(f"{out}: expected {expected}", key="--out", value=text)
+    parent = out.absolute().parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write {out}: {parent} is not a writable folder",
+                         key="--out", value=text)
+    for source in inputs:
+        if Path(source).exists() and out.resolve() == Path(source).resolve():
+            raise InputError(f"{out} is the input {source}, which this command would overwrite; "
+                             "choose another file", key="--out", value=text)
+    return out
+
+
 @contextmanager
 def staged(out_dir: str | Path, marker: str | None = None,
            owned: Iterable[str] = ()) -> Iterator[Path]:

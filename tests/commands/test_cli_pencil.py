@@ -66,7 +66,7 @@ def test_extract_refuses_a_folder_or_the_scan_as_out(tmp_path, scan, capsys):
     assert main(["pencil", "extract", str(scan), "--out", str(tmp_path)]) == 2
     assert "is a folder: expected a profile file name" in capsys.readouterr().err
     assert main(["pencil", "extract", str(scan), "--out", str(scan)]) == 2
-    assert "is the scan itself" in capsys.readouterr().err
+    assert "expected a profile file name (.npz)" in capsys.readouterr().err
     assert main(["pencil", "extract", str(scan), "--out", "/no/such/dir/p.npz"]) == 2
     assert "is not a writable folder" in capsys.readouterr().err
 

@@ -68,8 +68,8 @@ def test_scribble_writes_drawing_and_figures_and_is_seeded(small_model, tmp_path
 @pytest.mark.parametrize(("args", "message"), [
     (["learn", "letter:ab", "--out", "{tmp}/m.npz"], "DATA: expected one letter"),
     (["learn", "{tmp}/none", "--out", "{tmp}/m.npz"], "DATA: no such file or folder"),
-    (["learn", "letter:a", "--out", "{tmp}/m.txt"], "--out: expected a .npz file name"),
-    (["learn", "letter:a", "--out", "{tmp}"], "--out: expected a file name"),
+    (["learn", "letter:a", "--out", "{tmp}/m.txt"], r"m.txt: expected a model file name \(\.npz\)"),
+    (["learn", "letter:a", "--out", "{tmp}"], "is a folder: expected a model file name"),
     (["learn", "letter:a", "--out", "{tmp}/no/m.npz"], "is not a writable folder"),
     (["learn", "letter:a", "--chains", "0", "--out", "{tmp}/m.npz"], "--chains: expected an"),
     (["learn", "letter:a", "--states", "1", "--out", "{tmp}/m.npz"], "--states: expected an"),

@@ -5,7 +5,7 @@ import os
 import pytest
 
 from inkarm.errors import InputError
-from inkarm.io.outputs import atomic_file, check_out_dir, staged
+from inkarm.io.outputs import atomic_file, check_out_dir, check_out_file, staged
 
 
 def test_an_empty_out_is_refused():
@@ -83,3 +83,20 @@ def test_atomic_file_renames_a_complete_file_and_keeps_the_old_one_on_failure(tm
         raise RuntimeError("disk full")
     assert out.read_text() == "first"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["model.npz"]
+
+
+@pytest.mark.parametrize("name, message", [
+    ("", "expected a file name, got an empty string"),
+    ("{tmp}", "is a folder: expected a model file name (.npz)"),
+    ("{tmp}/m.txt", "m.txt: expected a model file name (.npz)"),
+    ("{tmp}/no/m.npz", "no is not a writable folder"),
+    ("{tmp}/data.npz", "is the input"),
+])
+def test_an_out_file_is_checked_before_any_work(tmp_path, name, message):
+    (tmp_path / "data.npz").write_bytes(b"")
+    with pytest.raises(InputError) as err:
+        check_out_file(name.format(tmp=tmp_path), "model", (".npz",),
+                       inputs=["letter:a", tmp_path / "data.npz"])
+    assert message in str(err.value) and err.value.key == "--out"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.npz"]  # nothing created
+    assert check_out_file(tmp_path / "M.NPZ", "model", (".npz",)) == tmp_path / "M.NPZ"

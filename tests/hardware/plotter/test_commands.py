@@ -41,7 +41,9 @@ def test_gcode_reads_vpypes_svg(tmp_path):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--out", "x.txt"], "expected a .gcode"),
+    (["--out", "x.txt"], "expected a G-code file name (.gcode or .nc or .ngc)"),
+    (["--out", "{tmp}"], "is a folder: expected a G-code file name"),
+    (["--out", "/no/such/dir/a.gcode"], "/no/such/dir is not a writable folder"),
     (["--out", "{tmp}/a.gcode", "--profile", "sevro"], "did you mean 'servo'"),
     (["--out", "{tmp}/a.gcode", "--speed", "-3"], "--speed"),
 ])
