@@ -31,7 +31,7 @@ from collections.abc import Callable
 import numpy as np
 
 from inkarm.control.config import LoopConfig
-from inkarm.control.friction import SIGN_WIDTH
+from inkarm.control.friction import FrictionCompensation
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.loop import _with_plan_columns, plan_within_speed_limits
 from inkarm.control.reference import check_reachable
@@ -237,7 +237,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         q_then = q_ref[seen] + depth[:, None] * normal_q[seen]
         if blend:
             q_then = q_then + blend * (q_ref[np.minimum(seen + 1, n_ref - 1)] - q_ref[seen])
-        direction = np.tanh(qd_ref[c] / SIGN_WIDTH)
+        direction = FrictionCompensation.direction(qd_ref[c])
         if friction_rate:
             adapted = np.clip(friction_estimate + friction_rate * (q_then - state.q) * direction,
                               0.0, friction_ceiling)
