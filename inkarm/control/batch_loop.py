@@ -34,7 +34,9 @@ from inkarm.control.config import LoopConfig
 from inkarm.control.friction import FrictionCompensation
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.loop import _with_plan_columns, plan_within_speed_limits
+from inkarm.control.probe import with_probes, without_probes
 from inkarm.control.reference import check_reachable
+from inkarm.control.surface import describe_plane
 from inkarm.control.watchdog import SATURATION, SPEED_TOLERANCE, Watchdog
 from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.trajectory import Drawing
@@ -65,6 +67,10 @@ class _Surfaces:
         h = a + b * (x - origin[:, 0]) + c * (y - origin[:, 1])
         return np.where(self.count[who] > 0, h, 0.0)
 
+    def describe(self, m: int) -> str:
+        """Member ``m``'s plane in words (:func:`describe_plane`)."""
+        return describe_plane(tuple(self.coef[m].tolist()), int(self.count[m]))
+
     def add(self, who: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> None:
         first = self.count[who] == 0
         self.origin[who[first], 0], self.origin[who[first], 1] = x[first], y[first]
@@ -88,22 +94,23 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     attribute holds the log to the safe stop), as :func:`run_drawing` would have.
 
     Raises UnreachableError before moving, and InputError for a torque-mode ``config``
-    (position mode only) or one that probes the paper. ``progress(fraction, phase)`` is called about ten times per simulated
-    second with the plan fraction and phase of the member furthest behind."""
+    (position mode only). With ``config.probe_paper`` every member probes the paper first, as
+    :func:`run_drawing` does (the probe's dots lead the shared plan). ``progress(fraction,
+    phase)`` is called about ten times per simulated second with the plan fraction and phase of
+    the member furthest behind."""
     wall0 = _time.perf_counter()
     config = config or LoopConfig()
     if config.command != "position":
         raise InputError(f"the batched ensemble runs position commands only, not "
                          f"{config.command!r}", key="command", value=config.command,
                          choices=("position",))
-    if config.probe_paper:
-        raise InputError("the batched ensemble does not probe the paper first; run these "
-                         "members one by one, or without probe_paper", key="probe_paper",
-                         value=True)
     kin = ArmKinematics.of(model)
     if gains.n != kin.n:
         raise InputError(f"{gains.n} joints, but the kinematic model has {kin.n}", key="gains")
     check_reachable(drawing, model, config, kin=kin)
+    probes = 0  # as in run_drawing: the probe's dots come first in the shared plan
+    if config.probe_paper:
+        drawing, probes = with_probes(drawing)
     N, n, dt = plant.n_members, kin.n, plant.dt
     state = plant.read()
     q_start = state.q[0]
@@ -112,6 +119,8 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     ref, notes = plan_within_speed_limits(drawing, model, config, q_start, dt, kin, None,
                                           speed_limits)
     n_ref = len(ref)
+    drawing_starts = int(np.argmax(ref.stroke >= probes)) if probes else 0
+    probed = [""] * N  # what each member's probe found, when it leaves its last dot
     watchdogs = [Watchdog(config, dt, kin.joint_names, gains.torque_limit, speed_limits,
                           np.column_stack([kin.lower, kin.upper])) for _ in range(N)]
     settle_ticks = round(config.settle_s / dt)
@@ -307,6 +316,10 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         waited = np.where(advance, 0, waited)
         settled_for = np.where(advance, 0, settled_for)
         i = np.where(advance, i + 1, i)
+        if probes:
+            for m in np.flatnonzero(advance & (i == drawing_starts)):
+                probed[m] = (f"probed the paper at {probes} points of the path: "
+                             f"{surfaces.describe(int(m))}")
         mode[run & (i >= n_ref)] = DONE
         if progress is not None and period % report_every == 0 and (mode == RUNNING).any():
             last = int(i[mode == RUNNING].min())
@@ -322,10 +335,12 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
                                                            log_torque[m])
         log.tip[:], log.force[:] = log_tip[m], log_force[m]
         result = _with_plan_columns(log, ref, ref_rows[m], int(row[m]), ref_blend[m])
-        result.wall_s = wall
-        result.notes = notes
         if m in faults:
             result.phase[stop_from[m]:] = LIFT
+        result = without_probes(result, probes)
+        result.wall_s = wall
+        result.notes = (probed[m],) + notes if probed[m] else notes
+        if m in faults:
             faults[m].log = result
             out.append(faults[m])
         else:

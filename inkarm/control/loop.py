@@ -36,7 +36,7 @@ from inkarm.control.friction import FrictionCompensation
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.pid import JointPID, PIDGains
-from inkarm.control.probe import probe_drawing, probe_points
+from inkarm.control.probe import with_probes, without_probes
 from inkarm.control.reference import (
     JointReference,
     JointSpeedError,
@@ -130,23 +130,21 @@ def run_drawing(
     config = config or LoopConfig()
     # the paper's height along the normal, learnt while drawing (and probing)
     surface = SurfaceEstimate() if surface is None else surface
-    probed: tuple[str, ...] = ()
-    if config.probe_paper:
-        probing = dataclasses.replace(config, probe_paper=False, go_home=False)
-        run_drawing(probe_drawing(drawing), plant, model, gains, probing, ik=ik,
-                    speed_limits=speed_limits, surface=surface)
-        points = len(probe_points(drawing))
-        probed = (f"probed the paper at {points} points of the path: {surface.describe()}",)
     wall0 = _time.perf_counter()
     kin = ArmKinematics.of(model)
     placement = model.placement
     if gains.n != kin.n:
         raise InputError(f"{gains.n} joints, but the kinematic model has {kin.n}", key="gains")
     check_reachable(drawing, model, config, kin=kin, ik=ik)
+    probes = 0  # the probe's dots come first in the plan (inkarm.control.probe)
+    if config.probe_paper:
+        drawing, probes = with_probes(drawing)
     dt = plant.dt
     state = plant.read()
     ref, notes = plan_within_speed_limits(drawing, model, config, state.q, dt, kin, ik,
                                           speed_limits)
+    drawing_starts = int(np.argmax(ref.stroke >= probes)) if probes else 0  # first plan row
+    probing, probe_wall, probed = bool(probes), 0.0, ()
     pid = JointPID(gains, dt)
     watchdog = Watchdog(config, dt, kin.joint_names, gains.torque_limit, speed_limits,
                         np.column_stack([kin.lower, kin.upper]))
@@ -205,11 +203,16 @@ def run_drawing(
     # older: a plant used before has delayed readings from the start), else the first reading's.
     now = getattr(plant, "now", None)
     t_first = now() if now is not None else None
+    loop_wall0 = _time.perf_counter()
     try:
         while i < n_ref:
             state = read()
             if t_first is None:
                 t_first = state.time
+            if probing and i >= drawing_starts:  # the pen leaves the last probe dot
+                probing, probe_wall = False, _time.perf_counter() - loop_wall0
+                found = f"probed the paper at {probes} points of the path: {surface.describe()}"
+                probed = (found,)
             phase = phases[i]
             holding = hold_at[i]
             tip = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
@@ -306,12 +309,13 @@ def run_drawing(
         _brake(plant)
         partial = _with_plan_columns(log, ref, ref_row, row, ref_blend)
         partial.phase[stop_from:] = LIFT
-        partial.wall_s = _time.perf_counter() - wall0
+        partial = without_probes(partial, probes)
+        partial.wall_s = _time.perf_counter() - wall0 - probe_wall
         partial.notes = probed + notes
         err.log = partial
         raise
-    result = _with_plan_columns(log, ref, ref_row, row, ref_blend)
-    result.wall_s = _time.perf_counter() - wall0
+    result = without_probes(_with_plan_columns(log, ref, ref_row, row, ref_blend), probes)
+    result.wall_s = _time.perf_counter() - wall0 - probe_wall
     result.notes = probed + notes
     if progress is not None:
         progress(1.0, PHASES[phases[-1]])

@@ -11,12 +11,17 @@ mark of its own): the path's first point p1, the point farthest from it p2, and 
 farthest from the line p1 p2 p3 (the largest triangle of the three), so the plane's two slopes
 are both seen unless the drawing is a straight line (then the surface's ridge prior keeps the
 unseen slope at zero).
+
+The probe is part of the drawing's own plan (:func:`with_probes`: its dots are the first
+strokes), so that a batch of plants, which shares one plan, probes as one plant does; the log of
+the drawing starts where the pen leaves the last dot (:func:`without_probes`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from inkarm.core.log import DrawLog
 from inkarm.core.trajectory import Drawing, Trajectory
 
 DWELL_S = 0.05  # how long each probe holds the pen at its point once the force has settled [s]
@@ -46,4 +51,23 @@ def probe_drawing(drawing: Drawing) -> Drawing:
     return Drawing(dots, page_size=drawing.page_size)
 
 
-__all__ = ["DWELL_S", "probe_drawing", "probe_points"]
+def with_probes(drawing: Drawing) -> tuple[Drawing, int]:
+    """``drawing`` with the dots of :func:`probe_drawing` first, and how many strokes they
+    are."""
+    dots = probe_drawing(drawing).strokes
+    return Drawing([*dots, *drawing.strokes], page_size=drawing.page_size), len(dots)
+
+
+def without_probes(log: DrawLog, probes: int) -> DrawLog:
+    """The drawing's part of the ``log`` of a drawing :func:`with_probes`: from the first row
+    past the ``probes`` dots (the travel to the first stroke) on, its strokes numbered from 0
+    again; the whole ``log`` when the run never got past the dots (it failed probing)."""
+    past = log.stroke >= probes
+    if not probes or not past.any():
+        return log
+    part = log.rows(int(np.argmax(past)), len(log))
+    part.stroke = np.where(part.stroke >= probes, part.stroke - probes, part.stroke)
+    return part
+
+
+__all__ = ["DWELL_S", "probe_drawing", "probe_points", "with_probes", "without_probes"]

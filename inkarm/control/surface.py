@@ -61,14 +61,8 @@ class SurfaceEstimate:
             self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), s[6:]).tolist())
 
     def describe(self) -> str:
-        """The plane in words: the pen's depth beyond the model's sheet at the first sample (the
-        sheet's height and the arm's sag together: what the commands need) and its tilt."""
-        if self.origin is None:
-            return "no sample of the paper"
-        a, b, c = self.coef
-        return (f"the pen pressed {1000.0 * a:+.2f} mm along the normal beyond where the model "
-                f"puts the sheet, on a plane tilted {np.degrees(np.arctan(np.hypot(b, c))):.2f} "
-                f"deg ({self.count} samples)")
+        """The plane in words (:func:`describe_plane`)."""
+        return describe_plane(self.coef, self.count)
 
     def height(self, x: float, y: float) -> float:
         if self.origin is None:
@@ -78,4 +72,16 @@ class SurfaceEstimate:
         return a + b * (x - x0) + c * (y - y0)
 
 
-__all__ = ["SurfaceEstimate"]
+def describe_plane(coef: tuple[float, float, float], samples: int) -> str:
+    """A plane z = a + b u + c v [m] fitted to ``samples`` in words: the pen's depth beyond the
+    model's sheet at the first sample (the sheet's height and the arm's sag together: what the
+    commands need) and its tilt."""
+    if samples == 0:
+        return "no sample of the paper"
+    a, b, c = coef
+    return (f"the pen pressed {1000.0 * a:+.2f} mm along the normal beyond where the model "
+            f"puts the sheet, on a plane tilted {np.degrees(np.arctan(np.hypot(b, c))):.2f} "
+            f"deg ({samples} samples)")
+
+
+__all__ = ["SurfaceEstimate", "describe_plane"]

@@ -58,16 +58,21 @@ class DrawLog:
 
     def truncated(self, k: int) -> DrawLog:
         """The first ``k`` rows."""
+        return self.rows(0, k)
+
+    def rows(self, start: int, stop: int) -> DrawLog:
+        """Rows ``start`` to ``stop`` (views, as slices are)."""
+        cut = slice(start, stop)
         return DrawLog(
-            self.time[:k],
-            self.q[:k],
-            self.qd[:k],
-            self.torque[:k],
-            self.tip[:k],
-            self.force[:k],
-            self.reference[:k],
-            self.phase[:k],
-            self.stroke[:k],
+            self.time[cut],
+            self.q[cut],
+            self.qd[cut],
+            self.torque[cut],
+            self.tip[cut],
+            self.force[cut],
+            self.reference[cut],
+            self.phase[cut],
+            self.stroke[cut],
             self.wall_s,
             self.notes,
         )

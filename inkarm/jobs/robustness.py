@@ -51,9 +51,9 @@ BOUNDS = {"tracking_rms_mm": 0.3, "ink_chamfer_mm": 0.3, "gap_mm": 0.0, "force_b
 SAFE_WITHIN_S = 0.1
 # The controller for the hardest plants (springs, heavier links, a rigid table with nib friction
 # all at once): the paper probed before drawing, so the first stroke knows the sheet, and a
-# force loop three times slower than the default, below the springs' mode (k_F = 100
+# force loop 2.5 times slower than the default, below the springs' mode (k_F = 100
 # mm/(N s) drives that mix into a limit cycle in contact). It meets every row above as well.
-CAREFUL_CONTROLLER = {"controller.probe_paper": True, "controller.force_gain_mm_per_ns": 30.0}
+CAREFUL_CONTROLLER = {"controller.probe_paper": True, "controller.force_gain_mm_per_ns": 40.0}
 
 
 def overrides(plant: dict, knows_latency: bool = True, careful: bool = False,

@@ -1,6 +1,6 @@
 """Probing the paper before drawing (controller.probe_paper): the probe finds a lowered, tilted
 sheet, the first stroke is then drawn at its force, a sheet out of reach fails at the probe, and
-the batched ensemble refuses to probe."""
+a batched ensemble probes as each member does."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from inkarm.errors import InputError
+from inkarm.core.log import HOME, TRAVEL
 from inkarm.jobs.ensemble import run_ensemble
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
@@ -51,12 +51,29 @@ def test_a_sheet_beyond_the_search_fails_at_the_probe(letter):
     assert "metrics" not in result.reason
 
 
-def test_the_batched_ensemble_refuses_to_probe():
+def test_a_batched_ensemble_probes_as_each_member_alone_does():
+    """The probe's dots lead the one plan, so the batch probes too: same status, log and note
+    as each member run alone, on sheets of their own height and tilt."""
     scenario = load_scenario("scenarios/quick_stroke.toml").with_overrides(
-        {"controller.probe_paper": True})
-    with pytest.raises(InputError, match="does not probe the paper") as info:
-        run_ensemble(scenario, [0, 1])
-    assert "probe_paper" in str(info.value)
+        {"controller.probe_paper": True,
+         "plant.random": {"paper_height_mm": [-4.0, 2.0], "paper_tilt_deg": [0.0, 2.0]}})
+    seeds = [0, 5]
+    batched = run_ensemble(scenario, seeds, processes=1)
+    for seed, member in zip(seeds, batched):
+        alone = run(scenario.with_overrides({"plant.seed": seed}))
+        assert member.status == alone.status == "ok", (member.reason, alone.reason)
+        assert np.array_equal(member.log.q, alone.log.q)
+        assert np.array_equal(member.log.stroke, alone.log.stroke)
+        assert member.notes == alone.notes and alone.notes[0].startswith("probed the paper")
+        assert member.metrics["tracking_rms_mm"] == pytest.approx(
+            alone.metrics["tracking_rms_mm"], rel=1e-9)
+
+
+def test_the_log_starts_where_the_pen_leaves_the_last_probe_dot(letter):
+    probed = run(letter.with_overrides({**SHEET, "controller.probe_paper": True})).log
+    assert probed.phase[0] == TRAVEL and probed.stroke[0] == 0  # towards the first stroke
+    assert probed.stroke.max() == 0  # the letter's one stroke, numbered from 0 again
+    assert probed.phase[probed.stroke == -1][0] == HOME
 
 
 def test_a_plant_with_delayed_readings_draws_a_second_drawing_as_well_as_its_first():
