@@ -70,14 +70,15 @@ def plan_within_speed_limits(
     """The joint reference of ``drawing``, and notes on what was changed to plan it.
 
     When a joint would exceed its speed limit [rad/s] and ``config.speed_limits`` is "slow",
-    the drawing's times, the descents, lifts and travel are stretched by the excess (times 1.05);
-    the
-    plan is made again, up to three times; "refuse" raises :class:`JointSpeedError`."""
+    the descents, lifts and travel are stretched by the excess (times 1.05), and the drawing's
+    own times too unless its strokes keep to the limits (a long pen-up move, such as a probe's,
+    does not slow the strokes); the plan is made again, up to three times; "refuse" raises
+    :class:`JointSpeedError`."""
     kin = kin or ArmKinematics.of(model)
     depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm,
                          model.pen_preload_n, model.paper_stiffness_n_per_mm)
     notes: list[str] = []
-    stretch = 1.0
+    stretch = moves_stretch = 1.0
     for attempt in range(4):
         pen = sequence_pen(drawing, config, depth, dt)
         try:
@@ -87,9 +88,13 @@ def plan_within_speed_limits(
             if config.speed_limits == "refuse" or attempt == 3:
                 raise
             factor = SPEED_MARGIN * e.excess
-            stretch *= factor
-            notes.append(f"slowed {stretch:.2f} x: {e.message}")
-            drawing = slowed(drawing, factor)
+            moves_stretch *= factor
+            if e.strokes_within:
+                notes.append(f"slowed the pen-up moves {moves_stretch:.2f} x: {e.message}")
+            else:
+                stretch *= factor
+                notes.append(f"slowed {stretch:.2f} x: {e.message}")
+                drawing = slowed(drawing, factor)
             config = dataclasses.replace(
                 config, travel_speed_mm_s=config.travel_speed_mm_s / factor,
                 descend_s=config.descend_s * factor, lift_s=config.lift_s * factor)

@@ -78,12 +78,15 @@ class JointReference:
 
 class JointSpeedError(UnreachableError):
     """A planned joint speed above the robot's limit; ``joint`` names it and ``excess`` is the
-    ratio of the planned speed to the limit (> 1)."""
+    ratio of the planned speed to the limit (> 1); ``strokes_within``: whether the pen-down
+    rows keep to every limit (only the moves between strokes are too fast)."""
 
-    def __init__(self, message: str, joint: str = "", excess: float = 1.0, **context):
+    def __init__(self, message: str, joint: str = "", excess: float = 1.0,
+                 strokes_within: bool = False, **context):
         super().__init__(message, **context)
         self.joint = joint
         self.excess = excess
+        self.strokes_within = strokes_within
 
 
 def check_reachable(
@@ -215,7 +218,8 @@ def plan_joint_reference(
         )
     qd = np.gradient(q, dt, axis=0)
     if speed_limits is not None:
-        _check_speeds(qd, speed_limits, kin.joint_names, dt)
+        _check_speeds(qd, speed_limits, kin.joint_names, dt,
+                      np.concatenate(parts_phase) == DRAW)
     qdd = np.gradient(qd, dt, axis=0)
     # Slowly varying terms on knots SLOW_TERMS_PERIOD_S apart, linear in between: MuJoCo
     # evaluates each knot, the linear algebra runs on all knots at once.
@@ -292,12 +296,15 @@ def _joint_move(q0: np.ndarray, q1: np.ndarray, peak_speed: np.ndarray, dt: floa
     return q0 + minimum_jerk(ticks(duration, dt))[:, None] * (q1 - q0)
 
 
-def _check_speeds(qd: np.ndarray, limits: np.ndarray, names, dt: float) -> None:
-    """Raise JointSpeedError for the joint whose planned speed most exceeds its limit."""
+def _check_speeds(qd: np.ndarray, limits: np.ndarray, names, dt: float,
+                  pen_down: np.ndarray) -> None:
+    """Raise JointSpeedError for the joint whose planned speed most exceeds its limit, saying
+    whether the ``pen_down`` rows keep to every limit."""
     ratio = np.abs(qd) / limits
     i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     if ratio[i, j] > 1.0:
         raise JointSpeedError(
             f"the reference drives joint {names[j]} at {np.rad2deg(abs(qd[i, j])):.1f} deg/s at "
             f"t = {i * dt:.3f} s, above its {np.rad2deg(limits[j]):.1f} deg/s limit "
-            f"({ratio[i, j]:.2f} x)", joint=names[j], excess=float(ratio[i, j]))
+            f"({ratio[i, j]:.2f} x)", joint=names[j], excess=float(ratio[i, j]),
+            strokes_within=not (ratio[pen_down] > 1.0).any())

@@ -177,6 +177,27 @@ def test_a_drawing_too_fast_for_the_limits_is_slowed_and_says_so(km, kin):
     assert set(log.phase.tolist()) == {PHASES.index(p) for p in PHASES}
 
 
+def test_moves_too_fast_between_strokes_keep_within_themselves_not_the_strokes(km, kin):
+    """Limits that only the travel, descents and lifts exceed: those slow down, the strokes
+    keep the drawing's own timing."""
+    drawing = Drawing([swoosh().strokes[0], swoosh(x0=20.0, y0=40.0).strokes[1]])
+    ref, notes = plan_within_speed_limits(drawing, km, LoopConfig(), km.home_q, DT, kin)
+    assert notes == ()
+    peak = np.abs(ref.qd)
+    draw = peak[ref.phase == DRAW].max(axis=0)
+    moves = peak[~np.isin(ref.phase, [DRAW, APPROACH, HOME])].max(axis=0)
+    limits = np.maximum(1.1 * draw, 0.7 * moves)
+    assert np.any(moves > limits)
+    slow, notes = plan_within_speed_limits(drawing, km, LoopConfig(), km.home_q, DT, kin,
+                                           speed_limits=limits)
+    assert notes and all(n.startswith("slowed the pen-up moves ") for n in notes), notes
+    assert np.all(np.abs(slow.qd) <= limits * (1 + 1e-9))
+    assert len(slow) > len(ref)
+    for k in (0, 1):  # each stroke as long as drawn (0.5 s)
+        assert np.sum((slow.phase == DRAW) & (slow.stroke == k)) == \
+            np.sum((ref.phase == DRAW) & (ref.stroke == k))
+
+
 def test_refuse_raises_instead_of_slowing(km, kin):
     drawing = swoosh()
     limits = draw_limits(km, kin, drawing)
