@@ -120,15 +120,22 @@ def test_an_unreachable_first_point_is_refused(km, kin):
         check_reachable(swoosh(), far, kin=kin)
 
 
-def draw_limits(km, kin, drawing):
-    """Speed limits that the drawing's strokes exceed but its descents and lifts (which slowing
-    the drawing does not stretch) keep to: 60% of the draw rows' peak per joint."""
+def planned_peaks(km, kin, drawing):
+    """The drawing's reference without speed limits, and its peak joint speeds per joint on the
+    draw rows and on the pen-up moves (travel, descents, lifts)."""
     ref, notes = plan_within_speed_limits(drawing, km, LoopConfig(), km.home_q, DT, kin)
     assert notes == ()
     peak = np.abs(ref.qd)
     draw = peak[ref.phase == DRAW].max(axis=0)
-    other = peak[~np.isin(ref.phase, [DRAW, APPROACH, HOME])].max(axis=0)
-    limits = np.maximum(0.6 * draw, 1.1 * other)
+    moves = peak[~np.isin(ref.phase, [DRAW, APPROACH, HOME])].max(axis=0)
+    return ref, draw, moves
+
+
+def draw_limits(km, kin, drawing):
+    """Speed limits that the drawing's strokes exceed but its descents and lifts (which slowing
+    the drawing does not stretch) keep to: 60% of the draw rows' peak per joint."""
+    _, draw, moves = planned_peaks(km, kin, drawing)
+    limits = np.maximum(0.6 * draw, 1.1 * moves)
     assert np.any(draw > limits)
     return limits
 
@@ -181,11 +188,7 @@ def test_moves_too_fast_between_strokes_keep_within_themselves_not_the_strokes(k
     """Limits that only the travel, descents and lifts exceed: those slow down, the strokes
     keep the drawing's own timing."""
     drawing = Drawing([swoosh().strokes[0], swoosh(x0=20.0, y0=40.0).strokes[1]])
-    ref, notes = plan_within_speed_limits(drawing, km, LoopConfig(), km.home_q, DT, kin)
-    assert notes == ()
-    peak = np.abs(ref.qd)
-    draw = peak[ref.phase == DRAW].max(axis=0)
-    moves = peak[~np.isin(ref.phase, [DRAW, APPROACH, HOME])].max(axis=0)
+    ref, draw, moves = planned_peaks(km, kin, drawing)
     limits = np.maximum(1.1 * draw, 0.7 * moves)
     assert np.any(moves > limits)
     slow, notes = plan_within_speed_limits(drawing, km, LoopConfig(), km.home_q, DT, kin,
