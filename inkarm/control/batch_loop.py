@@ -34,7 +34,7 @@ from inkarm.control.config import LoopConfig
 from inkarm.control.friction import FrictionCompensation
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.loop import _with_plan_columns, plan_within_speed_limits
-from inkarm.control.probe import with_probes, without_probes
+from inkarm.control.probe import first_drawing_row, probe_note, with_probes, without_probes
 from inkarm.control.reference import check_reachable
 from inkarm.control.surface import describe_plane
 from inkarm.control.watchdog import SATURATION, SPEED_TOLERANCE, Watchdog
@@ -119,7 +119,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
     ref, notes = plan_within_speed_limits(drawing, model, config, q_start, dt, kin, None,
                                           speed_limits)
     n_ref = len(ref)
-    drawing_starts = int(np.argmax(ref.stroke >= probes)) if probes else 0
+    drawing_starts = first_drawing_row(ref.stroke, probes)
     probed = [""] * N  # what each member's probe found, when it leaves its last dot
     watchdogs = [Watchdog(config, dt, kin.joint_names, gains.torque_limit, speed_limits,
                           np.column_stack([kin.lower, kin.upper])) for _ in range(N)]
@@ -318,8 +318,7 @@ def run_drawings(drawing: Drawing, plant, model: KinematicModel, gains: PIDGains
         i = np.where(advance, i + 1, i)
         if probes:
             for m in np.flatnonzero(advance & (i == drawing_starts)):
-                probed[m] = (f"probed the paper at {probes} points of the path: "
-                             f"{surfaces.describe(int(m))}")
+                probed[m] = probe_note(probes, surfaces.describe(int(m)))
         mode[run & (i >= n_ref)] = DONE
         if progress is not None and period % report_every == 0 and (mode == RUNNING).any():
             last = int(i[mode == RUNNING].min())

@@ -36,7 +36,7 @@ from inkarm.control.friction import FrictionCompensation
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.pid import JointPID, PIDGains
-from inkarm.control.probe import with_probes, without_probes
+from inkarm.control.probe import first_drawing_row, probe_note, with_probes, without_probes
 from inkarm.control.reference import (
     JointReference,
     JointSpeedError,
@@ -118,7 +118,6 @@ def run_drawing(
     progress: Callable[[float, str], None] | None = None,
     ik: IKConfig | None = None,
     speed_limits: np.ndarray | None = None,
-    surface: SurfaceEstimate | None = None,
 ) -> DrawLog:
     """Draw ``drawing`` (page [mm], [s]) with ``plant``; return the log of every control period.
 
@@ -128,13 +127,13 @@ def run_drawing(
     "refuse"``), and SimulationError (with the log so far in its ``log`` attribute) when the
     plant diverges; a KeyboardInterrupt carries the log so far the same way. With
     ``config.probe_paper`` the paper is probed first (:mod:`inkarm.control.probe`; the log is the
-    drawing's, its notes say what the probe found); ``surface``, when given, is the paper plane
-    known so far, and is updated while drawing. ``progress(fraction, phase)`` is called about ten times per simulated
-    second. The plant is left as it is at the end (the caller closes it).
+    drawing's, its notes say what the probe found). ``progress(fraction, phase)`` is called
+    about ten times per simulated second. The plant is left as it is at the end (the caller
+    closes it).
     """
     config = config or LoopConfig()
     # the paper's height along the normal, learnt while drawing (and probing)
-    surface = SurfaceEstimate() if surface is None else surface
+    surface = SurfaceEstimate()
     wall0 = _time.perf_counter()
     kin = ArmKinematics.of(model)
     placement = model.placement
@@ -148,7 +147,7 @@ def run_drawing(
     state = plant.read()
     ref, notes = plan_within_speed_limits(drawing, model, config, state.q, dt, kin, ik,
                                           speed_limits)
-    drawing_starts = int(np.argmax(ref.stroke >= probes)) if probes else 0  # first plan row
+    drawing_starts = first_drawing_row(ref.stroke, probes)
     probing, probe_wall, probed = bool(probes), 0.0, ()
     pid = JointPID(gains, dt)
     watchdog = Watchdog(config, dt, kin.joint_names, gains.torque_limit, speed_limits,
@@ -216,8 +215,7 @@ def run_drawing(
                 t_first = state.time
             if probing and i >= drawing_starts:  # the pen leaves the last probe dot
                 probing, probe_wall = False, _time.perf_counter() - loop_wall0
-                found = f"probed the paper at {probes} points of the path: {surface.describe()}"
-                probed = (found,)
+                probed = (probe_note(probes, surface.describe()),)
             phase = phases[i]
             holding = hold_at[i]
             tip = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])

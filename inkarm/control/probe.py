@@ -58,16 +58,27 @@ def with_probes(drawing: Drawing) -> tuple[Drawing, int]:
     return Drawing([*dots, *drawing.strokes], page_size=drawing.page_size), len(dots)
 
 
+def first_drawing_row(stroke: np.ndarray, probes: int) -> int:
+    """The first row of a plan (or log) with strokes ``stroke`` past its ``probes`` dots: the
+    travel to the drawing's first stroke (0 without probes)."""
+    return int(np.argmax(stroke >= probes)) if probes else 0
+
+
+def probe_note(probes: int, plane: str) -> str:
+    """The run's note on what its probe found (``plane``: the surface estimate in words)."""
+    return f"probed the paper at {probes} points of the path: {plane}"
+
+
 def without_probes(log: DrawLog, probes: int) -> DrawLog:
     """The drawing's part of the ``log`` of a drawing :func:`with_probes`: from the first row
     past the ``probes`` dots (the travel to the first stroke) on, its strokes numbered from 0
     again; the whole ``log`` when the run never got past the dots (it failed probing)."""
-    past = log.stroke >= probes
-    if not probes or not past.any():
+    if not probes or not (log.stroke >= probes).any():
         return log
-    part = log.rows(int(np.argmax(past)), len(log))
+    part = log.rows(first_drawing_row(log.stroke, probes), len(log))
     part.stroke = np.where(part.stroke >= probes, part.stroke - probes, part.stroke)
     return part
 
 
-__all__ = ["DWELL_S", "probe_drawing", "probe_points", "with_probes", "without_probes"]
+__all__ = ["DWELL_S", "first_drawing_row", "probe_drawing", "probe_note", "probe_points",
+           "with_probes", "without_probes"]
