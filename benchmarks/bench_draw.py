@@ -5,7 +5,7 @@ Run: ``python benchmarks/bench_draw.py [--quick] [--cpu N]``. Prints a markdown 
 two tables:
 
 1. The embedded default scenario (60 mm letter N, marker, A4) drawn by
-   :func:`inkarm.control.loop.run_drawing` on :class:`inkarm.sim.plant.MujocoPlant` with the ink
+   :func:`inkarm.control.executor.run_drawing` on :class:`inkarm.sim.plant.MujocoPlant` with the ink
    canvas, pinned to one core (``os.sched_setaffinity``, like ``taskset -c N``). The real-time
    factor is simulated time over the wall time of the whole run, planning included (the
    ``realtime_factor`` of ``metrics.json``): in fresh processes, the first run as ``inkarm
@@ -47,7 +47,7 @@ import numpy as np
 from inkarm.control.config import LoopConfig
 from inkarm.control.ik import IKConfig, PathTracker, solve_ik
 from inkarm.control.kinematics import ArmKinematics
-from inkarm.control.loop import plan_within_speed_limits
+from inkarm.control.reference import plan_within_speed_limits
 from inkarm.core.log import APPROACH, HOME
 from inkarm.core.trajectory import Drawing
 from inkarm.jobs.run import run

@@ -40,10 +40,10 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from inkarm.jobs.ensemble import iter_ensemble
-from inkarm.jobs.ensemble_workers import available_cpus, shutdown_workers, worker_cpu_seconds
+from inkarm.jobs.ensemble.workers import available_cpus, shutdown_workers, worker_cpu_seconds
 from inkarm.jobs.run import Run, run
 from inkarm.jobs.scenario import load_scenario
-from inkarm.jobs.sweep_design import with_point
+from inkarm.jobs.sweep.design import with_point
 
 DEFAULT = Path(__file__).resolve().parent.parent / "scenarios" / "realistic_iiwa.toml"
 

@@ -26,7 +26,7 @@ from inkarm.hardware.plotter.gcode import drawing_to_gcode
 from inkarm.hardware.plotter.profiles import load_profile
 from inkarm.hardware.plotter.stream import GrblStreamer
 from inkarm.hardware.plotter.timing import estimate_seconds
-from inkarm.jobs.plotter import page_size_mm, placed_on_sheet
+from inkarm.jobs.backends.plotter import page_size_mm, placed_on_sheet
 from inkarm.jobs.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

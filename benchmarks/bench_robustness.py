@@ -93,7 +93,7 @@ def run_mix_member(seed: int) -> dict:
 
 
 def run_member(seed: int) -> tuple[dict, np.ndarray]:
-    from inkarm.jobs.regress_baseline import page_grey
+    from inkarm.jobs.regress.baseline import page_grey
     from inkarm.jobs.run import run
     from inkarm.jobs.scenario import load_scenario
 

@@ -17,12 +17,12 @@ import tempfile
 import time
 from pathlib import Path
 
-from inkarm.jobs.ensemble_workers import available_cpus
+from inkarm.jobs.ensemble.workers import available_cpus
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.jobs.sweep import run_sweep
-from inkarm.jobs.sweep_design import make_points, with_point
-from inkarm.jobs.sweep_table import read_results
+from inkarm.jobs.sweep.design import make_points, with_point
+from inkarm.jobs.sweep.table import read_results
 
 
 def serial(scenario, points) -> tuple[float, float]:

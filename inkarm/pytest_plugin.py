@@ -38,7 +38,7 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector):
     config = parent.config
     if not config.getoption("inkarm_regress") or file_path.suffix != ".toml":
         return None
-    from inkarm.jobs.regress_baseline import MARKER, baseline_dir
+    from inkarm.jobs.regress.baseline import MARKER, baseline_dir
 
     folder = baseline_dir(file_path, config.getoption("inkarm_baselines"))
     if not (folder / MARKER).is_file():
@@ -68,7 +68,7 @@ class ScenarioItem(pytest.Item):
 
     def runtest(self) -> None:
         from inkarm.jobs.regress import regress
-        from inkarm.jobs.regress_baseline import baseline_dir
+        from inkarm.jobs.regress.baseline import baseline_dir
         from inkarm.jobs.scenario import load_scenario
 
         folder = baseline_dir(self.path, self.config.getoption("inkarm_baselines"))

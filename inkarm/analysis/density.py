@@ -37,14 +37,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inkarm.analysis.dppla import (
-    DPPLA_STEPS,
-    DPPLAResult,
-    dppla,
-    dppla_cost,
-    segments_for_compression,
-)
-from inkarm.core.budget import require, require_memory
+from inkarm.analysis.dppla import DPPLAResult, dppla, segments_for_compression
+from inkarm.analysis.dppla_budget import dppla_cost
+from inkarm.core.budget import DPPLA_STEPS, require, require_memory
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
 

@@ -28,6 +28,8 @@ METRIC_KEYS = (
     "gap_mm",
     "contact_force_mean_n",
     "contact_force_std_n",
+    "force_p1_n",
+    "force_p99_n",
     "joint_limit_margin_rad",
     "realtime_factor",
 )
@@ -251,6 +253,17 @@ def contact_force_stats(force_n, drawing, contact_threshold_n: float = 0.05) -> 
     return float(touching.mean()), float(touching.std())
 
 
+def force_percentiles(force_n, drawing, percentiles=(1.0, 99.0)) -> tuple[float, ...]:
+    """The ``percentiles`` [%] of the normal force in [N] over all the drawing samples, in
+    contact or not (the band the force keeps while drawing; a gap pulls its low end to 0);
+    NaN when no sample is drawing. NumPy's linear interpolation between order statistics."""
+    force = _array("force_n", force_n, 1)
+    mask = _mask("drawing", drawing, force.shape[0])
+    if not mask.any():
+        return tuple(math.nan for _ in percentiles)
+    return tuple(float(v) for v in np.percentile(force[mask], percentiles))
+
+
 def joint_limit_margin_rad(q, joint_range) -> float:
     """Smallest distance in [rad] of any joint to either of its limits over the run,
 
@@ -305,7 +318,8 @@ def compute_metrics(
     """All metrics of a drawing run, keyed by :data:`METRIC_KEYS`: tracking RMS and max
     (:func:`tracking_error`), ink-versus-plan chamfer (:func:`ink_chamfer_mm`), the total
     length of the gaps (:func:`pen_gaps`, which also gives the longest), contact force mean
-    and std (:func:`contact_force_stats`), the smallest joint-limit margin
+    and std (:func:`contact_force_stats`), the 1st and 99th percentiles of the force over the
+    drawing samples (:func:`force_percentiles`), the smallest joint-limit margin
     (:func:`joint_limit_margin_rad`) and the real-time factor (:func:`realtime_factor`).
 
     Args:
@@ -336,6 +350,7 @@ def compute_metrics(
     tracking = tracking_error(reference, tip_mm, mask)
     gaps = pen_gaps(reference, force_n, mask, contact_threshold_n)
     force_mean, force_std = contact_force_stats(force_n, mask, contact_threshold_n)
+    force_p1, force_p99 = force_percentiles(force_n, mask)
     return {
         "tracking_rms_mm": tracking.rms_mm,
         "tracking_max_mm": tracking.max_mm,
@@ -345,6 +360,8 @@ def compute_metrics(
         "gap_mm": gaps.total_mm,
         "contact_force_mean_n": force_mean,
         "contact_force_std_n": force_std,
+        "force_p1_n": force_p1,
+        "force_p99_n": force_p99,
         "joint_limit_margin_rad": joint_limit_margin_rad(q, joint_range),
         "realtime_factor": realtime_factor(times, wall_time_s),
     }

@@ -47,7 +47,7 @@ def run_emulate(args: argparse.Namespace) -> int:
         simple_emulator,
         specs_for_profile,
     )
-    from inkarm.jobs.dynamixel import twin_emulator
+    from inkarm.jobs.backends.dynamixel import twin_emulator
     from inkarm.jobs.scenario import load_scenario
     from inkarm.sim.cell import Cell
 

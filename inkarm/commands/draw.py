@@ -16,6 +16,10 @@ from inkarm.io.outputs import check_out_dir
 from inkarm.robots.registry import robot_names
 
 MAX_FPS = 240.0
+# The metrics of the summary line (a backend that senses less has them undefined: nan).
+SUMMARY_KEYS = ("tracking_rms_mm", "tracking_max_mm", "ink_chamfer_mm", "gap_mm",
+                "contact_force_mean_n", "contact_force_std_n", "force_p1_n", "force_p99_n",
+                "joint_limit_margin_rad", "realtime_factor")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -41,9 +45,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--viewer", action="store_true",
                    help="open MuJoCo's viewer on the finished run (needs a display)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--backend", default="sim", metavar="{sim,plotter,dynamixel}",
-                   help="where to draw: sim (the MuJoCo arm, default) or a device on --port "
-                   "(plotter: GRBL 1.1; see inkarm.jobs.backends)")
+    p.add_argument("--backend", default="sim", metavar="NAME",
+                   help="where to draw: sim (the MuJoCo arm, default), servo_sim (the arm on its "
+                   "servos' firmware model), or a device on --port: plotter (GRBL 1.1), "
+                   "dynamixel; plug-ins add more (inkarm.jobs.backends)")
     p.add_argument("--port", default=None,
                    help="serial port of the device (a pseudo-terminal from `inkarm emulate`)")
     p.add_argument("--profile", metavar="NAME|FILE.toml", default=None,
@@ -184,14 +189,17 @@ def run(args: argparse.Namespace) -> int:
     if not result.ok:
         print(f"inkarm draw: warning: the drawing is {result.status}: {result.reason}",
               file=sys.stderr)
-    m = result.metrics
+    m = {key: math.nan for key in SUMMARY_KEYS} | dict(result.metrics)
     print(
         f"tracking RMS {m['tracking_rms_mm']:.3f} mm, max {m['tracking_max_mm']:.3f} mm; "
         f"ink chamfer {m['ink_chamfer_mm']:.3f} mm; gaps {m['gap_mm']:.2f} mm; "
-        f"force {m['contact_force_mean_n']:.2f} +- {m['contact_force_std_n']:.3f} N; "
+        f"force {m['contact_force_mean_n']:.2f} +- {m['contact_force_std_n']:.3f} N "
+        f"({m['force_p1_n']:.2f}..{m['force_p99_n']:.2f} N while drawing); "
         f"joint margin {m['joint_limit_margin_rad']:.2f} rad; "
         f"real-time factor {m['realtime_factor']:.1f}"
     )
+    for unjudged in result.unjudged:  # the backend cannot sense these: never passed in silence
+        print(unjudged)  # "force_band_n not judged: <why>"
     out = Path(args.out)
     print(f"pictures: {out / 'canvas.png'} (ink), {out / 'report.png'} (ink over plan, "
           f"tracking error, force, speed)")

@@ -45,7 +45,7 @@ def load_drawing(source: str):
 
         return Drawing.from_npz(path)
     if suffix == ".toml":  # placed on its sheet, as `inkarm draw --backend plotter` places it
-        from inkarm.jobs.plotter import page_size_mm, placed_on_sheet
+        from inkarm.jobs.backends.plotter import page_size_mm, placed_on_sheet
         from inkarm.jobs.scenario import load_scenario
 
         scenario = load_scenario(path)

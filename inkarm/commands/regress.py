@@ -72,11 +72,11 @@ def compare_all(scenarios, junit: Path | None, report: Path | None) -> int:
         for line in c.failure_message().splitlines():
             print(f"    {line}", flush=True)
     if junit is not None:
-        from inkarm.jobs.regress_report import write_junit
+        from inkarm.jobs.regress.report import write_junit
 
         print(f"junit: {write_junit(comparisons, junit)}")
     if report is not None:
-        from inkarm.jobs.regress_report import write_report
+        from inkarm.jobs.regress.report import write_report
 
         print(f"report: {write_report(comparisons, report)}")
     failed = [c.name for c in comparisons if not c.passed]
@@ -87,7 +87,7 @@ def compare_all(scenarios, junit: Path | None, report: Path | None) -> int:
 
 def update(scenarios) -> int:
     from inkarm.jobs.regress import RULES, compare
-    from inkarm.jobs.regress_baseline import (
+    from inkarm.jobs.regress.baseline import (
         MARKER,
         library_versions,
         read_baseline,

@@ -54,7 +54,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def build_points(args: argparse.Namespace, scenario):
     """The design's points, every one checked against the scenario."""
-    from inkarm.jobs.sweep_design import (
+    from inkarm.jobs.sweep.design import (
         grid_design,
         make_points,
         parse_axis,
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     from inkarm.commands.draw import ProgressBar
     from inkarm.jobs.scenario import load_scenario
     from inkarm.jobs.sweep import run_sweep, write_figures
-    from inkarm.jobs.sweep_table import TABLE_FILE
+    from inkarm.jobs.sweep.table import TABLE_FILE
 
     out = check_out_dir(args.out)
     if args.workers is not None and args.workers < 1:

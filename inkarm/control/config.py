@@ -1,4 +1,5 @@
-"""LoopConfig: the sequencing and force-control settings of a drawing run."""
+"""LoopConfig: the sequencing, force-control and watchdog settings of a drawing run (the
+``[controller]`` table; the control law and its own settings are :mod:`inkarm.control.laws`)."""
 
 from __future__ import annotations
 
@@ -68,9 +69,6 @@ class LoopConfig:
         posture_rate: Null-space pull towards the home posture, in [1/s].
         ik_period_s: Spacing of the IK solutions along the path; a cubic spline fills in.
         go_home: Return to the home pose at the end.
-        command: "position" (joint goals with velocity, acceleration and torque feed-forward,
-            for plants whose drives close the joint loop: arm drives, servo firmware) or
-            "torque" (the host's own PID sends torques every period).
         force_limit_n: Watchdog: the run fails when the filtered force exceeds this.
         tracking_limit_mm: Watchdog: ... when the pen is this far from its reference (page x,
             y) for ``watchdog_s``.
@@ -106,7 +104,6 @@ class LoopConfig:
     posture_rate: float = 0.5
     ik_period_s: float = 0.012
     go_home: bool = True
-    command: str = "position"
     speed_limits: str = "slow"
     force_filter_s: float = 0.01
     search_speed_mm_s: float = 20.0
@@ -126,9 +123,6 @@ class LoopConfig:
                 raise InputError(f"expected a finite number, got {value}", key=f.name,
                                  value=value)
         check_ranges(self, RANGES)
-        if self.command not in ("torque", "position"):
-            raise InputError(f"expected 'torque' or 'position', got {self.command!r}",
-                             key="command", value=self.command, choices=("torque", "position"))
         if self.speed_limits not in ("slow", "refuse"):
             raise InputError(f"expected 'slow' or 'refuse', got {self.speed_limits!r}",
                              key="speed_limits", value=self.speed_limits,

@@ -6,7 +6,7 @@ Seed 001's sensory-motor model inverts kinematics inside the loop, from the sens
 the kinematic inversion is solved once, before the run, on the controller's own kinematic model
 (closed-loop IK on knots every ``ik_period_s`` along the whole reference,
 :func:`inkarm.control.ik.track_path`, joined by a clamped cubic spline); the loop
-(:mod:`inkarm.control.loop`) closes on the senses every control period. Reasons: (1) an
+(:mod:`inkarm.control.executor`) closes on the senses every control period. Reasons: (1) an
 unreachable point, a joint limit or a joint speed above the robot's datasheet limit is found
 before anything moves, naming the point or joint, which a real arm needs; (2) the per-period
 cost drops to a PID and one bias evaluation, so a Python loop keeps a hardware period and the
@@ -32,9 +32,9 @@ from scipy.interpolate import CubicSpline
 from inkarm.control.config import LoopConfig
 from inkarm.control.ik import IKConfig, pen_jacobian, solve_ik, track_path
 from inkarm.control.kinematics import ArmKinematics
-from inkarm.control.sequencing import PenPath, minimum_jerk, pen_depth_mm, ticks
+from inkarm.control.sequencing import PenPath, minimum_jerk, pen_depth_mm, sequence_pen, ticks
 from inkarm.core.log import APPROACH, DRAW, HOME, PHASES
-from inkarm.core.trajectory import Drawing
+from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError, UnreachableError
 from inkarm.models.minjerk import PEAK_SPEED_RATIO
 from inkarm.robots.kinematic import KinematicModel
@@ -308,3 +308,59 @@ def _check_speeds(qd: np.ndarray, limits: np.ndarray, names, dt: float,
             f"t = {i * dt:.3f} s, above its {np.rad2deg(limits[j]):.1f} deg/s limit "
             f"({ratio[i, j]:.2f} x)", joint=names[j], excess=float(ratio[i, j]),
             strokes_within=not (ratio[pen_down] > 1.0).any())
+
+
+# Extra slowing on top of the measured excess when a reference is slowed to its speed limits.
+SPEED_MARGIN = 1.05
+
+
+def plan_within_speed_limits(
+    drawing: Drawing,
+    model: KinematicModel,
+    config: LoopConfig,
+    q_start: np.ndarray,
+    dt: float,
+    kin: ArmKinematics | None = None,
+    ik: IKConfig | None = None,
+    speed_limits: np.ndarray | None = None,
+) -> tuple[JointReference, tuple[str, ...]]:
+    """The joint reference of ``drawing``, and notes on what was changed to plan it.
+
+    When a joint would exceed its speed limit [rad/s] and ``config.speed_limits`` is "slow",
+    the descents, lifts and travel are stretched by the excess (times 1.05), and the drawing's
+    own times too unless its strokes keep to the limits (a long pen-up move, such as a probe's,
+    does not slow the strokes); the plan is made again, up to three times; "refuse" raises
+    :class:`JointSpeedError`."""
+    kin = kin or ArmKinematics.of(model)
+    depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm,
+                         model.pen_preload_n, model.paper_stiffness_n_per_mm)
+    notes: list[str] = []
+    stretch = moves_stretch = 1.0
+    for attempt in range(4):
+        pen = sequence_pen(drawing, config, depth, dt)
+        try:
+            return plan_joint_reference(pen, model, config, q_start, dt, kin, ik,
+                                        speed_limits), tuple(notes)
+        except JointSpeedError as e:
+            if config.speed_limits == "refuse" or attempt == 3:
+                raise
+            factor = SPEED_MARGIN * e.excess
+            moves_stretch *= factor
+            if e.strokes_within:
+                notes.append(f"slowed the pen-up moves {moves_stretch:.2f} x: {e.message}")
+            else:
+                stretch *= factor
+                notes.append(f"slowed {stretch:.2f} x: {e.message}")
+                drawing = slowed(drawing, factor)
+            config = dataclasses.replace(
+                config, travel_speed_mm_s=config.travel_speed_mm_s / factor,
+                descend_s=config.descend_s * factor, lift_s=config.lift_s * factor)
+    raise AssertionError("unreachable")
+
+
+def slowed(drawing: Drawing, factor: float) -> Drawing:
+    """``drawing`` with every time (and so every pause) multiplied by ``factor``."""
+    strokes = [Trajectory(t=s.t * factor, pos=s.pos,
+                          vel=None if s.vel is None else s.vel / factor, pressure=s.pressure)
+               for s in drawing.strokes]
+    return Drawing(strokes, page_size=drawing.page_size)

@@ -2,6 +2,12 @@
 
 A :class:`MotorPlan` is a list of :class:`StrokePlan`; each stroke is drawn pen-down and the pen
 is lifted between strokes. Means in [mm], covariances in [mm^2], times in [s].
+
+These are the Gaussian strokes. Every kind of stroke a plan file may hold (Gaussian targets,
+key-points, human lines, minimum-jerk paths, an installed plug-in's) is registered in the
+stroke-kind registry, one module each: the protocol is :class:`inkarm.io.planfile.StrokeKind`
+(it reads a plan file's table, so it lives with the plan-file reader), the built-ins are in
+:mod:`inkarm.plans.kinds`.
 """
 
 from __future__ import annotations

@@ -42,7 +42,8 @@ Schema (every key optional unless marked required)::
 
     [[strokes]]              # required, one table per stroke, in drawing order
     name = "left leg"        # free text
-    kind = "gaussian"        # "gaussian" (default), "keypoints", "human_line", "minjerk"
+    kind = "gaussian"        # "gaussian" (default), "keypoints", "human_line", "minjerk",
+                             # an installed plug-in's, or "package.module:Class" (see below)
     targets = [              # gaussian, keypoints (required): inline tables with
       { mean = [0.0, 0.0], cov = 9.0 },                    # mean [mm] (required) and
       { mean = [20.0, 60.0], std = [8.0, 2.0], angle = 30 },  # cov, or std [+ angle]
@@ -75,6 +76,14 @@ covariances, settings); :func:`inkarm.plans.realise.realise_plan` turns it into 
 A Gaussian stroke's samples come from the LQT trajectory distribution, a human-line stroke's
 from fresh squiggles; a minimum-jerk stroke is deterministic and repeats its mean.
 
+Stroke kinds: each kind is one object registered in the stroke-kind registry
+(``inkarm.plugins.registry("stroke_kind")``; the :class:`StrokeKind` protocol) that reads its
+stroke table and realises it: the built-ins are one module each in :mod:`inkarm.plans.kinds`;
+an installed package adds one with the entry point ``stroke_kind.<name>`` of the group
+``inkarm.plugins``, and a plan may name one as ``kind = "package.module:Class"``. A kind with
+settings takes a table named after it, at the top (``[<name>]``) and in a stroke
+(``<name> = {...}``), merged over its defaults as ``[human_line]`` is.
+
 Randomness: stroke i of a plan with seed s has its own streams, children of
 ``numpy.random.SeedSequence([s, i])`` (:func:`stroke_seeds`): one for the semi-tied
 magnitudes h_i, one for the samples (LQT draws, human lines). They are independent of each
@@ -83,28 +92,34 @@ other and of every other stroke's, and the same seed gives the same plan and sam
 
 from __future__ import annotations
 
+import inspect
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from inkarm.core import budget
 from inkarm.core.plan import StrokePlan
+from inkarm.core.trajectory import Trajectory
+from inkarm.errors import InkarmError, InputError
 from inkarm.io.plansections import (
-    HUMAN_LINE_DEFAULTS,
     MAX_TIME,
-    MINJERK_DEFAULTS,
     MODEL_DEFAULTS,
     in_range,
     read_model,
-    read_options,
     read_points,
     read_semi_tied,
     read_targets,
 )
 from inkarm.io.toml import TomlReader, load_toml
+from inkarm.plugins import registry
 
 KINDS = ("gaussian", "keypoints", "human_line", "minjerk")
+"""The built-in stroke kinds (:mod:`inkarm.plans.kinds`); :func:`stroke_kinds` adds plug-ins'."""
+STROKE_KINDS = registry("stroke_kind")
 TOP_KEYS = (
     "title",
     "seed",
@@ -137,11 +152,11 @@ class PlannedStroke:
     Attributes:
         index: Position in the file's ``strokes`` array.
         name: The stroke's name ("" when not given).
-        kind: One of :data:`KINDS`.
+        kind: The stroke kind's name (:func:`stroke_kinds`, or ``"package.module:Class"``).
         model: The merged ``[model]`` settings (LQT fields, segment_time, sampling).
         plan: The Gaussian targets (kinds gaussian, keypoints), else None.
         points: The points in [mm], (m, D) (kinds human_line, minjerk), else None.
-        options: The merged ``[human_line]`` or ``[minjerk]`` settings of those kinds.
+        options: The kind's merged settings (``[human_line]``, ``[minjerk]``, a plug-in's).
     """
 
     index: int
@@ -190,41 +205,120 @@ def stroke_seeds(seed: int, index: int) -> dict[str, np.random.SeedSequence]:
     return dict(zip(STREAMS, np.random.SeedSequence([seed, index]).spawn(len(STREAMS))))
 
 
-# -- reading a plan ----------------------------------------------------------------------------
+# -- stroke kinds -----------------------------------------------------------------------------
 
 
-def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStroke:
-    key = f"strokes[{index}]"
-    stroke = rd.table(raw, key)
-    rd.keys(stroke, STROKE_KEYS, key)
-    kind = rd.choice(stroke.get("kind", "gaussian"), f"{key}.kind", KINDS)
-    name = rd.text(stroke.get("name", ""), f"{key}.name")
-    model = read_model(
-        rd, rd.table(stroke.get("model", {}), f"{key}.model"), f"{key}.model", top["model"]
-    )
-    for section in ("human_line", "minjerk"):
-        if section in stroke and kind != section:
-            raise rd.error(
-                f"{key}.{section}", f"only applies to {section} strokes, this one is {kind}"
-            )
-    if kind in ("human_line", "minjerk"):
-        for name_ in ("targets", "cov", "semi_tied"):
-            if name_ in stroke:
-                raise rd.error(f"{key}.{name_}", f"not used by a {kind} stroke (it takes points)")
-        if "points" not in stroke:
-            raise rd.error(f"{key}.points", f"required for a {kind} stroke")
-        points = read_points(rd, stroke["points"], f"{key}.points")
-        options = read_options(
-            rd, kind, rd.table(stroke.get(kind, {}), f"{key}.{kind}"), f"{key}.{kind}", top[kind]
-        )
-        if kind == "minjerk" and options["via_times"] is not None:
-            n_via = points.shape[0] - 2
-            if options["via_times"].shape[0] != n_via:
-                raise rd.error(
-                    f"{key}.minjerk.via_times",
-                    f"expected {n_via} times for the {n_via} via-points, got {options['via_times'].shape[0]}",
-                )
-        return PlannedStroke(index, name, kind, model, points=points, options=options)
+@dataclass(frozen=True)
+class StrokeContext:
+    """What a stroke kind reads its stroke with, besides the stroke's own table.
+
+    Attributes:
+        index: Position in the file's ``strokes`` array.
+        name: The stroke's name ("" when not given).
+        kind: The kind's name as the plan gives it.
+        model: The merged ``[model]`` settings (``dt`` is every kind's sampling step).
+        settings: The plan's settings of this kind: its top-level table merged over its
+            defaults ({} for a kind without settings).
+        cov_source: The plan's default covariance: ``("cov", value, key)``,
+            ``("semi_tied", settings, key)`` or None.
+        semi_tied: The plan's ``[semi_tied]`` settings (a stroke's own table inherits them).
+        seed: The plan seed (:func:`stroke_seeds` gives the stroke's streams).
+    """
+
+    index: int
+    name: str
+    kind: str
+    model: dict
+    settings: dict
+    cov_source: tuple | None
+    semi_tied: dict | None
+    seed: int
+
+
+@runtime_checkable
+class StrokeKind(Protocol):
+    """One kind of stroke: how a plan file's ``[[strokes]]`` table of that kind is read and how
+    it becomes trajectories. Registered as an instance or a class (made once, without
+    arguments). Required: :meth:`parse` and :meth:`realise`; optional (read with defaults):
+
+    * ``keys``: the stroke keys it reads besides ``name``, ``kind`` and ``model`` (default ());
+    * ``settings``: the defaults of its settings table, named after the kind (``[<kind>]`` at
+      the top, ``<kind> = {...}`` in a stroke), or None for none (default);
+    * ``read_settings(rd, table, key, inherited) -> dict``: checks a settings table and merges
+      it over ``inherited`` (default: the keys of ``settings``, values as given);
+    * ``size(stroke, samples) -> (N, peak bytes)`` and
+      ``seconds(stroke, samples) -> [(seconds, key, value, what), ...]``: the estimates the
+      budgets check before any work (:mod:`inkarm.plans.realise`; default: none, the kind is
+      not budgeted).
+    """
+
+    def parse(self, rd: TomlReader, stroke: dict, key: str,
+              context: StrokeContext) -> PlannedStroke:
+        """The checked stroke from its table ``stroke`` (at ``key``, ``strokes[i]``), with its
+        Gaussian targets (``plan``) or its points (m, D) set: they give its dimension. Errors by
+        ``rd.error(key, message)``; :func:`read_targets_stroke`, :func:`read_points_stroke`
+        and :func:`read_stroke_settings` read the common forms."""
+        ...
+
+    def realise(self, stroke: PlannedStroke, samples: int,
+                stream: np.random.SeedSequence) -> tuple[Trajectory, np.ndarray]:
+        """The mean trajectory (t from 0, page mm) and ``samples`` sampled paths (K, N, D) on
+        its time grid, drawn from ``stream`` (the stroke's ``samples`` stream)."""
+        ...
+
+
+def stroke_kinds() -> tuple[str, ...]:
+    """The names of the stroke kinds: the built-ins (:data:`KINDS`), then installed plug-ins'."""
+    return STROKE_KINDS.names()
+
+
+def stroke_kind(name: str, key: str = "kind") -> StrokeKind:
+    """The stroke kind ``name`` (registered, a plug-in's, or ``"package.module:Class"``); an
+    :class:`InputError` naming ``key`` when there is none or it lacks ``parse``/``realise``."""
+    item = STROKE_KINDS.get(name, key=key)
+    missing = [m for m in ("parse", "realise") if not callable(getattr(item, m, None))]
+    if missing:
+        raise InputError(f"{name!r} is not a stroke kind: a stroke kind has parse(rd, stroke, "
+                         f"key, context) and realise(stroke, samples, stream) (missing: "
+                         f"{', '.join(missing)})", key=key, value=name)
+    return _made(item) if inspect.isclass(item) else item
+
+
+@cache
+def _made(cls: type) -> Any:
+    return cls()
+
+
+def kind_settings(kind: StrokeKind) -> Mapping | None:
+    """The defaults of ``kind``'s settings table, or None when it takes none."""
+    return getattr(kind, "settings", None)
+
+
+def read_kind_settings(rd: TomlReader, kind: StrokeKind, table: dict, key: str,
+                       inherited: Mapping) -> dict:
+    """``kind``'s settings ``table`` (at ``key``) merged over ``inherited``."""
+    reader = getattr(kind, "read_settings", None)
+    if reader is not None:
+        return reader(rd, table, key, dict(inherited))
+    rd.keys(table, tuple(kind_settings(kind) or ()), key)
+    return {**inherited, **table}
+
+
+def read_stroke_settings(rd: TomlReader, stroke: dict, key: str,
+                         context: StrokeContext) -> dict:
+    """The settings of a stroke of kind ``context.kind``: its table ``<kind> = {...}`` merged
+    over the plan's."""
+    kind, name = stroke_kind(context.kind), context.kind
+    inherited = context.settings or kind_settings(kind) or {}
+    return read_kind_settings(rd, kind, rd.table(stroke.get(name, {}), f"{key}.{name}"),
+                              f"{key}.{name}", inherited)
+
+
+def read_targets_stroke(rd: TomlReader, stroke: dict, key: str,
+                        context: StrokeContext) -> PlannedStroke:
+    """A stroke of Gaussian targets (``targets``; ``cov`` or ``semi_tied`` of its own, else the
+    plan's): the reading of the kinds gaussian and keypoints."""
+    kind = context.kind
     if "points" in stroke:
         raise rd.error(f"{key}.points", f"not used by a {kind} stroke (it takes targets)")
     if "cov" in stroke and "semi_tied" in stroke:
@@ -235,14 +329,81 @@ def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStr
         table = rd.table(stroke["semi_tied"], f"{key}.semi_tied")
         cov_source = (
             "semi_tied",
-            read_semi_tied(rd, table, f"{key}.semi_tied", top["semi_tied"]),
+            read_semi_tied(rd, table, f"{key}.semi_tied", context.semi_tied),
             f"{key}.semi_tied",
         )
     else:
-        cov_source = top["cov_source"]
-    stream = stroke_seeds(seed, index)["covariances"]
-    plan = read_targets(rd, stroke, key, kind, cov_source, stream, model["segment_time"])
-    return PlannedStroke(index, name, kind, model, plan=plan)
+        cov_source = context.cov_source
+    stream = stroke_seeds(context.seed, context.index)["covariances"]
+    plan = read_targets(rd, stroke, key, kind, cov_source, stream, context.model["segment_time"])
+    return PlannedStroke(context.index, context.name, kind, context.model, plan=plan)
+
+
+def read_points_stroke(rd: TomlReader, stroke: dict, key: str,
+                       context: StrokeContext) -> PlannedStroke:
+    """A stroke through ``points`` (required, at least 2) with the kind's settings: the reading
+    of the kinds human_line and minjerk."""
+    kind = context.kind
+    for name_ in ("targets", "cov", "semi_tied"):
+        if name_ in stroke:
+            raise rd.error(f"{key}.{name_}", f"not used by a {kind} stroke (it takes points)")
+    if "points" not in stroke:
+        raise rd.error(f"{key}.points", f"required for a {kind} stroke")
+    points = read_points(rd, stroke["points"], f"{key}.points")
+    options = read_stroke_settings(rd, stroke, key, context)
+    return PlannedStroke(context.index, context.name, kind, context.model, points=points,
+                         options=options)
+
+
+# -- reading a plan ----------------------------------------------------------------------------
+
+
+def _stroke(rd: TomlReader, raw, index: int, top: dict, seed: int) -> PlannedStroke:
+    key = f"strokes[{index}]"
+    stroke = rd.table(raw, key)
+    kind = stroke.get("kind", "gaussian")
+    by_path = isinstance(kind, str) and ":" in kind  # "package.module:Class", looked up
+    kind_ = _kind(rd, kind, key) if by_path else None
+    allowed = top["stroke_keys"]
+    if by_path:  # its own keys are valid too
+        allowed = tuple(dict.fromkeys((*allowed, *_keys_of(kind, kind_))))
+    rd.keys(stroke, allowed, key)
+    if not by_path:
+        kind = rd.choice(kind, f"{key}.kind", top["kinds"])
+        kind_ = _kind(rd, kind, key)
+    name = rd.text(stroke.get("name", ""), f"{key}.name")
+    model = read_model(
+        rd, rd.table(stroke.get("model", {}), f"{key}.model"), f"{key}.model", top["model"]
+    )
+    for section in top["settings"]:
+        if section in stroke and kind != section:
+            raise rd.error(
+                f"{key}.{section}", f"only applies to {section} strokes, this one is {kind}"
+            )
+    settings = top["settings"].get(kind, dict(kind_settings(kind_) or {}))
+    context = StrokeContext(index, name, kind, model, settings, top["cov_source"],
+                            top["semi_tied"], seed)
+    return kind_.parse(rd, stroke, key, context)
+
+
+def _keys_of(name: str, kind: StrokeKind) -> tuple[str, ...]:
+    """The stroke keys a kind reads (its ``keys``, and its settings table's name)."""
+    return (*getattr(kind, "keys", ()), *((name,) if kind_settings(kind) is not None else ()))
+
+
+def _kind(rd: TomlReader, name: str, key: str) -> StrokeKind:
+    try:
+        return stroke_kind(name, key=f"{key}.kind")
+    except InkarmError as e:
+        raise e.within(file=rd.source) from None
+
+
+def _kinds(rd: TomlReader) -> dict[str, StrokeKind]:
+    """The registered stroke kinds by name (a broken plug-in is named with the file)."""
+    try:
+        return {name: stroke_kind(name) for name in stroke_kinds()}
+    except InkarmError as e:
+        raise e.within(file=rd.source) from None
 
 
 def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> PlanFile:
@@ -252,7 +413,10 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
     Raises :class:`ScenarioError` naming the file and the key at fault.
     """
     rd = TomlReader(source)
-    rd.keys(data, TOP_KEYS, "")
+    kinds = _kinds(rd)
+    sections = [n for n, kind in kinds.items() if kind_settings(kind) is not None]
+    top_keys = tuple(dict.fromkeys((*TOP_KEYS[:-1], *sections, "strokes")))
+    rd.keys(data, top_keys, "")
     title = rd.text(data.get("title", ""), "title")
     file_seed = rd.integer(data.get("seed", 0), "seed", 0)
     seed = file_seed if seed is None else int(seed)
@@ -276,16 +440,14 @@ def parse_plan(data: dict, source: str = "plan", seed: int | None = None) -> Pla
         "model": model,
         "semi_tied": semi_tied,
         "cov_source": cov_source,
-        "human_line": read_options(
-            rd,
-            "human_line",
-            rd.table(data.get("human_line", {}), "human_line"),
-            "human_line",
-            HUMAN_LINE_DEFAULTS,
-        ),
-        "minjerk": read_options(
-            rd, "minjerk", rd.table(data.get("minjerk", {}), "minjerk"), "minjerk", MINJERK_DEFAULTS
-        ),
+        "kinds": tuple(kinds),
+        "stroke_keys": tuple(dict.fromkeys((*STROKE_KEYS, *(
+            k for n, kind in kinds.items() for k in _keys_of(n, kind))))),
+        "settings": {  # each kind's plan-level settings, in registration order
+            n: read_kind_settings(rd, kinds[n], rd.table(data.get(n, {}), n), n,
+                                  kind_settings(kinds[n]))
+            for n in sections
+        },
     }
     raw_strokes = data.get("strokes")
     if raw_strokes is None:

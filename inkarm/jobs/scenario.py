@@ -31,21 +31,49 @@ Schema (lengths [mm], times [s], forces [N], angles [deg]; every key optional un
     rotation_deg = 0.0             # counter-clockwise, about the bounding-box centre
     time_scale = 1.0               # > 1 draws slower (times multiplied)
 
-    [cell]                         # inkarm.sim.cell.CellConfig fields, e.g.
-    paper_size_mm = [210.0, 297.0]
-    paper_centre_mm = [600.0, 0.0] # robot base frame
-    timestep = 0.002
-    arm = "builtin"                # or "iiwa14", "panda": MuJoCo Menagerie models, read from
-                                   # the local copy named by the variable MENAGERIE_ROOT
-
-    [controller]                   # inkarm.control.loop.LoopConfig fields, e.g.
+    [controller]                   # inkarm.control.config.LoopConfig fields, e.g.
     force_n = 1.0
-    [controller.gains]             # joint PID, 7 values each or one for all joints
-    kp = [...]                     # [N m/rad]; also ki, kd, torque_limit, integral_limit
+    law = "position"               # the control law: "position", "joint_pid", "impedance",
+                                   # "sensorimotor", a plug-in's, or "package.module:Class"
+    watchdogs = []                 # watchdogs added to the built-ins, named the same ways
+    [controller.position]          # the law's own settings (its class's keyword arguments)
+    friction_adaptation = 2e4      # (a watchdog's in [controller."<its name>"])
 
     [ink]
-    model = "marker"               # "marker", "brush" or "pencil"
+    model = "marker"               # "marker", "brush", "pencil", a plug-in's ink.<name> or
+                                   # "package.module:Class" (inkarm.ink.inks)
     px_per_mm = 10.0               # raster resolution; other keys go to the ink model
+
+    [judge]                        # the bounds of an "ok" run (inkarm.core.run.Bounds); a
+                                   # finished run that misses one is "degraded", naming it
+    tracking_rms_mm = 0.3          # pen to reference while drawing, RMS ...
+    tracking_max_mm = 1.0          # ... and at worst
+    ink_chamfer_mm = 0.3           # ink centreline to plan (chamfer distance)
+    gap_mm = 0.0                   # total length of the strokes drawn without contact
+    force_band_n = 0.1             # the force's 1st..99th percentile while drawing within
+                                   # force_n +- this
+    force_error_n = 0.05           # mean contact force within force_n +- this
+                                   # (a bound on what the backend cannot sense, such as a
+                                   # Dynamixel arm's pen force, is listed as not judged)
+
+One table per backend says how the job reaches that device; the tables above are the job, the
+same for every backend::
+
+    [sim]                          # the simulated cell: inkarm.sim.cell_config.CellConfig
+    paper_size_mm = [210.0, 297.0] # fields (0.2 called this table [cell])
+    paper_centre_mm = [600.0, 0.0] # robot base frame
+    timestep = 0.002
+    [sim.plant]                    # how the simulated plant differs from the controller's
+    paper_height_mm = 1.5          # model (inkarm.sim.imperfections.PlantTruth; 0.2: [plant])
+    [sim.plant.random]             # ranges drawn from sim.plant.seed, for ensembles
+    mass_scale = [0.8, 1.2]
+
+    [dynamixel]                    # keys of the robot profile's [backends.dynamixel] to change
+    latency_ms = 24                # (inkarm.hardware.dynamixel.config), and
+    calibration = "arm_cal.toml"   # the arm's calibration file (default: beside the profile)
+
+    [plotter]
+    profile = "servo"              # the pen profile: "servo", "z" or a file
 
 The page frame has its origin at the lower-left corner of the sheet, x to the right, y up.
 """
@@ -61,19 +89,34 @@ from typing import Any
 import numpy as np
 
 from inkarm.control.config import LoopConfig
-from inkarm.core.equality import same
+from inkarm.control.laws import LawSpec
+from inkarm.control.watchdogs import WatchdogSpec
+from inkarm.core.run import Bounds
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InkarmError, InputError, ScenarioError
-from inkarm.ink.canvas import INK_MODELS, Canvas
+from inkarm.ink.canvas import Canvas
+from inkarm.ink.inks import INKS, ink_class
 from inkarm.io.toml import TomlReader, load_toml
+from inkarm.jobs.scenario_tables import (
+    OLD_SIM_TABLES,
+    controller_table,
+    dataclass_table,
+    plant_table,
+    read_backend_tables,
+    read_controller,
+    read_dynamixel,
+    read_sim,
+    table_of,
+    thawed,
+)
 from inkarm.jobs.sources import Source, parse_source, source_table
 from inkarm.robots.profile import GAIN_KEYS, RobotProfile, gain_vector
 from inkarm.robots.registry import DEFAULT_ROBOT, load_robot, robot_names
-from inkarm.sim.cell import CellConfig
+from inkarm.sim.cell_config import CellConfig
 from inkarm.sim.imperfections import PlantTruth
 
-TOP_KEYS = ("title", "seed", "source", "placement", "robot", "cell", "controller", "ink",
-            "plant")
+TOP_KEYS = ("title", "seed", "source", "placement", "robot", "controller", "judge", "ink",
+            "sim", "dynamixel", "plotter", "cell", "plant")
 PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale")
 ROBOT_KEYS = ("name", "file", "gains")
 # Upper bounds of the placement's scalings: a sheet is at most 2 m, a drawing at most 1000x its
@@ -106,7 +149,7 @@ class InkSpec:
     def make(self):
         """A fresh ink model."""
         return dataclasses.replace(self.params) if self.params is not None else \
-            INK_MODELS[self.model]()
+            ink_class(self.model)()
 
     def canvas(self, size_mm: tuple[float, float]) -> Canvas:
         """A blank page of ``size_mm`` [mm] in this ink, at this resolution."""
@@ -138,6 +181,11 @@ class Scenario:
     controller: LoopConfig
     ink: InkSpec
     plant: PlantTruth = field(default_factory=PlantTruth)
+    law: LawSpec = field(default_factory=LawSpec)
+    watchdogs: tuple[WatchdogSpec, ...] = ()
+    judge: Bounds = field(default_factory=Bounds)
+    dynamixel: tuple[tuple[str, Any], ...] = ()
+    plotter_profile: str | None = None
 
     def to_dict(self) -> dict:
         """The TOML tables that parse back to this scenario (file names absolute)."""
@@ -149,13 +197,15 @@ class Scenario:
             "title": self.title,
             "seed": self.seed,
             "source": source_table(self.source),
-            "placement": _table_of(self.placement),
+            "placement": table_of(self.placement),
             "robot": robot,
-            "cell": _table_of(self.cell),
-            "controller": _table_of(self.controller),
+            "sim": {**table_of(self.cell), "plant": plant_table(self.plant)},
+            "controller": controller_table(self.controller, self.law, self.watchdogs),
             "ink": {"model": self.ink.model, "px_per_mm": self.ink.px_per_mm,
-                    **_table_of(self.ink.params)},
-            "plant": _plant_table(self.plant),
+                    **table_of(self.ink.params)},
+            "judge": table_of(self.judge),
+            "dynamixel": {k: thawed(v) for k, v in self.dynamixel},
+            "plotter": {} if self.plotter_profile is None else {"profile": self.plotter_profile},
         }
 
     def with_overrides(self, overrides: dict[str, Any]) -> Scenario:
@@ -164,52 +214,12 @@ class Scenario:
         refused with the closest valid one, a bad value with the message the file would get."""
         data = copy.deepcopy(self.to_dict())  # the tables may be this scenario's own
         for dotted, value in overrides.items():
+            head, _, rest = dotted.partition(".")
+            if head in OLD_SIM_TABLES and rest:  # the 0.2 spelling of a [sim] key
+                dotted = f"{OLD_SIM_TABLES[head]}.{rest}"
             _set_dotted(data, dotted, value)
         return parse_scenario(data, source=f"{self.path} (with overrides)",
-                              base_dir=self.base_dir)
-
-
-def _table_of(obj) -> dict:
-    """A dataclass as a TOML table: the fields that differ from their defaults, tuples as
-    lists."""
-    if obj is None:
-        return {}
-    out = {}
-    for f in dataclasses.fields(obj):
-        value = getattr(obj, f.name)
-        if value is None or (f.default is not dataclasses.MISSING and same(value, f.default)):
-            continue
-        out[f.name] = list(value) if isinstance(value, tuple | np.ndarray) else value
-    return out
-
-
-def _plant_table(truth: PlantTruth) -> dict:
-    table = _table_of(dataclasses.replace(truth, random={}))
-    table.pop("random", None)
-    if truth.random:
-        table["random"] = {k: list(v) for k, v in truth.random.items()}
-    return table
-
-
-def _plant(rd: TomlReader, raw) -> PlantTruth:
-    """The ``[plant]`` table: :class:`PlantTruth` fields, and ``[plant.random]`` ranges."""
-    table = dict(rd.table(raw, "plant"))
-    random = rd.table(table.pop("random", {}), "plant.random")
-    ranges = {}
-    for name, bounds in random.items():
-        pair = rd.array(bounds, f"plant.random.{name}", 1)
-        if len(pair) != 2:
-            raise rd.error(f"plant.random.{name}", f"expected [low, high], got {bounds!r}",
-                           value=bounds)
-        ranges[name] = (float(pair[0]), float(pair[1]))
-    truth = _dataclass_table(rd, table, "plant", PlantTruth)
-    if not ranges:
-        return truth
-    try:
-        return dataclasses.replace(truth, random=ranges)
-    except InkarmError as e:
-        raise ScenarioError(e.message, key=e.key, value=e.value,
-                            choices=e.choices).within(file=rd.source, key="plant") from None
+                              base_dir=self.base_dir, overridden=True)
 
 
 def _set_dotted(data: dict, dotted: str, value) -> None:
@@ -235,41 +245,6 @@ def load_scenario(path: str | Path | None = None) -> Scenario:
     path = Path(path) if path is not None else DEFAULT_SCENARIO
     data = load_toml(path, "scenario file")
     return parse_scenario(data, source=str(path), base_dir=path.parent)
-
-
-def _dataclass_table(rd: TomlReader, table: dict, key: str, cls):
-    """An instance of dataclass ``cls`` from ``table``, each value checked as its field's
-    default suggests (numbers, booleans, strings, arrays of numbers); the class's own checks
-    name ``key`` and the field."""
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    rd.keys(table, tuple(fields), key)
-    out = {}
-    for name, value in table.items():
-        where = f"{key}.{name}"
-        default = fields[name].default
-        if default is dataclasses.MISSING and fields[name].default_factory is not dataclasses.MISSING:
-            default = fields[name].default_factory()
-        if isinstance(default, bool):
-            out[name] = rd.boolean(value, where)
-        elif isinstance(default, str):
-            out[name] = rd.text(value, where)
-        elif isinstance(default, tuple | list | np.ndarray):
-            arr = rd.array(value, where, 1)
-            if len(arr) != len(default):
-                raise rd.error(where, f"expected {len(default)} numbers, got {len(arr)}",
-                               value=value)
-            out[name] = tuple(float(v) for v in arr)
-        elif isinstance(value, list):
-            out[name] = tuple(float(v) for v in rd.array(value, where, 1))
-        else:
-            out[name] = rd.number(value, where)
-    try:
-        return cls(**out)
-    except InkarmError as e:
-        if e.key is None or e.key.split(".")[0] not in fields:
-            e.key = None
-        raise ScenarioError(e.message, key=e.key, value=e.value,
-                            choices=e.choices).within(file=rd.source, key=key) from None
 
 
 def _placement(rd: TomlReader, raw) -> Placement:
@@ -322,20 +297,32 @@ def _robot(rd: TomlReader, raw, base_dir: Path):
     return profile, ref, overrides
 
 
-def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = ".") -> Scenario:
-    """Check parsed TOML ``data`` (see the module docstring); errors name ``source`` and the key."""
+def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = ".",
+                   overridden: bool = False) -> Scenario:
+    """Check parsed TOML ``data`` (see the module docstring); errors name ``source`` and the key.
+    ``overridden``: the data are a scenario's own tables with overrides (old table names are
+    then taken without a warning)."""
     rd = TomlReader(source)
     rd.keys(data, TOP_KEYS, "")
     if "source" not in data:
         raise rd.error("source", "required: a [source] table saying what to draw")
     base_dir = Path(base_dir)
     ink = dict(rd.table(data.get("ink", {}), "ink"))
-    ink_model = rd.choice(ink.pop("model", "marker"), "ink.model", tuple(INK_MODELS))
+    ink_model = ink.pop("model", "marker")  # a name, "package.module:Class" or a plug-in's
+    try:
+        if not (isinstance(ink_model, str) and ":" in ink_model):
+            ink_model = rd.choice(ink_model, "ink.model", INKS.names())
+        ink_cls = ink_class(ink_model)
+    except InkarmError as e:
+        raise e.within(file=rd.source) from None
     px_per_mm = rd.number(ink.pop("px_per_mm", 10.0), "ink.px_per_mm", 0.0, strict=True)
     if px_per_mm > MAX_PX_PER_MM:
         raise rd.error("ink.px_per_mm", f"expected at most {MAX_PX_PER_MM:g} (a finer raster of a "
                        f"sheet does not fit in memory), got {px_per_mm:g}", value=px_per_mm)
     robot, robot_ref, gain_overrides = _robot(rd, data.get("robot", {}), base_dir)
+    dynamixel = dict(rd.table(data.get("dynamixel", {}), "dynamixel"))
+    if dynamixel:
+        robot = read_dynamixel(rd, robot, dynamixel, base_dir)
     return Scenario(
         path=source,
         base_dir=base_dir,
@@ -346,11 +333,11 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
         robot=robot,
         robot_ref=robot_ref,
         gain_overrides=gain_overrides,
-        cell=_dataclass_table(rd, rd.table(data.get("cell", {}), "cell"), "cell", CellConfig),
-        controller=_dataclass_table(rd, rd.table(data.get("controller", {}), "controller"),
-                                    "controller", LoopConfig),
-        ink=InkSpec(ink_model, _dataclass_table(rd, ink, "ink", INK_MODELS[ink_model]), px_per_mm),
-        plant=_plant(rd, data.get("plant", {})),
+        **read_sim(rd, data, warn=not overridden),
+        **read_controller(rd, data.get("controller", {})),
+        ink=InkSpec(ink_model, dataclass_table(rd, ink, "ink", ink_cls), px_per_mm),
+        judge=dataclass_table(rd, rd.table(data.get("judge", {}), "judge"), "judge", Bounds),
+        **read_backend_tables(rd, data, robot, base_dir),
     )
 
 

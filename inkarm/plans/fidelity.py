@@ -6,22 +6,20 @@ dropped junction targets), :func:`text_fidelity` both. Each sample of the drawin
 the letter whose target is active at its time: targets are held stepwise for
 ``segment_time`` each (seed 000 sec. 3.3).
 
-Coordinates: page frame in [mm], as in :mod:`inkarm.plans.text`.
+Coordinates: page frame in [mm], as in :mod:`inkarm.plans.layout`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from inkarm.core.plan import StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
-
-if TYPE_CHECKING:
-    from inkarm.plans.text import TextPlan
+from inkarm.plans.textplan import TextPlan
 
 
 def _active_targets(plan: StrokePlan, traj: Trajectory) -> np.ndarray:

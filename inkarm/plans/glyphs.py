@@ -28,7 +28,8 @@ from inkarm.core.plan import MotorPlan
 from inkarm.core.trajectory import A4_MM, MAX_COORD_MM, Drawing
 from inkarm.errors import InputError
 from inkarm.plans.handstyles import Handstyle, get_handstyle
-from inkarm.plans.text import TargetSequence, join_ligatures
+from inkarm.plans.ligatures import join_ligatures
+from inkarm.plans.targets import TargetSequence
 
 """Individuals the ordering GA may evaluate for one tag (about 0.1 ms each: ~30 s)."""
 MAX_GLYPH_TARGETS = 1000

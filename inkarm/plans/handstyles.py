@@ -22,7 +22,7 @@ A :class:`Handstyle` also carries the few planning choices that belong to a hand
 target, how sparsely a font polyline is turned into targets (``thin_angle``,
 ``max_spacing``), and how letters are joined: no junction target of a ligature turns by more
 than ``ligature_angle``, the connector bending or looping (``eyelet``) so that the letters
-keep their targets (:func:`inkarm.plans.text.join_ligatures`).
+keep their targets (:func:`inkarm.plans.ligatures.join_ligatures`).
 
 The presets (:data:`PRESETS`) live in ``inkarm/data/handstyles.toml`` and are read by the
 same checked reader as a user's ``--styles`` file (:func:`load_handstyles`).

@@ -3,10 +3,12 @@
 Each stroke becomes its mean trajectory and K sampled trajectories on the same time grid, with
 the movement model of its kind: the LQT (seed 000; :mod:`inkarm.models.lqt`) for Gaussian and
 key-point strokes, the Human Line Algorithm (seed 002; :mod:`inkarm.models.human_line`) and
-minimum jerk (Flash & Hogan 1985; :mod:`inkarm.models.minjerk`). A Gaussian stroke's samples
+minimum jerk (Flash & Hogan 1985; :mod:`inkarm.models.minjerk_spline`). A Gaussian stroke's samples
 come from the LQT trajectory distribution, a human-line stroke's from fresh squiggles; a
 minimum-jerk stroke is deterministic and repeats its mean. The means are re-timed into one
-:class:`Drawing`, strokes following each other with the plan's pen-up ``pause``.
+:class:`Drawing`, strokes following each other with the plan's pen-up ``pause``. Each kind is
+one module of :mod:`inkarm.plans.kinds` (or a plug-in's), found through the stroke-kind registry
+(:func:`inkarm.io.planfile.stroke_kind`); this module only asks it.
 
 Budgets (:mod:`inkarm.core.budget`), all before any work: the samples per stroke against
 INKARM_MAX_SAMPLES, each stroke's time steps against INKARM_MAX_STEPS, the memory of the whole
@@ -30,12 +32,9 @@ import numpy as np
 
 from inkarm.core import budget
 from inkarm.core.trajectory import Drawing, Trajectory
-from inkarm.errors import InkarmError, ScenarioError
-from inkarm.io.planfile import PlanFile, PlannedStroke, stroke_seeds
+from inkarm.errors import InkarmError, InputError, ScenarioError
+from inkarm.io.planfile import PlanFile, PlannedStroke, stroke_kind, stroke_seeds
 from inkarm.io.plansections import MODEL_DEFAULTS
-from inkarm.models import human_line
-from inkarm.models.human_line import check_polyline, human_polylines, step_count
-from inkarm.models.minjerk import spline_seconds, via_points
 
 
 @dataclass(frozen=True)
@@ -75,41 +74,10 @@ class PlanResult:
 def stroke_size(stroke: PlannedStroke, samples: int) -> tuple[int, float]:
     """(N, peak bytes) of realising ``stroke`` with K = ``samples`` samples, without doing it:
     N its time steps, checked against INKARM_MAX_STEPS, and the memory its model needs while
-    it runs, its results included (see :func:`plan_bytes` for the formulas)."""
-    dt, dim = stroke.model["dt"], stroke.dim
-    if stroke.kind in ("gaussian", "keypoints"):
-        from inkarm.models.lqt import cost
-        from inkarm.models.lqt.problem import sizing
-
-        size = sizing(stroke.plan, stroke.lqt_config())
-        n = size.n_steps
-        model = size.solve_bytes + cost.sample_bytes(
-            samples, n, dim, size.method, stroke.model["sampling"]
-        )
-        return n, model + _kept(n, samples, dim)
-    opts = stroke.options
-    lines = stroke.points.shape[0] - 1
-    if stroke.kind == "human_line":
-        check_polyline(lines, opts["squiggle"], opts["px_mm"], opts["duration"], dt)
-        n = step_count(lines, opts["duration"], dt)
-        return n, _human_line_bytes(samples + 1, lines, n, dim, opts["duration"], dt)
-    n = step_count(1, opts["duration"], dt)
-    budget.require(
-        n, budget.STEPS,
-        f"time steps of the minimum-jerk stroke (duration {opts['duration']:g} s / dt {dt:g} s)",
-        key="dt", value=dt,
-    )
-    return n, 8.0 * 3 * (6 * lines) ** 2 + 8.0 * 3 * n * (1 + 2 * dim) + 8.0 * samples * n * dim
-
-
-def _human_line_bytes(count: int, lines: int, n: int, dim: int, duration: float,
-                      dt: float) -> float:
-    """Peak bytes of :func:`human_polylines` for ``count`` polylines of N = ``n`` samples:
-    positions and velocities 16 count N D, their squiggles (at most 9 a line) and the
-    temporaries of one block of lines, about 8 arrays of (block, D)."""
-    per_line = max(human_line.ARC_TABLE, step_count(1, duration, dt))
-    block = min(count, max(1, human_line._BLOCK // per_line)) * per_line
-    return 8.0 * (count * n * 2 * dim + n + 9 * count * lines + 8 * block * dim)
+    it runs, its results included (see :func:`plan_bytes` for the formulas). (0, 0) for a
+    kind that gives no estimate (``size``)."""
+    size = getattr(_kind(stroke), "size", None)
+    return size(stroke, samples) if size is not None else (0, 0.0)
 
 
 def stroke_seconds(stroke: PlannedStroke, samples: int) -> list[tuple[float, str, object, str]]:
@@ -119,45 +87,12 @@ def stroke_seconds(stroke: PlannedStroke, samples: int) -> list[tuple[float, str
     Linear-time work (banded LQT solves, exact draws) is left out: the step and memory budgets
     bound it to seconds. The estimates are :mod:`inkarm.models.lqt.cost`'s,
     :func:`inkarm.models.human_line.polylines_seconds` and
-    :func:`inkarm.models.minjerk.spline_seconds`."""
-    dt, dim, i = stroke.model["dt"], stroke.dim, stroke.index
-    where = f"strokes[{i}]"
-    parts = []
-    if stroke.kind in ("gaussian", "keypoints"):
-        from inkarm.models.lqt import cost
-        from inkarm.models.lqt.problem import sizing
-
-        n = sizing(stroke.plan, stroke.lqt_config()).n_steps
-        size = n * dim
-        if stroke.model["solver"] == "batch":
-            what = (f"the dense oracle of {where} ({n} steps x {dim}-D: O((N D)^3) with "
-                    f"N D = {size}; solver = \"auto\" is linear in N)")
-            parts.append((cost.batch_seconds(n, dim), f"{where}.model.solver", "batch", what))
-        if samples > 0 and stroke.model["sampling"] == "eigen":
-            what = (f"the eigen draws of {where} (eigenpairs of a dense {size} x {size} matrix, "
-                    f"O((N D)^3); sampling = \"exact\", the default, draws in O(N))")
-            parts.append((cost.eigen_seconds(n, dim, 9), f"{where}.model.sampling", "eigen",
-                          what))
-        return parts
-    opts = stroke.options
-    m = stroke.points.shape[0]
-    if stroke.kind == "human_line":
-        duration = opts["duration"]
-        one = human_line.polylines_seconds(1, m - 1, duration, dt)
-        line = f"{m - 1} line{'' if m == 2 else 's'} of {duration:g} s / dt {dt:g} s"
-        parts.append((one, f"{where}.points", m, f"the human polyline of {where} ({line})"))
-        if samples > 0:
-            parts.append((human_line.polylines_seconds(samples, m - 1, duration, dt), "samples",
-                          samples, f"{samples} sampled human polylines of {where} ({line})"))
-        return parts
-    search = opts["via_times"] is None and m >= 4
-    hint = "; give via_times to skip the via-time search" if search else ""
-    parts.append((spline_seconds(m, search), f"{where}.points", m,
-                  f"the minimum-jerk path of {where} through {m} points{hint}"))
-    return parts
+    :func:`inkarm.models.minjerk_spline.spline_seconds` (each kind's ``seconds``)."""
+    seconds = getattr(_kind(stroke), "seconds", None)
+    return list(seconds(stroke, samples)) if seconds is not None else []
 
 
-def _kept(n: int, samples: int, dim: int) -> float:
+def kept_bytes(n: int, samples: int, dim: int) -> float:
     """Bytes of a realised stroke: mean (t, pos, vel) and K sampled paths."""
     return 8.0 * n * (1 + 2 * dim + samples * dim)
 
@@ -165,35 +100,19 @@ def _kept(n: int, samples: int, dim: int) -> float:
 def realise_stroke(stroke: PlannedStroke, samples: int, seed: int) -> StrokeResult:
     """Turn one stroke into its mean trajectory and ``samples`` sampled trajectories, drawn
     from the stroke's ``samples`` stream of the plan ``seed`` (:func:`stroke_seeds`)."""
-    dt = stroke.model["dt"]
     stream = stroke_seeds(seed, stroke.index)["samples"]
-    if stroke.kind in ("gaussian", "keypoints"):
-        from inkarm.models import lqt
-
-        model = lqt.LQT(stroke.plan, stroke.lqt_config())  # factorised once, for both
-        mean = model.mean()
-        if samples > 0:
-            pos = np.asarray(
-                model.sample(
-                    samples, seed=np.random.default_rng(stream), method=stroke.model["sampling"]
-                ),
-                dtype=float,
-            )
-        else:
-            pos = np.zeros((0, mean.n, mean.dim))
-    elif stroke.kind == "human_line":  # polyline j from seed j: the mean, then the samples
-        opts = stroke.options
-        seeds = [int(x) for x in stream.generate_state(samples + 1)]
-        t, pos, vel = human_polylines(stroke.points, seeds, opts["squiggle"], opts["px_mm"],
-                                      opts["duration"], dt)
-        mean = Trajectory(t=t, pos=pos[0].copy(), vel=vel[0].copy())
-        del vel
-        pos = pos[1:]
-    else:
-        opts = stroke.options
-        mean = via_points(stroke.points, opts["duration"], opts["via_times"], dt)
-        pos = np.repeat(mean.pos[None], samples, axis=0)
+    mean, pos = _kind(stroke).realise(stroke, samples, stream)
+    pos = np.asarray(pos, dtype=float)
+    if not isinstance(mean, Trajectory) or pos.shape != (samples, mean.n, mean.dim):
+        got = type(mean).__name__ if not isinstance(mean, Trajectory) else f"samples {pos.shape}"
+        raise InputError(f"stroke kind {stroke.kind!r} realised {got}; expected a Trajectory "
+                         f"and samples of shape (K, N, D) = ({samples}, N, D) on its time grid",
+                         key="kind", value=stroke.kind)
     return StrokeResult(stroke=stroke, mean=mean, samples=pos)
+
+
+def _kind(stroke: PlannedStroke):
+    return stroke_kind(stroke.kind)
 
 
 def plan_bytes(sizes: list[tuple[int, float]], samples: int, dim: int) -> float:
@@ -207,11 +126,12 @@ def plan_bytes(sizes: list[tuple[int, float]], samples: int, dim: int) -> float:
     The peak of a stroke, its results included: LQT :func:`inkarm.models.lqt.cost.solve_bytes`
     + :func:`~inkarm.models.lqt.cost.sample_bytes` + kept_i; human line
     16 (K + 1) N D (the K + 1 polylines' positions and velocities) + 72 (K + 1) L (squiggles of
-    L lines) + the temporaries of one block of lines (:func:`_human_line_bytes`); minimum
+    L lines) + the temporaries of one block of lines
+    (:func:`inkarm.plans.kinds.human_line.polylines_bytes`); minimum
     jerk 24 (6 (m - 1))^2 (its dense linear system) + 24 N (1 + 2 D) + 8 K N D. Within 0.85x
     to 1.6x of the peaks measured with tracemalloc for plans of each kind (test_realise.py).
     """
-    kept = [_kept(n, samples, dim) for n, _ in sizes]
+    kept = [kept_bytes(n, samples, dim) for n, _ in sizes]
     during = max(sum(kept[:i]) + peak for i, (_, peak) in enumerate(sizes))
     after = sum(kept) + 8.0 * samples * dim * sum(n for n, _ in sizes)
     return max(during, after)

@@ -18,7 +18,7 @@ with one oblique basis H = along L (I + shear e_x e_y^T) for the whole stroke (L
 segment length, h = 1): every target shares the same slanted ellipse, a uniform "hand".
 
 Budgets (:mod:`inkarm.core.budget`): before any stroke is restyled, every stroke's DPPLA is
-estimated (:func:`inkarm.analysis.dppla.check_budget`) and the LQT's time steps, targets x
+estimated (:func:`inkarm.analysis.dppla_budget.check_budget`) and the LQT's time steps, targets x
 max(1, segment_time / dt), are summed and checked against ``INKARM_MAX_STEPS`` (and their
 memory, about :data:`LQT_BYTES_PER_STEP` x order x D bytes a step, against
 ``INKARM_MAX_MEMORY_MB``).
@@ -33,10 +33,10 @@ import numpy as np
 from inkarm.analysis.dppla import (
     EXACT_BUDGET,
     DPPLAResult,
-    check_budget,
     dppla,
     segments_for_compression,
 )
+from inkarm.analysis.dppla_budget import check_budget
 from inkarm.core.budget import STEPS, require, require_memory
 from inkarm.core.plan import MotorPlan, StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory

@@ -8,7 +8,7 @@ import numpy as np
 
 from inkarm.plots.figure import Figure, new_figure
 
-INK_GREY = 230  # grey levels below this are ink (inkarm.jobs.regress_ink.INK_DARKNESS)
+INK_GREY = 230  # grey levels below this are ink (inkarm.jobs.regress.ink.INK_DARKNESS)
 MISSING_RGB = (0.85, 0.1, 0.1)
 EXTRA_RGB = (0.1, 0.3, 0.9)
 

@@ -14,7 +14,7 @@ from matplotlib.path import Path
 
 from inkarm.core.trajectory import Drawing
 from inkarm.plans.fidelity import TextFidelity
-from inkarm.plans.text import TextPlan
+from inkarm.plans.textplan import TextPlan
 from inkarm.plots.drawing import plot_ink
 from inkarm.plots.figure import Figure, figure_of, new_axes
 

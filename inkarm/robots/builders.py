@@ -6,11 +6,8 @@ import importlib
 
 import mujoco
 
+from inkarm.robots.arms import BUILDERS
 from inkarm.robots.profile import RobotProfile
-
-# Arms built in code: name -> module in inkarm.robots.arms with
-# ``add_arm(spec, joint_names, torque_limits_nm) -> flange frame``.
-BUILDERS = {"iiwa14": "inkarm.robots.arms.iiwa14", "wx250s": "inkarm.robots.arms.wx250s"}
 
 
 def arm_spec(profile: RobotProfile) -> tuple[mujoco.MjSpec, mujoco.MjsFrame]:

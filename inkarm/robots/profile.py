@@ -51,6 +51,7 @@ import numpy as np
 
 from inkarm.errors import InputError
 from inkarm.io.toml import TomlReader, load_toml
+from inkarm.robots.arms import BUILDERS
 from inkarm.robots.gains import PIDGains
 
 TOP_KEYS = ("name", "description", "control_period_s", "model", "pen", "paper", "joints",
@@ -230,8 +231,6 @@ def _pair(rd: TomlReader, value, key: str) -> tuple[float, float]:
 
 
 def _model(rd: TomlReader, raw, n: int) -> ModelSource:
-    from inkarm.robots.builders import BUILDERS
-
     table = rd.table(raw, "model")
     rd.keys(table, MODEL_KEYS, "model")
     if ("builder" in table) == ("menagerie" in table):

@@ -41,16 +41,12 @@ from mujoco import batch as mjbatch
 from inkarm.errors import InputError, SimulationError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim import perturb
+from inkarm.sim.actuators import affine_drives, native_drive
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_TIP, Cell
+from inkarm.sim.divergence import divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
-from inkarm.sim.plant import (
-    _index,
-    affine_drives,
-    divergence_error,
-    native_drive,
-    route_mujoco_warnings,
-)
+from inkarm.sim.lookups import address_index as _index
 
 # Run-time truths the batched plant reproduces (all members alike); the rest are refused.
 RUNTIME_SUPPORTED = ("encoder_ticks_per_rev", "q_noise_rad", "velocity", "force_noise_n",

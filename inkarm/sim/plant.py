@@ -27,7 +27,6 @@ reset is disabled so that a diverging run cannot silently restart from the initi
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import mujoco
@@ -39,94 +38,16 @@ from inkarm.core.plant import (
     TorqueCommand,
     unsupported,
 )
-from inkarm.errors import InputError, SimulationError
+from inkarm.errors import InputError
 from inkarm.robots.gains import PIDGains
+from inkarm.sim.actuators import affine_drives, native_drive
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_SLIDE, PEN_TIP, Cell, build_model
+from inkarm.sim.divergence import DIVERGENCE_WARNINGS, divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import PlantTruth
+from inkarm.sim.lookups import address_index, only_geom_touches
 from inkarm.sim.senses import Senses
 from inkarm.sim.transmission import Transmission
-
-_DIVERGENCE_WARNINGS = (
-    mujoco.mjtWarning.mjWARN_BADQPOS,
-    mujoco.mjtWarning.mjWARN_BADQVEL,
-    mujoco.mjtWarning.mjWARN_BADQACC,
-)
-
-
-_MUJOCO_LOG = logging.getLogger("inkarm.mujoco")
-
-
-def route_mujoco_warnings() -> None:
-    """Send MuJoCo's warnings to the ``inkarm.mujoco`` logger instead of stdout and a
-    ``MUJOCO_LOG.TXT`` in the working folder (a run's divergence is reported by
-    :class:`MujocoPlant` itself, as a SimulationError)."""
-    mujoco.set_mju_user_warning(_MUJOCO_LOG.warning)
-
-
-def _index(addresses: list[int]) -> slice | np.ndarray:
-    """A slice when the addresses are consecutive (cheaper to index with), else an array."""
-    first = int(addresses[0])
-    if list(addresses) == list(range(first, first + len(addresses))):
-        return slice(first, first + len(addresses))
-    return np.array(addresses)
-
-
-def divergence_error(model: mujoco.MjModel, time: float, qvel: np.ndarray, warned: list[str],
-                     max_speed: float, finite: bool = True) -> SimulationError | None:
-    """The error of a simulation that diverged at ``time`` [s]: MuJoCo ``warned`` of a bad
-    qpos/qvel/qacc or the state is not ``finite``, else the fastest joint of ``qvel`` above
-    ``max_speed`` [rad/s or m/s]; None when neither."""
-    where = f"simulation diverged at t = {time:.4f} s"
-    why = "unstable gains, too large a time step or absurd torques"
-    if warned or not finite:
-        note = f" (MuJoCo warned {', '.join(warned)})" if warned else ""
-        return SimulationError(f"{where}: non-finite or huge joint state{note}; {why}")
-    j = int(np.argmax(np.abs(qvel)))
-    if abs(qvel[j]) <= max_speed:
-        return None  # (a norm over the threshold, no single joint)
-    joint = model.joint(model.dof_jntid[j])
-    unit = "m/s" if joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE else "rad/s"
-    return SimulationError(f"{where}: {joint.name} moves at {abs(qvel[j]):.1f} {unit}, above the "
-                           f"{max_speed:.1f} divergence threshold; {why}")
-
-
-def _only_geom_touches(model: mujoco.MjModel, geom: int) -> bool:
-    """Whether every contact the model can make involves ``geom``: no explicit pairs, and no
-    two other geoms whose contype/conaffinity bits let them collide."""
-    if model.npair:
-        return False
-    kind, affinity = model.geom_contype, model.geom_conaffinity
-    others = [g for g in range(model.ngeom) if g != geom and (kind[g] or affinity[g])]
-    return not any(kind[a] & affinity[b] or kind[b] & affinity[a]
-                   for i, a in enumerate(others) for b in others[i + 1:])
-
-
-def native_drive(has_drive: bool, truth: PlantTruth, has_transmission: bool) -> bool:
-    """Whether the joint drives run as MuJoCo actuators (see :class:`JointDrive`): exact
-    encoders and velocity (the actuator sees the true state), no transmission between motor
-    and link, and no actuation delay (so that the drives are on from the first physics step,
-    as a batch of such plants has them)."""
-    return (has_drive and not has_transmission and truth.encoder_ticks_per_rev == 0
-            and truth.q_noise_rad == 0.0 and truth.velocity == "exact"
-            and truth.actuation_delay_ms == 0.0)
-
-
-def affine_drives(model: mujoco.MjModel, actuators, gains, limit: np.ndarray) -> None:
-    """Make the torque motors ``actuators`` the drive law tau = u - K_p q - K_d qd (``gains``
-    K_p [N m/rad], K_d [N m s/rad]), clamped to +-``limit`` [N m], integrated by Euler: a
-    digital drive samples v and holds its torque for the step, so its damping is explicit
-    (implicitfast would treat it as an analogue damper: 0.07 instead of 0.05 mm on the default
-    letter). The cell has no other velocity-dependent force where the two integrators differ
-    (joint damping is implicit in both)."""
-    model.actuator_biastype[actuators] = mujoco.mjtBias.mjBIAS_AFFINE
-    prm = np.zeros_like(model.actuator_biasprm[actuators])
-    prm[:, 1], prm[:, 2] = -np.asarray(gains.kp), -np.asarray(gains.kd)
-    model.actuator_biasprm[actuators] = prm
-    model.actuator_ctrllimited[actuators] = 0
-    model.actuator_forcelimited[actuators] = 1
-    model.actuator_forcerange[actuators] = np.column_stack([-limit, limit])
-    model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
 
 
 @dataclass(slots=True)
@@ -189,8 +110,8 @@ class MujocoPlant:
         joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in joint_names]
         if min(joint_ids) < 0:
             raise InputError(f"MujocoPlant: the model lacks one of the joints {joint_names}")
-        self._qpos_adr = _index([m.jnt_qposadr[j] for j in joint_ids])
-        self._dof_adr = _index([m.jnt_dofadr[j] for j in joint_ids])
+        self._qpos_adr = address_index([m.jnt_qposadr[j] for j in joint_ids])
+        self._dof_adr = address_index([m.jnt_dofadr[j] for j in joint_ids])
         slide = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, PEN_SLIDE)
         self._tip_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, PEN_TIP)
         self._tip_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, PEN_TIP)
@@ -202,7 +123,7 @@ class MujocoPlant:
             )
         self._slide_adr = m.jnt_qposadr[slide]
         self._contact = np.zeros(6)
-        self._only_tip_touches = _only_geom_touches(m, self._tip_geom)
+        self._only_tip_touches = only_geom_touches(m, self._tip_geom)
         self._touching = False
         self._pen_force = 0.0
         self._closed = False
@@ -233,7 +154,7 @@ class MujocoPlant:
         self._qvel = self.data.qvel
         self._ctrl = self.data.ctrl
         self._actuator_force = self.data.actuator_force
-        self._warning_stats = [self.data.warning[w] for w in _DIVERGENCE_WARNINGS]
+        self._warning_stats = [self.data.warning[w] for w in DIVERGENCE_WARNINGS]
         self._warnings = self._warning_counts()
         self._warning_total = int(self._warnings.sum())
         if drive_gains is None and firmware is None:
@@ -333,7 +254,7 @@ class MujocoPlant:
         missing = [self.joint_names[i] for i, dof in enumerate(dofs) if dof not in dof_of_actuator]
         if missing:
             raise InputError(f"MujocoPlant: no motor drives the joints {missing}")
-        return _index([dof_of_actuator[int(dof)] for dof in dofs])
+        return address_index([dof_of_actuator[int(dof)] for dof in dofs])
 
     def _warning_counts(self) -> np.ndarray:
         return np.array([w.number for w in self._warning_stats])
@@ -516,7 +437,7 @@ class MujocoPlant:
             return
         d = self.data
         warnings = self._warning_counts()
-        names = [w.name for w, a, b in zip(_DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
+        names = [w.name for w, a, b in zip(DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
         finite = bool(np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all())
         error = divergence_error(self.model, d.time, d.qvel, names, self.max_joint_speed, finite)
         if error is not None:

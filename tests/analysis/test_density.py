@@ -174,7 +174,7 @@ def test_every_stroke_is_budgeted_before_any_is_analysed(monkeypatch):
         analyse_drawing(Drawing([harmonic_ellipse(), big]), 0.75)
     assert info.value.variable == "INKARM_MAX_DPPLA_STEPS" and not calls
     # Strokes each within the budget but not together.
-    from inkarm.analysis.dppla import exact_cost
+    from inkarm.analysis.dppla_budget import exact_cost
 
     monkeypatch.setenv("INKARM_MAX_DPPLA_STEPS", str(2.5 * exact_cost(54, 330)[0]))
     with pytest.raises(BudgetError, match=r"exact DPPLA of 3 strokes, 990 samples"):

@@ -11,17 +11,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from inkarm.analysis.dppla import (
-    SegmentCost,
-    banded_cost,
-    check_budget,
     compression_rate,
     dppla,
     dppla_tolerance,
-    exact_cost,
     reconstruct,
     segments_for_compression,
     trajectory_channels,
 )
+from inkarm.analysis.dppla_budget import banded_cost, check_budget, exact_cost
+from inkarm.analysis.dppla_segments import SegmentCost
 from inkarm.core.budget import BudgetError
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError
@@ -314,12 +312,12 @@ def test_exact_estimate_bounds_its_allocations_and_counts_its_steps():
 
 
 def test_banded_results_do_not_depend_on_the_chunking(monkeypatch):
-    import inkarm.analysis.dppla as module
+    import inkarm.analysis.dppla_dp as module
 
     x = np.cumsum(np.random.default_rng(3).normal(size=(700, 2)), axis=0)
     reference = dppla(x, 60, banded=True, verify=False)
     for chunk in (1, 7, 100):
-        monkeypatch.setattr(module, "_CHUNK", chunk)
+        monkeypatch.setattr(module, "CHUNK", chunk)
         again = dppla(x, 60, banded=True, verify=False)
         assert again.cost == reference.cost
         np.testing.assert_array_equal(again.breakpoints, reference.breakpoints)

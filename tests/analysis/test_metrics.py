@@ -191,6 +191,7 @@ def test_compute_metrics_gives_exactly_the_documented_keys_with_consistent_value
     assert result["gap_mm"] == 0.0
     assert result["contact_force_mean_n"] == pytest.approx(1.5)
     assert result["contact_force_std_n"] == pytest.approx(0.0, abs=1e-12)
+    assert result["force_p1_n"] == result["force_p99_n"] == pytest.approx(1.5)
     assert result["joint_limit_margin_rad"] == pytest.approx(0.5)
     assert result["realtime_factor"] == pytest.approx(40.0)
 
@@ -312,3 +313,15 @@ def test_ink_box_bounds_the_ink_and_grows_by_the_margin_within_the_raster(monkey
     assert M.ink_box(image, 0.2) == (4, 30, 0, 34)
     with pytest.raises(InputError, match=r"ink_box: darkness must be 2-D"):
         M.ink_box(np.zeros(5), 0.5)
+
+
+def test_force_percentiles_are_over_every_drawing_sample_gaps_included():
+    drawing = np.ones(201, bool)
+    drawing[:100] = False  # not drawing: not counted, whatever the force
+    force = np.concatenate([np.full(100, 9.0), np.linspace(0.9, 1.1, 101)])
+    lo, hi = M.force_percentiles(force, drawing)
+    assert lo == pytest.approx(0.902) and hi == pytest.approx(1.098)  # linear interpolation
+    force[150] = 0.0  # a gap pulls the low end down
+    force[151] = 0.0
+    assert M.force_percentiles(force, drawing)[0] < 0.9
+    assert all(math.isnan(v) for v in M.force_percentiles(force, np.zeros(201, bool)))

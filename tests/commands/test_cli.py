@@ -57,7 +57,10 @@ def test_draw_with_a_user_profile_file(tmp_path, capsys):
     profile = tmp_path / "my_arm.toml"
     profile.write_text((DATA / "wx250s.toml").read_text().replace('"wx250s"', '"my_arm"', 1))
     out = tmp_path / "o"
-    job = _job(tmp_path, '\n[controller]\ncommand = "torque"\n')  # servos in current mode
+    job = _job(tmp_path, '\n[controller]\ncommand = "torque"\n'  # servos in current mode
+               # the servo arm's bounds, as its shipped scenarios state them
+               "[judge]\ntracking_rms_mm = 1.0\ntracking_max_mm = 2.0\nink_chamfer_mm = 1.0\n"
+               "force_band_n = 0.2\n")
     code = main(["draw", str(job), "--robot", str(profile), "--out", str(out), "--quiet"])
     assert code == 0, capsys.readouterr().err
     status = json.loads((out / "status.json").read_text())

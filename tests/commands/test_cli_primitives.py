@@ -112,6 +112,11 @@ height_mm = 20.0
 go_home = false
 [ink]
 px_per_mm = 4.0
+[judge]  # a model learned in seconds scribbles in jerks: the bounds this test asserts
+tracking_rms_mm = 1.0
+tracking_max_mm = 2.0
+ink_chamfer_mm = 1.0
+force_band_n = 0.2
 """)
     out = tmp_path / "run"
     assert main(["draw", str(job), "--quiet", "--out", str(out)]) == 0, capsys.readouterr()

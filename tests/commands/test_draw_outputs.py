@@ -1,6 +1,7 @@
 """`inkarm draw` output folders: honest on failure, interruption and bad input."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -87,3 +88,46 @@ def test_metrics_json_is_strict_json_even_when_a_metric_is_undefined(tmp_path):
     text = strict_json({"a": float("nan"), "b": [float("inf"), 1.0]})
     assert json.loads(text, parse_constant=lambda c: pytest.fail(f"bare {c}")) == {
         "a": None, "b": [None, 1.0]}
+
+
+def test_a_degraded_run_names_each_missed_bound_with_its_number(tmp_path, capsys):
+    out = tmp_path / "o"
+    job = _job(tmp_path, "\n[judge]\ntracking_rms_mm = 0.01\nforce_band_n = 0.001\n")
+    assert main(["draw", job, "--quiet", "--out", str(out)]) == 0  # degraded is not an error
+    captured = capsys.readouterr()
+    warning = [line for line in captured.err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and "the drawing is degraded: tracking RMS " in warning[0]
+    assert "above tracking_rms_mm = 0.01 mm; force " in warning[0]
+    assert "outside 1 +- 0.001 N (force_band_n)" in warning[0]
+    assert "N while drawing); joint margin" in captured.out  # the force band in the summary
+    assert "not judged" not in captured.out  # the simulation senses every bound's quantity
+    status = json.loads((out / "status.json").read_text())
+    assert status["status"] == "degraded"
+    assert [s["bound"] for s in status["shortfalls"]] == ["tracking_rms_mm", "force_band_n"]
+    assert status["shortfalls"][0]["limit"] == 0.01 and status["unjudged"] == []
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "degraded" and len(metrics["reasons"]) == 2
+    assert metrics["force_p1_n"] < metrics["force_p99_n"]
+
+
+@pytest.mark.hardware_emulated
+def test_what_the_backend_cannot_sense_is_printed_as_not_judged(tmp_path, capsys):
+    from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator
+
+    quick = str(Path(__file__).parents[2] / "scenarios" / "quick_stroke.toml")
+    out = tmp_path / "o"
+    with GrblEmulator(EmulatorConfig(speedup=4)) as emu:
+        status = main(["draw", quick, "--backend", "plotter", "--port", emu.port,
+                       "--time-scale", "4", "--quiet", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    lines = captured.out.splitlines()
+    for bound in ("force_band_n", "force_error_n"):
+        assert f"{bound} not judged: a plotter senses no pen force (its pen is up or down)" \
+            in lines
+    # without an emulator's canvas the ink is on paper: the run's canvas is the status reports'
+    assert ("ink_chamfer_mm not judged: the ink is on the paper; this run's canvas inks the "
+            "5 Hz status reports") in lines
+    written = json.loads((out / "status.json").read_text())
+    assert [u.split(" not judged")[0] for u in written["unjudged"]] == [
+        "ink_chamfer_mm", "force_band_n", "force_error_n"]

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from inkarm.control.config import LoopConfig
+from inkarm.control.executor import run_drawing
 from inkarm.control.kinematics import ArmKinematics
-from inkarm.control.loop import run_drawing
+from inkarm.control.laws import LawSpec
 from inkarm.control.pid import PIDGains
 from inkarm.control.reference import check_reachable
 from inkarm.control.sequencing import minimum_jerk
@@ -24,6 +25,7 @@ from inkarm.sim.cell import build_model, kinematic_model, make_cell
 from inkarm.sim.plant import MujocoPlant
 
 ROBOT = load_robot("iiwa14")
+JOINT_PID = LawSpec("joint_pid")  # the host's joint PID, sending torques
 
 
 @pytest.fixture(scope="module")
@@ -50,10 +52,10 @@ def letter(x0: float, y0: float, duration: float = 1.6, dt: float = 0.01) -> Dra
     return Drawing([Trajectory(t, eight), Trajectory(tb, bar)])
 
 
-def draw(km, drawing, gains=None, canvas=None, config=None):
+def draw(km, drawing, gains=None, canvas=None, config=None, law=None):
     """Run ``drawing`` on a fresh simulated cell with the controller's model ``km``."""
     plant = MujocoPlant(build_model(make_cell(robot=ROBOT)), canvas=canvas)
-    return run_drawing(drawing, plant, km, gains or default_gains(), config)
+    return run_drawing(drawing, plant, km, gains or default_gains(), config, law=law)
 
 
 def longest_gap_mm(log: DrawLog, threshold: float = 0.05) -> float:
@@ -197,7 +199,7 @@ def test_the_servo_plant_is_a_plant():
 def test_the_planned_joint_path_puts_the_pen_on_the_reference(km):
     drawing = letter(100.0, 100.0)
     plant = ServoPlant(km.home_q)
-    log = run_drawing(drawing, plant, km, default_gains(), LoopConfig(command="position"))
+    log = run_drawing(drawing, plant, km, default_gains(), LoopConfig())
     # Without a force sensor the tip is logged from forward kinematics, the force as NaN.
     assert np.all(np.isnan(log.force))
     assert log.tracking_error().max() < 0.1  # the servo's one-period Euler step
@@ -227,7 +229,7 @@ def test_ik_knots_are_close_enough_to_keep_a_cusp(km):
     stroke = Trajectory(np.concatenate([t, t[1:] + 0.4]), np.vstack([down, up[1:]]))
     plant = ServoPlant(km.home_q)
     log = run_drawing(
-        Drawing([stroke]), plant, km, default_gains(), LoopConfig(command="position")
+        Drawing([stroke]), plant, km, default_gains(), LoopConfig()
     )
     kin = ArmKinematics.of(km)
     goals = np.array([g for g, _ in plant.goals])[log.drawing]
@@ -248,8 +250,8 @@ def test_nib_drag_feedforward_removes_the_lag_along_the_path(km):
     runs = {}
     for mu in (None, 0.0):
         # the host's own loop: the drives' stiffness would hide the drag
-        runs[mu] = mean_lag(draw(km, drawing, config=LoopConfig(nib_friction=mu,
-                                                                command="torque")))
+        runs[mu] = mean_lag(draw(km, drawing, config=LoopConfig(nib_friction=mu),
+                                      law=JOINT_PID))
     assert runs[0.0] < -0.03  # uncompensated, the nib drags behind the reference
     assert abs(runs[None]) < abs(runs[0.0]) / 1.8  # the rest is the joints' dry friction
 
@@ -288,12 +290,15 @@ def test_divergence_is_reported_with_the_log_so_far(km):
     )
     # a watchdog (torque, speed) or the plant's divergence check stops it, with the log so far
     with pytest.raises(RunFault) as info:
-        draw(km, letter(105.0, 118.5), gains=absurd, config=LoopConfig(command="torque"))
+        draw(km, letter(105.0, 118.5), gains=absurd, law=JOINT_PID)
     partial = info.value.log
     assert 0 < len(partial) < 500
     assert np.all(np.isfinite(partial.q))
     # the plan's columns are there too, up to the last row run
-    assert np.all(partial.phase == PHASES.index("approach")) and np.all(partial.stroke == -1)
+    # (the safe stop's lift, logged up to where the plant diverged, follows the approach)
+    lift = partial.phase == PHASES.index("lift")
+    assert np.all(partial.phase[~lift] == PHASES.index("approach")) and np.all(partial.stroke == -1)
+    assert not lift.any() or lift[np.argmax(lift):].all()
     assert np.all(np.linalg.norm(partial.reference, axis=1) > 100.0)  # on the sheet, not zeros
 
 
@@ -306,7 +311,7 @@ def test_progress_is_reported_up_to_completion(km):
         plant,
         km,
         default_gains(),
-        LoopConfig(command="position"),
+        LoopConfig(),
         progress=lambda f, phase: seen.append((f, phase)),
     )
     fractions = [f for f, _ in seen]
@@ -326,7 +331,6 @@ def test_minimum_jerk_profile():
     [
         ({"force_n": 0.0}, r"^force_n: expected a number in \(0, 50\] N, got 0.0"),
         ({"descend_s": 1e9}, r"^descend_s: expected a number in \(0, 60\] s, got 1000000000.0"),
-        ({"command": "velocity"}, r"^command: expected 'torque' or 'position'"),
         ({"hover_mm": float("inf")}, r"^hover_mm: expected a finite number"),
         ({"settle_s": -0.1}, r"^settle_s: expected a number in \[0, 60\] s, got -0.1"),
         ({"nib_friction": -0.2}, r"^nib_friction: expected a number in \[0, 5\], got -0.2"),
@@ -360,7 +364,9 @@ def test_gains_must_match_the_arm(km):
 @pytest.mark.sim
 def test_a_plant_without_the_command_kind_is_refused(km):
     plant = ServoPlant(km.home_q)
-    with pytest.raises(InputError, match="the plant takes position commands, not 'torque'"):
+    with pytest.raises(InputError, match="law 'joint_pid' sends torque commands; the plant "
+                                         "takes position") as info:
         run_drawing(Drawing([letter(100.0, 100.0).strokes[1]]), plant, km, default_gains(),
-                    LoopConfig(command="torque"))
+                    law=JOINT_PID)
+    assert info.value.key == "controller.law"
     assert plant.goals == []

@@ -9,16 +9,27 @@ import pytest
 from inkarm.control.config import LoopConfig
 from inkarm.control.friction import FrictionCompensation
 from inkarm.control.surface import SurfaceEstimate
-from inkarm.control.watchdog import Watchdog
+from inkarm.control.watchdogs import (
+    BUILTIN_WATCHDOGS,
+    WatchContext,
+    Watchdogs,
+    WatchdogSpec,
+    make_watchdog,
+)
 from inkarm.errors import RunFault
 
 NAMES = ("a", "b")
 Z = np.zeros(2)
 
 
+def context(**config):
+    return WatchContext(LoopConfig(**config), 0.01, NAMES, torque_limit=np.array([10.0, 5.0]),
+                        speed_limit=np.array([1.0, 2.0]),
+                        joint_range=np.array([[-1.0, 1.0], [-2.0, 2.0]]))
+
+
 def dog(**config):
-    return Watchdog(LoopConfig(**config), 0.01, NAMES, torque_limit=[10.0, 5.0],
-                    speed_limit=[1.0, 2.0], joint_range=[[-1.0, 1.0], [-2.0, 2.0]])
+    return Watchdogs(context(**config))
 
 
 def fire(watchdog, **reading):
@@ -105,3 +116,49 @@ def test_friction_estimate_grows_while_a_joint_lags_in_its_direction_and_stays_b
     fixed = FrictionCompensation(np.array([1.0]), dt=0.01, gamma=0.0)
     fixed.torque(forwards, None)  # (a fixed estimate needs no error)
     assert fixed.estimate[0] == 1.0
+
+
+def test_the_built_ins_are_checked_in_order_and_a_user_watchdog_after_them():
+    w = Watchdogs(context(), (WatchdogSpec("tests.control.test_watchdog:StillPen",
+                                           (("after", 3),)),))
+    assert [d.name for d in w.items] == [*BUILTIN_WATCHDOGS, "still_pen"]
+    for _ in range(2):
+        fire(w)
+    with pytest.raises(RunFault, match=r"^still_pen: 3 periods without moving at t = 1.000 s$"):
+        fire(w)
+    # the first built-in that fires wins over the user's
+    with pytest.raises(RunFault, match=r"^force_limit: "):
+        fire(Watchdogs(context(), (WatchdogSpec("tests.control.test_watchdog:StillPen",
+                                                (("after", 1),)),)), force=9.0)
+
+
+class StillPen:
+    """A user's watchdog: the joints have not moved for ``after`` periods."""
+
+    name = "still_pen"
+
+    def __init__(self, after: int = 10):
+        self.after = after
+
+    def start(self, context):
+        self.still = 0
+
+    def check(self, watched):
+        self.still = self.still + 1 if not watched.qd.any() else 0
+        return f"{self.still} periods without moving" if self.still >= self.after else None
+
+
+@pytest.mark.parametrize("name, settings, message", [
+    ("force_limt", {}, (r"controller.watchdogs: unknown watchdog 'force_limt' \(did you mean "
+                       r"'force_limit'\?\)")),
+    ("tests.control.test_watchdog:Nothing", {}, r"has no attribute 'Nothing'"),
+    ("tests.control.test_watchdog:NAMES", {}, r"is not a watchdog"),
+    ("tests.control.test_watchdog:StillPen", {"afterr": 2},
+     (r"controller.tests.control.test_watchdog:StillPen.afterr: watchdog "
+     r"'tests.control.test_watchdog:StillPen' has no setting 'afterr' \(did you mean 'after'")),
+])
+def test_a_bad_watchdog_is_refused_by_name(name, settings, message):
+    from inkarm.errors import InputError
+
+    with pytest.raises(InputError, match=message):
+        make_watchdog(name, settings)

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from inkarm.control.config import LoopConfig
-from inkarm.control.loop import plan_within_speed_limits, run_drawing
+from inkarm.control.executor import run_drawing
+from inkarm.control.reference import plan_within_speed_limits
 from inkarm.control.sequencing import minimum_jerk
 from inkarm.core.log import APPROACH, DRAW, HOME, PHASES, DrawLog
 from inkarm.core.trajectory import Drawing, Trajectory

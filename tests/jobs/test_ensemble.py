@@ -102,29 +102,29 @@ def test_iter_ensemble_yields_the_members_in_order_with_progress(quick):
     assert {"draw", "descend"} <= {phase for _, phase in reports}
 
 
-@pytest.mark.parametrize("overrides, key, words", [
-    ({"plant.elasticity_nm_per_rad": 500.0}, "plant.elasticity_nm_per_rad", "does not simulate"),
-    ({"plant.backlash_deg": [0.1, 0, 0, 0, 0, 0, 0]}, "plant.backlash_deg", "does not simulate"),
-    ({"plant.random": {"q_noise_rad": [0.0, 1e-3]}}, "plant.q_noise_rad",
-     "one q_noise_rad for every member"),
-    ({"plant.random": {"sensing_delay_ms": [0.0, 4.0]}}, "plant.sensing_delay_ms",
-     "one sensing_delay_ms for every member"),
-    ({"controller.command": "torque"}, "controller.command", "position commands only"),
+@pytest.mark.parametrize("overrides, words", [
+    ({"plant.elasticity_nm_per_rad": 500.0}, "does not simulate elasticity_nm_per_rad"),
+    ({"plant.backlash_deg": [0.1, 0, 0, 0, 0, 0, 0]}, "does not simulate backlash_deg"),
+    ({"plant.random": {"q_noise_rad": [0.0, 1e-3]}}, "one q_noise_rad for every member"),
+    ({"controller.law": "joint_pid"}, "law 'joint_pid' sends torque"),
 ])
-def test_refused_truths_name_the_field(quick, overrides, key, words):
-    with pytest.raises(InputError) as err:
-        run_ensemble(quick.with_overrides(overrides), [0, 1])
-    assert err.value.key == key
-    assert words in str(err.value)
-    assert "quick_stroke.toml" in str(err.value)
+def test_what_one_batch_cannot_simulate_runs_member_by_member(quick, overrides, words):
+    from inkarm.jobs.ensemble import batch_refusal
+
+    scenario = quick.with_overrides(overrides)
+    assert words in batch_refusal(scenario, [0, 1])
+    first, second = run_ensemble(scenario, [0, 1], processes=1)
+    assert_same_run(first, member(scenario, 0))
+    assert_same_run(second, member(scenario, 1))
 
 
-def test_servo_firmware_is_refused_naming_the_robot():
-    scenario = load_scenario("scenarios/wx250s_letter_N.toml").with_overrides(
-        {"controller.command": "position"})
-    with pytest.raises(InputError, match="runs its servos' firmware") as err:
-        run_ensemble(scenario, [0])
-    assert err.value.key == "robot" and "wx250s" in str(err.value)
+def test_servo_firmware_runs_member_by_member():
+    from inkarm.jobs.ensemble import batch_refusal
+
+    scenario = load_scenario("scenarios/wx250s_letter_N.toml")  # (its servos' own loop)
+    assert "runs its servos' firmware" in batch_refusal(scenario, [0])
+    (alone,) = run_ensemble(scenario, [0], processes=1)
+    assert_same_run(alone, member(scenario, 0))
 
 
 def test_velocity_in_servo_units_matches_run(quick):
@@ -183,3 +183,17 @@ def test_members_of_different_structure_are_refused(quick):
     with pytest.raises(InputError, match="differ in structure") as err:
         BatchPlant([soft, rigid], cell, PlantTruth(), [0, 1])
     assert err.value.key == "plant"
+
+
+@pytest.mark.parametrize("law", ["position", "joint_pid", "impedance", "sensorimotor"])
+def test_every_law_runs_batched_as_it_runs_alone(quick, law):
+    """The ensemble's members are members of the one executor: with every built-in law (a
+    position law in one mujoco.batch, a torque law member by member) each member is the run
+    of its seed, on a plant that is not the model."""
+    scenario = quick.with_overrides({**REALISTIC, "controller.law": law})
+    runs = run_ensemble(scenario, [2, 5], processes=1)
+    for seed, batched in zip([2, 5], runs):
+        alone = member(scenario, seed)
+        assert_same_run(batched, alone)
+        assert np.array_equal(batched.log.q, alone.log.q) or law == "position"
+        assert np.abs(batched.log.q - alone.log.q).max() < 1e-9

@@ -24,11 +24,11 @@ from inkarm.jobs.regress import (
     compare,
     path_deviation_mm,
 )
-from inkarm.jobs.regress_baseline import read_baseline, write_baseline
-from inkarm.jobs.regress_ink import compare_ink
+from inkarm.jobs.regress.baseline import read_baseline, write_baseline
+from inkarm.jobs.regress.ink import compare_ink
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
-from inkarm.jobs.sweep_design import with_point
+from inkarm.jobs.sweep.design import with_point
 
 QUICK = Path(__file__).parents[2] / "scenarios" / "quick_stroke.toml"
 

@@ -81,7 +81,8 @@ def test_a_diverging_run_fails_with_a_reason_and_keeps_its_partial_log(tmp_path)
 
 def test_a_run_longer_than_the_simulated_time_budget_is_refused_before_building(monkeypatch):
     from inkarm.core.budget import BudgetError
-    from inkarm.jobs.run import check_budget, run
+    from inkarm.jobs.preflight import check_budget
+    from inkarm.jobs.run import run
     from inkarm.jobs.scenario import load_scenario, place, source_drawing
     from inkarm.sim.cell import Cell
 

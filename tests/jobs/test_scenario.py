@@ -104,7 +104,7 @@ def test_placement_off_the_sheet_is_refused_before_simulating_naming_the_point(t
 
 @pytest.mark.sim
 def test_paper_out_of_reach_is_refused_naming_the_point(tmp_path):
-    text = DEFAULT_SCENARIO.read_text() + "\n[cell]\npaper_centre_mm = [1500.0, 0.0]\n"
+    text = DEFAULT_SCENARIO.read_text() + "\n[sim]\npaper_centre_mm = [1500.0, 0.0]\n"
     with pytest.raises(UnreachableError, match=r"stroke 0, point \(\d+\.\d, \d+\.\d\) mm: out of reach"):
         run(load_scenario(_scenario(tmp_path, text)))
 
@@ -141,9 +141,16 @@ def test_diverging_gains_fail_the_run_and_keep_the_partial_trace_and_canvas(tmp_
         ("[source]\nkind = 'tag'\n[placement]\nscale = 'big'\n", r"placement.scale: expected a number, got 'big' \(str\)"),
         ("[source]\nkind = 'tag'\n[placement]\nscale = 2\nheight_mm = 3\n", r"placement: give one of height_mm and scale"),
         ("[source]\nkind = 'tag'\n[placement]\ncentre_mm = [1, 2, 3]\n", r"placement.centre_mm: expected \[x, y\]"),
-        ("[source]\nkind = 'tag'\n[cell]\ntimestep = -1.0\n", r"cell.timestep: expected a number in \[1e-05, 0.01\] s, got -1.0"),
-        ("[source]\nkind = 'tag'\n[cell]\npaper_size = [1, 2]\n", r"cell.paper_size: unknown key \(did you mean 'paper_size_mm'\?\)"),
-        ("[source]\nkind = 'tag'\n[cell]\npaper_size_mm = [1, 2, 3]\n", r"cell.paper_size_mm: expected 2 numbers, got 3"),
+        ("[source]\nkind = 'tag'\n[sim]\ntimestep = -1.0\n", r"sim.timestep: expected a number in \[1e-05, 0.01\] s, got -1.0"),
+        ("[source]\nkind = 'tag'\n[sim]\npaper_size = [1, 2]\n", r"sim.paper_size: unknown key \(did you mean 'paper_size_mm'\?\)"),
+        ("[source]\nkind = 'tag'\n[sim]\npaper_size_mm = [1, 2, 3]\n", r"sim.paper_size_mm: expected 2 numbers, got 3"),
+        ("[source]\nkind = 'tag'\n[sim.plnt]\nseed = 1\n", r"sim.plnt: unknown key \(did you mean 'plant'\?\)"),
+        ("[source]\nkind = 'tag'\n[sim.plant]\nseed = 1\n[plant]\nseed = 2\n", r"plant: give \[sim.plant\] only \(\[plant\] is its old name\)"),
+        ("[source]\nkind = 'tag'\n[dynamixel]\nlatency_ms = 3\n", r"dynamixel: robot 'iiwa14' has no \[backends.dynamixel\] table"),
+        ("[source]\nkind = 'tag'\n[robot]\nname = 'wx250s'\n[dynamixel]\nlatency_ms = -3\n", r"dynamixel.latency_ms: expected a number >= 0, got -3"),
+        ("[source]\nkind = 'tag'\n[robot]\nname = 'wx250s'\n[dynamixel]\ncalibration = 'nope.toml'\n", r"dynamixel.calibration: no such file: .*nope.toml"),
+        ("[source]\nkind = 'tag'\n[plotter]\nprofile = 'serv'\n", r"plotter.profile: unknown pen profile 'serv' \(did you mean 'servo'\?\)"),
+        ("[source]\nkind = 'tag'\n[plotter]\nport = 'x'\n", r"plotter.port: unknown key"),
         ("[source]\nkind = 'tag'\n[controller]\nforce_n = 'hard'\n", r"controller.force_n: expected a number"),
         ("[source]\nkind = 'tag'\n[robot.gains]\nkpp = 1\n", r"robot.gains.kpp: unknown key \(did you mean 'kp'\?\)"),
         ("[source]\nkind = 'tag'\n[robot]\nname = 'wx250z'\n", r"robot.name: unknown value 'wx250z' \(did you mean 'wx250s'\?\)"),
@@ -293,3 +300,27 @@ def test_every_shipped_scenario_draws_and_writes_strict_json(path, tmp_path):
     status = json.loads((tmp_path / "status.json").read_text(), parse_constant=refuse)
     assert status["status"] == "ok" and metrics["ink_chamfer_mm"] is not None
     assert metrics["tracking_rms_mm"] < 0.5 and metrics["ink_chamfer_mm"] < 0.5
+
+
+def test_the_0_2_tables_cell_and_plant_still_read_with_a_warning(tmp_path):
+    import warnings
+
+    path = tmp_path / "old.toml"
+    path.write_text("[source]\nkind = 'tag'\n[cell]\ntimestep = 0.001\n"
+                    "[plant]\npaper_height_mm = 2.0\n[plant.random]\nmass_scale = [0.9, 1.1]\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        old = load_scenario(path)
+    assert sorted(str(w.message).split(": ", 1)[1] for w in caught) == [
+        "the table [cell] is deprecated and goes in the next release; write [sim]",
+        "the table [plant] is deprecated and goes in the next release; write [sim.plant]"]
+    new = tmp_path / "new.toml"
+    new.write_text("[source]\nkind = 'tag'\n[sim]\ntimestep = 0.001\n"
+                   "[sim.plant]\npaper_height_mm = 2.0\n[sim.plant.random]\n"
+                   "mass_scale = [0.9, 1.1]\n")
+    assert load_scenario(new).cell == old.cell and load_scenario(new).plant == old.plant
+    # the overrides' old spelling names the same keys, without a warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert old.with_overrides({"plant.seed": 3}).plant.seed == 3
+        assert old.with_overrides({"cell.timestep": 0.002}).cell.timestep == 0.002

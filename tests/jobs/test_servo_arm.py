@@ -16,7 +16,7 @@ ROW = {"tracking_rms_mm": 1.0, "ink_chamfer_mm": 1.0}
 # Position commands on the realistic arm (as the scenario ships): the host leads its goals by
 # the 4 ms bus delay it knows of and keeps the model's friction, as position commands on servos
 # need.
-REALISTIC_POSITION = {"controller.command": "position", "controller.lookahead_s": 0.004}
+REALISTIC_POSITION = {"controller.law": "position", "controller.lookahead_s": 0.004}
 
 
 class FirmwareCalls:
@@ -45,7 +45,7 @@ def drawn_time_s(result) -> float:
 def test_the_letter_through_the_servo_firmware_meets_the_servo_row(monkeypatch):
     firmware = FirmwareCalls(monkeypatch)
     result = run(load_scenario("scenarios/wx250s_letter_N.toml").with_overrides(
-        {"controller.command": "position"}))
+        {"controller.law": "position"}))
     assert result.ok, result.reason
     m = result.metrics
     assert m["tracking_rms_mm"] <= ROW["tracking_rms_mm"], m

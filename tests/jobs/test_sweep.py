@@ -14,8 +14,8 @@ from inkarm.cli import main
 from inkarm.errors import InputError
 from inkarm.jobs.scenario import load_scenario
 from inkarm.jobs.sweep import TIMING_COLUMNS, run_sweep, write_figures
-from inkarm.jobs.sweep_design import grid_design, make_points, parse_axis
-from inkarm.jobs.sweep_table import PARTS_DIR, TABLE_FILE, read_results
+from inkarm.jobs.sweep.design import grid_design, make_points, parse_axis
+from inkarm.jobs.sweep.table import PARTS_DIR, TABLE_FILE, read_results
 
 QUICK = Path(__file__).parents[2] / "scenarios" / "quick_stroke.toml"
 KEYS = ("controller.force_n", "controller.force_gain_mm_per_ns")

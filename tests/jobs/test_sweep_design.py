@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from inkarm.errors import InputError
 from inkarm.jobs.scenario import load_scenario
-from inkarm.jobs.sweep_design import (
+from inkarm.jobs.sweep.design import (
     grid_design,
     make_points,
     parse_axis,

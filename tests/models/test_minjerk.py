@@ -1,4 +1,5 @@
-"""Minimum-jerk trajectories: closed forms, via-point timing against brute force."""
+"""Minimum-jerk trajectories (inkarm.models.minjerk, minjerk_spline, minjerk_timing): closed
+forms, via-point timing against brute force."""
 
 from __future__ import annotations
 
@@ -10,6 +11,8 @@ from numpy.polynomial import Polynomial
 
 from inkarm.errors import InputError
 from inkarm.models import minjerk as mj
+from inkarm.models import minjerk_spline as mjs
+from inkarm.models import minjerk_timing as mjt
 
 coord = st.floats(-100.0, 100.0, allow_nan=False)
 
@@ -73,13 +76,13 @@ def test_minimum_jerk_profile_errors():
 
 
 def test_point_to_point_spline_jerk_cost_is_720_a2_over_t5():
-    spline = mj.min_jerk_spline([[0.0, 0.0], [30.0, 40.0]], 0.5)
+    spline = mjs.min_jerk_spline([[0.0, 0.0], [30.0, 40.0]], 0.5)
     assert spline.jerk_cost() == pytest.approx(720 * 50.0**2 / 0.5**5, rel=1e-10)
 
 
 def test_via_point_trajectory_passes_through_via_with_rest_ends_and_c4_joint():
     points = np.array([[0.0, 0.0], [30.0, 50.0], [100.0, 0.0]])
-    spline = mj.min_jerk_spline(points, 2.0, via_times=[0.7])
+    spline = mjs.min_jerk_spline(points, 2.0, via_times=[0.7])
     np.testing.assert_allclose(spline.evaluate(np.array([0.0, 0.7, 2.0])), points, atol=1e-9)
     for derivative in (1, 2):
         np.testing.assert_allclose(
@@ -95,7 +98,7 @@ def test_via_point_trajectory_passes_through_via_with_rest_ends_and_c4_joint():
 def test_closed_form_via_cost_matches_piecewise_quintic_cost():
     points = np.array([[0.0, 0.0], [20.0, 35.0], [80.0, 10.0]])
     for t_via in (0.3, 0.9, 1.4):
-        spline = mj.min_jerk_spline(points, 1.6, via_times=[t_via])
+        spline = mjs.min_jerk_spline(points, 1.6, via_times=[t_via])
         closed = mj.via_jerk_cost(*points, 1.6, t_via)
         assert spline.jerk_cost() == pytest.approx(closed, rel=1e-9)
 
@@ -139,16 +142,16 @@ def test_optimal_via_time_agrees_with_numerical_search_and_piecewise_cost_scan()
     t_poly = mj.optimal_via_time(*points, 2.0)
     # brute force on the piecewise-quintic solution itself (independent of the closed form)
     scan = np.linspace(0.02, 1.98, 393)
-    costs = [mj.min_jerk_spline(points, 2.0, [t]).jerk_cost() for t in scan]
+    costs = [mjs.min_jerk_spline(points, 2.0, [t]).jerk_cost() for t in scan]
     assert t_poly == pytest.approx(scan[int(np.argmin(costs))], abs=2 * (scan[1] - scan[0]))
     # the numerical search used for several via-points finds the same time for one
-    t_num = mj._optimal_times(points, 2.0)
+    t_num = mjt.optimal_times(points, 2.0)
     assert t_num[0] == pytest.approx(t_poly, abs=1e-4)
 
 
 def test_several_via_points_default_times_minimise_the_cost():
     points = np.array([[0.0, 0.0], [20.0, 40.0], [60.0, 45.0], [100.0, 0.0]])
-    spline = mj.min_jerk_spline(points, 2.0)
+    spline = mjs.min_jerk_spline(points, 2.0)
     np.testing.assert_allclose(spline.evaluate(spline.times), points, atol=1e-8)
     best = spline.jerk_cost()
     rng = np.random.default_rng(3)
@@ -156,11 +159,11 @@ def test_several_via_points_default_times_minimise_the_cost():
         times = np.sort(spline.times[1:-1] + rng.normal(0, 0.05, 2))
         if times[0] <= 0 or times[1] >= 2.0 or times[1] - times[0] <= 0:
             continue
-        assert mj.min_jerk_spline(points, 2.0, times).jerk_cost() >= best * (1 - 1e-9)
+        assert mjs.min_jerk_spline(points, 2.0, times).jerk_cost() >= best * (1 - 1e-9)
 
 
 def test_via_points_trajectory_samples_the_spline():
-    traj = mj.via_points([[0.0, 0.0], [30.0, 50.0], [100.0, 0.0]], 2.0, via_times=[1.0], dt=0.01)
+    traj = mjs.via_points([[0.0, 0.0], [30.0, 50.0], [100.0, 0.0]], 2.0, via_times=[1.0], dt=0.01)
     assert traj.t[0] == 0.0 and traj.t[-1] == pytest.approx(2.0)
     np.testing.assert_allclose(traj.pos[100], [30.0, 50.0], atol=1e-9)
 
@@ -179,11 +182,11 @@ def test_errors_name_the_argument():
     with pytest.raises(InputError, match="via: coincides with the start or end point"):
         mj.optimal_via_time([0, 0], [2, 0], [2, 0], 1.0)
     with pytest.raises(InputError, match="via_times: expected 1 times for 1 via-points, got 2"):
-        mj.min_jerk_spline([[0, 0], [1, 1], [2, 0]], 1.0, via_times=[0.2, 0.4])
+        mjs.min_jerk_spline([[0, 0], [1, 1], [2, 0]], 1.0, via_times=[0.2, 0.4])
     with pytest.raises(InputError, match="via_times: must increase strictly inside"):
-        mj.min_jerk_spline([[0, 0], [1, 1], [2, 0], [3, 3]], 1.0, via_times=[0.6, 0.4])
+        mjs.min_jerk_spline([[0, 0], [1, 1], [2, 0], [3, 3]], 1.0, via_times=[0.6, 0.4])
     with pytest.raises(InputError, match=r"points: expected shape \(m >= 2"):
-        mj.min_jerk_spline([[0, 0]], 1.0)
+        mjs.min_jerk_spline([[0, 0]], 1.0)
 
 
 # -- several via-points: the timing search, independent of the input's digits -----------------
@@ -219,13 +222,13 @@ SLOW_OLD_TIMES = [
 def _counting(monkeypatch) -> list[int]:
     """Count the evaluations of the jerk cost the timing search makes."""
     count = [0]
-    real = mj._jerk_cost_and_gradient
+    real = mjt._jerk_cost_and_gradient
 
     def counted(points, times):
         count[0] += 1
         return real(points, times)
 
-    monkeypatch.setattr(mj, "_jerk_cost_and_gradient", counted)
+    monkeypatch.setattr(mjt, "_jerk_cost_and_gradient", counted)
     return count
 
 
@@ -234,58 +237,58 @@ def test_fast_cost_and_gradient_match_the_piecewise_quintic():
     for m, dim in ((2, 2), (3, 1), (5, 2), (8, 3)):
         points = rng.uniform(-50, 50, (m, dim))
         times = np.concatenate([[0.0], np.sort(rng.uniform(0.0, 1.7, m - 2)), [1.7]])
-        cost, gradient = mj._jerk_cost_and_gradient(points, times)
-        assert cost == pytest.approx(mj._spline_through(points, times).jerk_cost(), rel=1e-10)
+        cost, gradient = mjt._jerk_cost_and_gradient(points, times)
+        assert cost == pytest.approx(mjs._spline_through(points, times).jerk_cost(), rel=1e-10)
         for k in range(m - 1):  # dJ/dh_k: lengthen interval k, the later knots move with it
             eps = 1e-6 * (times[k + 1] - times[k])
             up, down = times.copy(), times.copy()
             up[k + 1 :] += eps
             down[k + 1 :] -= eps
-            numeric = (mj._jerk_cost_and_gradient(points, up)[0]
-                       - mj._jerk_cost_and_gradient(points, down)[0]) / (2 * eps)
+            numeric = (mjt._jerk_cost_and_gradient(points, up)[0]
+                       - mjt._jerk_cost_and_gradient(points, down)[0]) / (2 * eps)
             assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-6 * cost)
 
 
 @pytest.mark.parametrize("decimals", [0, 1, 2, 3, 6, 9])
 def test_via_time_search_work_does_not_depend_on_the_digits(monkeypatch, decimals):
     count = _counting(monkeypatch)
-    spline = mj.min_jerk_spline(np.round(SLOW_POINTS, decimals), 2.0)
+    spline = mjs.min_jerk_spline(np.round(SLOW_POINTS, decimals), 2.0)
     assert count[0] <= 150  # ~110 here; Nelder-Mead took 29,018 with 0, 2, 6 or 9 decimals
     assert np.all(np.diff(spline.times) > 0) and spline.times[-1] == 2.0
 
 
 def test_via_time_search_finds_the_former_optimum_or_better():
     points = np.round(SLOW_POINTS, 0)
-    spline = mj.min_jerk_spline(points, 2.0)
-    old = mj._spline_through(points, np.concatenate([[0.0], SLOW_OLD_TIMES, [2.0]]))
+    spline = mjs.min_jerk_spline(points, 2.0)
+    old = mjs._spline_through(points, np.concatenate([[0.0], SLOW_OLD_TIMES, [2.0]]))
     assert spline.jerk_cost() <= old.jerk_cost() * (1 + 1e-12)
     np.testing.assert_allclose(spline.times[1:-1], SLOW_OLD_TIMES, atol=1e-7)
     # a stationary point: the gradient over the intervals (at a fixed total) vanishes
-    _, gradient = mj._jerk_cost_and_gradient(points, spline.times)
+    _, gradient = mjt._jerk_cost_and_gradient(points, spline.times)
     assert np.max(np.abs(gradient - gradient.mean())) <= 1e-9 * spline.jerk_cost()
 
 
 def test_via_time_search_beats_dense_scans_of_each_via_time():
     points = np.round(SLOW_POINTS, 3)
-    times = mj.min_jerk_spline(points, 2.0).times
-    best = mj._jerk_cost_and_gradient(points, times)[0]
+    times = mjs.min_jerk_spline(points, 2.0).times
+    best = mjt._jerk_cost_and_gradient(points, times)[0]
     for k in range(1, len(times) - 1):  # move one via time across the whole gap it may use
         for t in np.linspace(times[k - 1], times[k + 1], 402)[1:-1]:
             trial = times.copy()
             trial[k] = t
-            assert mj._jerk_cost_and_gradient(points, trial)[0] >= best * (1 - 1e-12)
+            assert mjt._jerk_cost_and_gradient(points, trial)[0] >= best * (1 - 1e-12)
 
 
 def test_two_via_times_match_a_brute_force_grid():
     points = np.array([[0.0, 0.0], [12.5, 31.25], [47.0, 29.0], [60.0, -4.0]])
     tf = 1.3
-    times = mj.min_jerk_spline(points, tf).times
-    best = mj._jerk_cost_and_gradient(points, times)[0]
+    times = mjs.min_jerk_spline(points, tf).times
+    best = mjt._jerk_cost_and_gradient(points, times)[0]
     grid = np.linspace(0.0, tf, 161)[1:-1]
     costs = np.full((grid.size, grid.size), np.inf)
     for i, t1 in enumerate(grid):
         for j in range(i + 1, grid.size):
-            costs[i, j] = mj._jerk_cost_and_gradient(points, np.array([0, t1, grid[j], tf]))[0]
+            costs[i, j] = mjt._jerk_cost_and_gradient(points, np.array([0, t1, grid[j], tf]))[0]
     i, j = np.unravel_index(np.argmin(costs), costs.shape)
     assert costs[i, j] >= best * (1 - 1e-12)
     step = grid[1] - grid[0]
@@ -294,16 +297,16 @@ def test_two_via_times_match_a_brute_force_grid():
 
 def test_via_times_do_not_change_with_the_scale_or_place_of_the_points():
     points = np.round(SLOW_POINTS, 2)
-    ref = mj.min_jerk_spline(points, 1.0).times
+    ref = mjs.min_jerk_spline(points, 1.0).times
     for scale, offset in ((1e-3, 0.0), (1e6, 0.0), (1.0, 1e4), (1e200, 0.0), (1e-200, 0.0)):
-        times = mj.min_jerk_spline(points * scale + offset, 3.0).times / 3.0
+        times = mjs.min_jerk_spline(points * scale + offset, 3.0).times / 3.0
         np.testing.assert_allclose(times, ref, atol=1e-7)
 
 
 def test_via_time_search_stops_at_its_evaluation_budget(monkeypatch):
-    monkeypatch.setattr(mj, "_TIME_SEARCH_MAX_EVALUATIONS", 12)
+    monkeypatch.setattr(mjt, "TIME_SEARCH_MAX_EVALUATIONS", 12)
     count = _counting(monkeypatch)
-    spline = mj.min_jerk_spline(np.round(SLOW_POINTS, 2), 2.0)
+    spline = mjs.min_jerk_spline(np.round(SLOW_POINTS, 2), 2.0)
     assert count[0] == 12
     assert np.all(np.diff(spline.times) > 0)  # the best times seen: ordered, if not optimal
 
@@ -311,12 +314,12 @@ def test_via_time_search_stops_at_its_evaluation_budget(monkeypatch):
 def test_consecutive_coincident_points_need_given_via_times():
     points = [[0.0, 0.0], [10.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
     with pytest.raises(InputError, match="points: points 1 and 2 coincide") as info:
-        mj.min_jerk_spline(points, 1.0)
+        mjs.min_jerk_spline(points, 1.0)
     assert info.value.key == "points"
-    spline = mj.min_jerk_spline(points, 1.0, via_times=[0.4, 0.5])
+    spline = mjs.min_jerk_spline(points, 1.0, via_times=[0.4, 0.5])
     np.testing.assert_allclose(spline.evaluate(spline.times), points, atol=1e-9)
     # coincident but not consecutive is fine: back to the start
-    loop = mj.min_jerk_spline([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 0.0]], 1.0)
+    loop = mjs.min_jerk_spline([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 0.0]], 1.0)
     assert np.all(np.diff(loop.times) > 0)
 
 
@@ -342,20 +345,20 @@ def test_many_points_are_refused_by_the_time_of_their_dense_systems(monkeypatch)
                        r"points, choosing the via times \(up to 400 dense solves of 396 unknowns; "
                        r"give via_times to skip it\): about 48\.36 s, more than the limit of 10 s "
                        r"\(raise it with the environment variable INKARM_MAX_COMPUTE_S\)") as info:
-        mj.via_points(points, 10.0)
+        mjs.via_points(points, 10.0)
     assert info.value.value == 200 and info.value.variable == "INKARM_MAX_COMPUTE_S"
     many = np.cumsum(np.ones((3000, 2)), axis=0)
     with pytest.raises(BudgetError, match=r"through 3000 points, given via times \(a dense "
                        r"system of 17994 unknowns\): about 193\.5 s"):
-        mj.min_jerk_spline(many, 300.0, np.linspace(0.0, 300.0, 3000)[1:-1])
+        mjs.min_jerk_spline(many, 300.0, np.linspace(0.0, 300.0, 3000)[1:-1])
     assert time.perf_counter() - start < 2.0
     # given via times, the same 200 points are cheap (~0.3 s)
-    assert mj.spline_seconds(200, search=False) < 1.0
-    traj = mj.via_points(points, 10.0, np.linspace(0.0, 10.0, 200)[1:-1], dt=0.1)
+    assert mjs.spline_seconds(200, search=False) < 1.0
+    traj = mjs.via_points(points, 10.0, np.linspace(0.0, 10.0, 200)[1:-1], dt=0.1)
     np.testing.assert_allclose(traj.pos[0], points[0])
     monkeypatch.setenv("INKARM_MAX_COMPUTE_S", "300")
-    mj._require_time(200, search=True)  # passes; the search is not run
-    mj._require_time(3000, search=False)
+    mjs._require_time(200, search=True)  # passes; the search is not run
+    mjs._require_time(3000, search=False)
 
 
 def test_via_points_checks_its_time_steps_first():
@@ -363,4 +366,4 @@ def test_via_points_checks_its_time_steps_first():
 
     with pytest.raises(BudgetError, match=r"^dt: time steps of the minimum-jerk path \(duration "
                        r"3600 s / dt 1e-06 s\): about 3\.6e\+09 time steps, .*INKARM_MAX_STEPS"):
-        mj.via_points([[0.0, 0.0], [1.0, 1.0]], 3600.0, dt=1e-6)
+        mjs.via_points([[0.0, 0.0], [1.0, 1.0]], 3600.0, dt=1e-6)

@@ -13,7 +13,8 @@ from scipy.spatial import cKDTree
 from inkarm.core.trajectory import Drawing
 from inkarm.plans import fidelity
 from inkarm.plans.handstyles import PRESETS
-from inkarm.plans.text import PageLayout, write_text
+from inkarm.plans.layout import PageLayout
+from inkarm.plans.text import write_text
 
 # -- the reference: one run of samples (one active target) at a time --------------------------
 

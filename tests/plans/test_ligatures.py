@@ -9,17 +9,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from inkarm.plans.fonts import HersheyFont
 from inkarm.plans.handstyles import PRESETS
-from inkarm.plans.text import (
-    HersheyFont,
-    TargetSequence,
-    glyph_targets,
-    join_ligatures,
-    junction_turns,
-    layout_text,
-    plan_text,
-    write_text,
-)
+from inkarm.plans.layout import layout_text
+from inkarm.plans.ligatures import join_ligatures, junction_turns
+from inkarm.plans.targets import TargetSequence, glyph_targets
+from inkarm.plans.text import plan_text, write_text
 
 
 def _seq(points, letter):
@@ -113,16 +108,16 @@ def test_a_sharp_turn_at_a_shared_point_falls_back_to_seed_000s_rule():
 def test_each_junction_sees_only_the_two_letters_it_joins(monkeypatch):
     """Joining is linear in the text: every letter junction is handled once, on a window of
     the two letters (plus two context targets), however long the word."""
-    from inkarm.plans import text
+    from inkarm.plans import ligatures
 
     calls = []
-    original = text._join_letters
+    original = ligatures._join_letters
 
     def spy(context, first, second, *args):
         calls.append(len(context) + len(first) + len(second))
         return original(context, first, second, *args)
 
-    monkeypatch.setattr(text, "_join_letters", spy)
+    monkeypatch.setattr(ligatures, "_join_letters", spy)
     font = HersheyFont("scripts", 2.0)
     windows = {}
     for n in (10, 40):

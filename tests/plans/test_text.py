@@ -13,24 +13,19 @@ from hypothesis import strategies as st
 from inkarm.analysis.density import turning_angles
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError, ScenarioError
-from inkarm.plans.handstyles import PRESETS
-from inkarm.plans.text import (
-    HersheyFont,
-    PageLayout,
-    TargetSequence,
+from inkarm.plans.fidelity import (
     TextFidelity,
     font_deviation,
-    glyph_targets,
-    join_ligatures,
-    layout_text,
     outline_deviation,
-    plan_text,
     sample_letters,
-    subdivide,
     text_fidelity,
-    thin_polyline,
-    write_text,
 )
+from inkarm.plans.fonts import HersheyFont
+from inkarm.plans.handstyles import PRESETS
+from inkarm.plans.layout import PageLayout, layout_text
+from inkarm.plans.ligatures import join_ligatures
+from inkarm.plans.targets import TargetSequence, glyph_targets, subdivide, thin_polyline
+from inkarm.plans.text import plan_text, write_text
 
 
 def _seq(points, letter, joinable=True):

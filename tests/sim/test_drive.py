@@ -14,10 +14,11 @@ from inkarm.core.plant import PositionCommand, TorqueCommand
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.robots.gains import PIDGains
+from inkarm.sim.actuators import affine_drives, native_drive
 from inkarm.sim.cell import build_model, make_cell
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import PlantTruth
-from inkarm.sim.plant import MujocoPlant, affine_drives, native_drive
+from inkarm.sim.plant import MujocoPlant
 
 pytestmark = pytest.mark.sim
 

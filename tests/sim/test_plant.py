@@ -193,19 +193,19 @@ def test_bad_arguments_are_refused(model):
 
 
 def test_the_tip_force_skips_the_contact_list_only_when_nothing_else_can_touch():
-    from inkarm.sim.plant import _only_geom_touches
+    from inkarm.sim.lookups import only_geom_touches
 
     plain = build_model()
     tip = mujoco.mj_name2id(plain, mujoco.mjtObj.mjOBJ_GEOM, "pen_tip")
-    assert _only_geom_touches(plain, tip)
+    assert only_geom_touches(plain, tip)
     spec = build_spec()
     for name in ("table", "link7"):  # they could now collide (they never do here)
         spec.geom(name).contype, spec.geom(name).conaffinity = 1, 1
     crowded = spec.compile()
-    assert not _only_geom_touches(crowded, tip)
+    assert not only_geom_touches(crowded, tip)
     spec = build_spec()
     spec.add_pair(geomname1="table", geomname2="link7")
-    assert not _only_geom_touches(spec.compile(), tip)
+    assert not only_geom_touches(spec.compile(), tip)
     # Both ways of summing the tip's normal force read the same pressed pen.
     kin = ArmKinematics(plain, "pen_tip", JOINT_NAMES)
     page = page_placement(kin.model)

@@ -79,8 +79,9 @@ def test_the_log_starts_where_the_pen_leaves_the_last_probe_dot(letter):
 def test_a_plant_with_delayed_readings_draws_a_second_drawing_as_well_as_its_first():
     """The loop places each reading on the plan by the plant's clock, not by its first reading
     (which, on a plant used before, is already late)."""
-    from inkarm.control.loop import run_drawing
-    from inkarm.jobs.run import _substeps, placed_within_budget
+    from inkarm.control.executor import run_drawing
+    from inkarm.jobs.preflight import placed_within_budget
+    from inkarm.jobs.preflight import substeps as _substeps
     from inkarm.sim.cell import Cell, kinematic_model
     from inkarm.sim.perturb import plant_model
     from inkarm.sim.plant import MujocoPlant

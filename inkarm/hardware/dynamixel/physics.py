@@ -2,7 +2,7 @@
 
 :class:`JointPhysics` is the contract: ``advance(torque)`` holds joint torques [N m] for one
 period of ``period_s`` and ``state()`` returns the joint angles [rad] and speeds [rad/s]. The
-MuJoCo twin of a robot is one (wired in :mod:`inkarm.jobs.dynamixel`); :class:`SimpleJoints`
+MuJoCo twin of a robot is one (wired in :mod:`inkarm.jobs.backends.dynamixel`); :class:`SimpleJoints`
 is the built-in one when no twin is wanted: each joint a rotor of inertia ``J`` with viscous
 damping ``b``, ``J qdd = tau - b qd`` (semi-implicit Euler), which the firmware's position
 loop turns into a well-damped first-order-like follower.

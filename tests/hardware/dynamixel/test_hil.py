@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from inkarm.hardware.dynamixel.bus import DynamixelBus
-from inkarm.jobs.dynamixel import hil_run, simulate_servo_arm
+from inkarm.jobs.backends.dynamixel import hil_run, simulate_servo_arm
 from inkarm.jobs.scenario import load_scenario
 
 pytestmark = pytest.mark.hardware_emulated

@@ -8,7 +8,7 @@ only when it gets *worse* than the baseline by more than its tolerance:
     regressed  <=>  worse_by > tolerance
 
 Besides the run's own metrics (:mod:`inkarm.analysis.metrics`) the comparison measures the ink
-against the baseline's ink (:mod:`inkarm.jobs.regress_ink`: missing and extra ink [mm],
+against the baseline's ink (:mod:`inkarm.jobs.regress.ink`: missing and extra ink [mm],
 IoU) and the drawn path against the baseline's (``path_deviation_mm``: the symmetric Hausdorff
 distance between the pen-down paths, each resampled every :data:`PATH_SPACING_MM`). The
 real-time factor is reported, never gated: wall-clock time is the machine's, not the
@@ -34,7 +34,7 @@ from scipy.spatial import cKDTree
 
 from inkarm.analysis.metrics import resample_polyline
 from inkarm.errors import InputError
-from inkarm.jobs.regress_baseline import (
+from inkarm.jobs.regress.baseline import (
     BASELINES_DIR,
     MARKER,
     Baseline,
@@ -42,7 +42,7 @@ from inkarm.jobs.regress_baseline import (
     page_grey,
     read_baseline,
 )
-from inkarm.jobs.regress_ink import compare_ink
+from inkarm.jobs.regress.ink import compare_ink
 from inkarm.jobs.run import Run
 from inkarm.jobs.scenario import Scenario
 
@@ -68,6 +68,8 @@ RULES: dict[str, Rule] = {
     "gap_mm": Rule(LOWER, 0.5, "mm"),
     "contact_force_mean_n": Rule(TARGET, 0.02, "N"),
     "contact_force_std_n": Rule(LOWER, 0.01, "N"),
+    "force_p1_n": Rule(TARGET, 0.02, "N"),  # the ends of the force band: further from F*
+    "force_p99_n": Rule(TARGET, 0.02, "N"),
     "joint_limit_margin_rad": Rule(HIGHER, 0.01, "rad"),
     "realtime_factor": Rule(REPORT, 0.0, ""),
     "ink_missing_mm": Rule(LOWER, 0.3, "mm"),

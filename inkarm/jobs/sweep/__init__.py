@@ -1,8 +1,8 @@
 """Sweeps: one scenario run over a design of overrides, on a process pool or a Ray cluster.
 
-:func:`run_sweep` runs the points of a design (:mod:`inkarm.jobs.sweep_design`) that the
+:func:`run_sweep` runs the points of a design (:mod:`inkarm.jobs.sweep.design`) that the
 output folder has not finished yet, writes each run's row as it finishes
-(:mod:`inkarm.jobs.sweep_table`) and its ink crop (``ink/<point id>.npz``), and compacts the
+(:mod:`inkarm.jobs.sweep.table`) and its ink crop (``ink/<point id>.npz``), and compacts the
 table at the end or on an interruption; running it again resumes. A run that fails, or whose
 overrides the run refuses, is a row with its status and reason, never a crash of the sweep.
 
@@ -32,11 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.errors import InkarmError, InputError, SimulationError
-from inkarm.jobs.ensemble_workers import available_cpus
+from inkarm.jobs.ensemble.workers import available_cpus
 from inkarm.jobs.outputs import strict_json
 from inkarm.jobs.scenario import Scenario
-from inkarm.jobs.sweep_design import Point, with_point
-from inkarm.jobs.sweep_table import compact, finished_ids, write_part
+from inkarm.jobs.sweep.design import Point, with_point
+from inkarm.jobs.sweep.table import compact, finished_ids, write_part
 
 MANIFEST = "sweep.json"
 INK_DIR = "ink"
@@ -81,8 +81,8 @@ def run_point(scenario: Scenario, point: Point) -> PointResult:
     """Run ``scenario`` with ``point``'s overrides and seed; every failure becomes the row's
     status and reason."""
     from inkarm.analysis.metrics import ink_box
-    from inkarm.jobs.regress_baseline import library_versions, page_grey
-    from inkarm.jobs.regress_ink import ink_mask
+    from inkarm.jobs.regress.baseline import library_versions, page_grey
+    from inkarm.jobs.regress.ink import ink_mask
     from inkarm.jobs.run import run
 
     start = time.perf_counter()
@@ -263,7 +263,7 @@ def write_figures(out_dir: str | Path, keys: list[str], metrics: list[str]) -> l
     """Figures of the compacted table in ``out_dir/figures``: each metric against each swept
     key (lines; grouped by the other key when there are two) and, for two keys, a heat map;
     and ``ink_overlay.png``, the ink of every finished run. Returns the files written."""
-    from inkarm.jobs.sweep_table import read_results
+    from inkarm.jobs.sweep.table import read_results
     from inkarm.plots.figure import save_figure
     from inkarm.plots.sweep import plot_ink_overlay, plot_metric_heatmap, plot_metric_lines
 

@@ -3,28 +3,27 @@ batched MuJoCo simulations, one share of the members per CPU.
 
 Member k is the scenario with ``plant.seed = seeds[k]``: its plant truth realised from that seed
 (the ``[plant.random]`` ranges), exactly what :func:`inkarm.jobs.run.run` would simulate for
-``scenario.with_overrides({"plant.seed": seeds[k]})``. Instead of one process per member, the
-members' models step together in :class:`inkarm.sim.batch.BatchPlant` (``mujoco.batch``) and one
-controller (:func:`inkarm.control.batch_loop.run_drawings`) serves all of them with (N, n)
-arrays: the plan and the feed-forward along it depend only on the nominal model, so they are
-computed once. The controller, the inking and the metrics are Python on one core, so the
-members are split into one contiguous share per CPU (``processes``), each share such a batch in
-a kept worker process (:mod:`inkarm.jobs.ensemble_workers`), its Runs streamed back in member
-order; ``processes=1`` runs one batch in this process, on ``nthread`` MuJoCo threads (as
+``scenario.with_overrides({"plant.seed": seeds[k]})``. Every member is a member of one
+execution of :func:`inkarm.control.executor.execute`, the executor of every run: the plan and
+the feed-forward along it depend only on the nominal model, so they are computed once, and each
+member runs the scenario's law, watchdogs and force loop on its own plant. Where the members can
+share one batched simulation (:func:`batch_refusal`: a law that sends position goals, robots
+driven by the profile's ``[drive]`` gains, plant truths whose run-time part is the same in every
+member and has no series elasticity or backlash), their models step together in
+:class:`inkarm.sim.batch.BatchPlant` (``mujoco.batch``); otherwise (a torque law, servo
+firmware, transmissions) each member is executed as a batch of one
+(:func:`inkarm.jobs.run.run`). The controller, the inking and the metrics are Python on one
+core, so the members are split into one contiguous share per CPU (``processes``), each share in
+a kept worker process (:mod:`inkarm.jobs.ensemble.workers`), its Runs streamed back in member
+order; ``processes=1`` runs one share in this process, on ``nthread`` MuJoCo threads (as
 does a daemonic process, such as a pool's worker, which may not start processes).
 
 The Runs equal those of :func:`run` member by member: same status, reason, log rows, metrics
 and ink (bit for bit in the tests), whatever the shares (a member's simulation does not depend
-on the others'). One known difference: after a fault with an actuation delay,
-run's safe stop hands the drives a bias array that its next period's call overwrites while the
-command is still queued; the batched stop keeps each period's own, so the stop's log may differ
-by about 1e-6 rad. ``log.wall_s`` is the member's share's wall time divided by the number of
-members (the shares run at once, so each Run's real-time factor is about the ensemble's
-aggregate one). Supported: position mode, robots driven by the profile's ``[drive]`` gains (not
-servo firmware), and plant truths whose run-time part (noise, delays) is the same in every
-member; series elasticity and backlash are refused (:func:`inkarm.sim.batch.check_batchable`
-names the field). Ctrl-C stops the whole ensemble, every share (a plain KeyboardInterrupt: no
-partial Runs are kept).
+on the others', and its controller is the same code on the same numbers). ``log.wall_s`` of a
+batched member is its share's wall time divided by the number of members (the shares run at
+once, so each Run's real-time factor is about the ensemble's aggregate one). Ctrl-C stops the
+whole ensemble, every share (a plain KeyboardInterrupt: no partial Runs are kept).
 """
 
 from __future__ import annotations
@@ -35,23 +34,19 @@ from typing import Any
 
 import numpy as np
 
-from inkarm.control.batch_loop import run_drawings
+from inkarm.control.executor import execute
 from inkarm.core.budget import require_memory
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.ink.canvas import require_raster_memory
-from inkarm.jobs.ensemble_workers import available_cpus, may_start_workers, stream_shares
-from inkarm.jobs.run import (
-    Run,
-    _substeps,
-    failed_run,
-    finished_run,
-    placed_within_budget,
-    simulated_seconds,
-)
+from inkarm.jobs.ensemble.workers import available_cpus, may_start_workers, stream_shares
+from inkarm.jobs.outcome import Run, failed_run, finished_run
+from inkarm.jobs.preflight import placed_within_budget, simulated_seconds, substeps
+from inkarm.jobs.run import run
 from inkarm.jobs.scenario import Scenario
-from inkarm.jobs.sweep_design import with_point
+from inkarm.jobs.sweep.design import with_point
 from inkarm.sim.batch import BatchPlant, check_batchable, member_model
+from inkarm.sim.batch_members import BatchMembers
 from inkarm.sim.cell import Cell, kinematic_model
 
 
@@ -87,27 +82,18 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
             raise InputError(f"processes and nthread count CPUs (0: all); got processes = "
                              f"{processes}, nthread = {nthread}", key=key, value=value)
     cell = Cell(scenario.cell, scenario.robot)
-    if scenario.controller.command != "position":
-        raise InputError(f"the batched ensemble runs position commands only, not "
-                         f"{scenario.controller.command!r}", key="controller.command",
-                         value=scenario.controller.command,
-                         choices=("position",)).within(file=scenario.path)
-    if scenario.robot.servo_firmware:
-        raise InputError(f"the batched ensemble drives joints with the profile's [drive] gains; "
-                         f"{scenario.robot.name!r} runs its servos' firmware in position mode: "
-                         f"run its members one by one (inkarm.jobs.run.run)", key="robot",
-                         value=scenario.robot.name).within(file=scenario.path)
     try:
         drawing = placed_within_budget(scenario, cell)
-        substeps = _substeps(scenario.robot.control_period_s, scenario.cell.timestep)
+        steps = substeps(scenario.robot.control_period_s, scenario.cell.timestep)
         periods = simulated_seconds(drawing, scenario, cell) / scenario.robot.control_period_s
         # per member and period: the log (3 n + 5 doubles, its plan row and blend) and, per
         # physics step, the touches kept for the canvas (4 doubles)
-        require_memory(len(seeds) * periods * (3 * scenario.robot.n + 7 + 4 * substeps) * 8.0,
+        require_memory(len(seeds) * periods * (3 * scenario.robot.n + 7 + 4 * steps) * 8.0,
                        f"the logs and touches of {len(seeds)} members over {periods:.3g} "
                        f"control periods", key="seeds")
         require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
-        check_batchable([scenario.plant.realised(s) for s in seeds])
+        for seed in seeds:
+            scenario.plant.realised(seed)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     if keep is not None:
@@ -127,7 +113,7 @@ def iter_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
                               progress=progress)
         return
     # With keep, only summaries travel: the shares all go to workers (malloc tuned for pages,
-    # see ensemble_workers) and this process stays free; without, the first share is drawn
+    # see inkarm.jobs.ensemble.workers) and this process stays free; without, the first share is drawn
     # here, so that half the pages need not travel.
     yield from stream_shares(share_runs, [(scenario, drawing, share, threads, len(seeds), keep)
                                           for share in shares], progress, here=keep is None)
@@ -143,15 +129,19 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
     keep = keep or _whole
     cell = Cell(scenario.cell, scenario.robot)
     believed = kinematic_model(cell)
+    if batch_refusal(scenario, seeds) is not None:  # each member a batch of one
+        for seed in seeds:
+            yield keep(run(with_point(scenario, {"plant.seed": seed})))
+        return
     try:
-        substeps = _substeps(scenario.robot.control_period_s, scenario.cell.timestep)
+        steps = substeps(scenario.robot.control_period_s, scenario.cell.timestep)
         truths = [scenario.plant.realised(s) for s in seeds]
         plant = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
-                           substeps=substeps,
+                           substeps=steps,
                            drive_gains=scenario.robot.drive, nthread=nthread)
-        results = run_drawings(drawing, plant, believed, scenario.robot.gains,
-                               scenario.controller, speed_limits=scenario.robot.speed_limits,
-                               progress=progress)
+        results = execute(drawing, BatchMembers(plant), believed, scenario.robot.gains,
+                          scenario.controller, law=scenario.law, watchdogs=scenario.watchdogs,
+                          speed_limits=scenario.robot.speed_limits, progress=progress)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     for k, (seed, result) in enumerate(zip(seeds, results)):
@@ -164,6 +154,22 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
             yield keep(failed_run(member, drawing, result, canvas, believed))
         else:
             yield keep(finished_run(member, drawing, result, canvas, believed))
+
+
+def batch_refusal(scenario: Scenario, seeds: Sequence[int]) -> str | None:
+    """Why the members of ``seeds`` cannot share one batched simulation
+    (:class:`inkarm.sim.batch.BatchPlant`: position goals to the profile's drives, run-time
+    truths alike), or None when they can. Members that cannot are executed one by one, each a
+    batch of one of the same executor (:func:`inkarm.jobs.run.run`)."""
+    if not scenario.law.commands <= BatchPlant.commands:
+        return f"law {scenario.law.name!r} sends {', '.join(sorted(scenario.law.commands))}"
+    if scenario.robot.servo_firmware:
+        return f"{scenario.robot.name!r} runs its servos' firmware"
+    try:
+        check_batchable([scenario.plant.realised(s) for s in seeds])
+    except InputError as e:
+        return str(e)
+    return None
 
 
 def _whole(run: Run) -> Run:

@@ -1,0 +1,474 @@
+"""The one executor: a Drawing in page millimetres -> pen-down strokes on N >= 1 plants.
+
+Before moving, the drawing is checked against the arm's reach and planned once, on the
+controller's nominal model, as a pen path (:mod:`inkarm.control.sequencing`) and a joint
+reference (:mod:`inkarm.control.reference`); every member shares that plan. Then, every control
+period, each member runs the same steps:
+
+1. read its plant;
+2. shape the reference: where the plant senses the pen force, the force loop moves the pen
+   reference along the paper normal, dz/dt = k_F (F* - F), mapped to joints through the planned
+   direction J5^+ (-n), with a guarded search when no contact is found, and the settled depths
+   feed the paper's surface estimate (:class:`inkarm.control.surface.SurfaceEstimate`); each
+   descent holds until F has settled at F*; the goal leads the plan by the actuation latency;
+3. ask its control law for the command (:mod:`inkarm.control.laws`: the executor never knows
+   which law it runs);
+4. check its watchdogs (:mod:`inkarm.control.watchdogs`) and log the period;
+
+and the members are stepped together (:class:`inkarm.control.members.Members`: on hardware the
+step waits for the period to pass). A member whose watchdog fires is lifted along the normal and
+stops; the others go on. Each member is a generator that yields once per period, so its state
+stays in local variables (this loop's Python cost per period is the budget of a hardware period)
+and a member of a batch computes exactly, bit for bit, what it computes alone.
+
+Units: page [mm] and [s] at this module's surface; the page-to-robot transform
+(:class:`inkarm.core.frames.PagePlacement`) converts once to SI for the kinematics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time as _time
+from collections.abc import Callable, Generator
+
+import numpy as np
+
+from inkarm.control.config import LoopConfig
+from inkarm.control.ik import IKConfig
+from inkarm.control.kinematics import ArmKinematics
+from inkarm.control.laws import Controller, LawContext, LawSpec, Setpoint
+from inkarm.control.members import Members, as_members
+from inkarm.control.probe import first_drawing_row, probe_note, with_probes, without_probes
+from inkarm.control.reference import JointReference, check_reachable, plan_within_speed_limits
+from inkarm.control.surface import SurfaceEstimate
+from inkarm.control.watchdogs import WatchContext, Watchdogs, WatchdogSpec
+from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
+from inkarm.core.plant import Plant, TorqueCommand
+from inkarm.core.trajectory import Drawing
+from inkarm.errors import InputError, RunFault, SimulationError
+from inkarm.models.minjerk import minimum_jerk_profile
+from inkarm.robots.gains import PIDGains
+from inkarm.robots.kinematic import KinematicModel
+
+Progress = Callable[[float, str], None] | None
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Shared:
+    """What every member of one execution shares: the plan and what was derived from it."""
+
+    ref: JointReference
+    kin: ArmKinematics
+    model: KinematicModel
+    config: LoopConfig
+    law_context: LawContext
+    watch_context: WatchContext
+    watchdogs: tuple[WatchdogSpec, ...]
+    probes: int
+    drawing_starts: int
+    notes: tuple[str, ...]
+    wall0: float
+
+
+def execute(
+    drawing: Drawing,
+    plants: Plant | Members,
+    model: KinematicModel,
+    gains: PIDGains,
+    config: LoopConfig | None = None,
+    law: LawSpec | None = None,
+    watchdogs: tuple[WatchdogSpec, ...] = (),
+    progress: Progress = None,
+    ik: IKConfig | None = None,
+    speed_limits: np.ndarray | None = None,
+) -> list[DrawLog | RunFault]:
+    """Draw ``drawing`` (page [mm], [s]) with every member of ``plants`` (one plant, or
+    :class:`Members`); return per member its :class:`DrawLog`, or the :class:`RunFault` that
+    stopped it (its ``log`` attribute holds the log to the safe stop).
+
+    ``model`` is the controller's own kinematic model (never the plant's). ``law`` (default:
+    ``position``) makes one law instance per member; ``watchdogs`` are added to the built-ins.
+    Raises before moving: InputError for a law whose commands the plant does not take, or
+    members that do not start at one pose; UnreachableError when a point is out of reach (or a
+    joint would exceed ``speed_limits`` [rad/s] with ``config.speed_limits = "refuse"``). With
+    ``config.probe_paper`` the paper is probed first (:mod:`inkarm.control.probe`; the log is
+    the drawing's, its notes say what the probe found). ``progress(fraction, phase)`` is called
+    about ten times per simulated second, for the member furthest behind. Ctrl-C lifts every
+    member's pen and raises KeyboardInterrupt with the logs so far (``logs``; ``log``: the
+    first member's). The plants are left as they are at the end (the caller closes them).
+    """
+    wall0 = _time.perf_counter()
+    config = config or LoopConfig()
+    law = law or LawSpec()
+    members = as_members(plants)
+    plants_ = members.plants
+    kin = ArmKinematics.of(model)
+    if gains.n != kin.n:
+        raise InputError(f"{gains.n} joints, but the kinematic model has {kin.n}", key="gains")
+    first = plants_[0]
+    missing = law.commands - first.commands
+    if missing:
+        raise InputError(f"law {law.name!r} sends {', '.join(sorted(law.commands))} commands; "
+                         f"the plant takes {', '.join(sorted(first.commands))}",
+                         key="controller.law", value=law.name, choices=tuple(first.commands))
+    check_reachable(drawing, model, config, kin=kin, ik=ik)
+    probes = 0  # the probe's dots come first in the shared plan (inkarm.control.probe)
+    if config.probe_paper:
+        drawing, probes = with_probes(drawing)
+    states = [plant.read() for plant in plants_]
+    q_start = states[0].q
+    if any(not np.array_equal(s.q, q_start) for s in states[1:]):
+        raise InputError("the members of an execution must start at the same pose (they "
+                         "share one plan)", key="plants")
+    dt = members.dt
+    ref, notes = plan_within_speed_limits(drawing, model, config, q_start, dt, kin, ik,
+                                          speed_limits)
+    senses = frozenset(first.senses)
+    shared = _Shared(
+        ref=ref, kin=kin, model=model, config=config,
+        law_context=LawContext(ref, kin, model, gains, config, dt, senses),
+        watch_context=WatchContext(config, dt, tuple(kin.joint_names), gains.torque_limit,
+                                   speed_limits, np.column_stack([kin.lower, kin.upper])),
+        watchdogs=tuple(watchdogs), probes=probes,
+        drawing_starts=first_drawing_row(ref.stroke, probes), notes=notes, wall0=wall0)
+    laws = [law.make() for _ in plants_]
+    rows = [0] * len(plants_)  # each member's plan row, for the progress
+    t_first = members.now()
+    runs = [_member(shared, plant, law_, m, rows, t_first) for m, (plant, law_) in
+            enumerate(zip(plants_, laws))]
+    results = _lockstep(runs, members, rows, len(ref), ref.phase, progress)
+    if len(runs) > 1:  # the members ran at once: each one's share of the wall time
+        wall = (_time.perf_counter() - wall0) / len(runs)
+        for result in results:
+            log = getattr(result, "log", result)
+            if log is not None:
+                log.wall_s = wall
+    return results
+
+
+def run_drawing(
+    drawing: Drawing,
+    plant: Plant,
+    model: KinematicModel,
+    gains: PIDGains,
+    config: LoopConfig | None = None,
+    progress: Progress = None,
+    ik: IKConfig | None = None,
+    speed_limits: np.ndarray | None = None,
+    law: LawSpec | None = None,
+    watchdogs: tuple[WatchdogSpec, ...] = (),
+) -> DrawLog:
+    """:func:`execute` on one plant: its :class:`DrawLog`; the :class:`RunFault` that stopped
+    it is raised (with the log so far in its ``log`` attribute), and so is Ctrl-C."""
+    [result] = execute(drawing, plant, model, gains, config, law, watchdogs, progress, ik,
+                       speed_limits)
+    if isinstance(result, RunFault):
+        raise result
+    return result
+
+
+def _lockstep(runs: list[Generator], members: Members, rows: list[int], n_ref: int,
+              phases: np.ndarray, progress: Progress) -> list[DrawLog | RunFault]:
+    """Advance every member one period at a time until each has finished or faulted.
+
+    A member resumed by a fault (thrown in at its yield) commands the first period of its safe
+    stop at once: it is ``ready`` and is stepped before it is resumed again."""
+    results: list = [None] * len(runs)
+    active = list(range(len(runs)))
+    ready: set[int] = set()  # members that have commanded the coming step already
+    told: set[int] = set()  # members told of a Ctrl-C
+    report_every = max(1, round(0.1 / members.dt))
+    interrupt: KeyboardInterrupt | None = None
+    period = 0
+
+    def keep(m: int, end: BaseException) -> None:
+        """Member ``m`` ended with ``end``: keep its result."""
+        nonlocal interrupt
+        if isinstance(end, StopIteration):
+            results[m] = end.value
+        else:
+            results[m] = end
+            if isinstance(end, KeyboardInterrupt):
+                interrupt = interrupt or end
+                told.add(m)
+
+    def resume(m: int, fault: BaseException | None = None) -> bool:
+        """Run member ``m`` to its next yield (``fault`` thrown in first); False when it
+        ended, its result kept."""
+        try:
+            if fault is None:
+                next(runs[m])
+            else:
+                runs[m].throw(fault)
+            return True
+        except (StopIteration, RunFault, KeyboardInterrupt) as end:
+            keep(m, end)
+        return False
+
+    advance = [run.__next__ for run in runs]
+    while active:
+        try:
+            if ready or interrupt is not None:
+                going = []
+                for m in active:
+                    if m in ready:
+                        ready.discard(m)
+                        going.append(m)
+                        continue
+                    if interrupt is not None and m not in told:  # Ctrl-C: lift and stop
+                        told.add(m)
+                        alive = resume(m, KeyboardInterrupt())
+                    else:
+                        alive = resume(m)
+                    if alive:
+                        going.append(m)
+                active = going
+            else:  # (the common case, without a call per member: this runs every period)
+                ended = None
+                for m in active:
+                    try:
+                        advance[m]()
+                    except (StopIteration, RunFault, KeyboardInterrupt) as end:
+                        keep(m, end)
+                        ended = ended or set()
+                        ended.add(m)
+                if ended:
+                    active = [m for m in active if m not in ended]
+            if not active:
+                break
+            faults = members.step(active)
+            if faults:
+                for m, fault in faults.items():
+                    if resume(m, fault):
+                        ready.add(m)
+                    else:
+                        active.remove(m)
+            period += 1
+            if progress is not None and period % report_every == 0 and active:
+                last = min(rows[m] for m in active)
+                progress(last / n_ref, PHASES[phases[min(last, n_ref - 1)]])
+        except KeyboardInterrupt as stop:  # outside a member: in a step or the progress
+            interrupt = interrupt or stop
+    if interrupt is not None:
+        stop = KeyboardInterrupt()
+        stop.logs = [getattr(r, "log", r if isinstance(r, DrawLog) else None) for r in results]
+        stop.log = stop.logs[0]
+        raise stop
+    if progress is not None:
+        progress(1.0, PHASES[phases[-1]])
+    return results
+
+
+def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: list[int],
+            t_first: float | None) -> Generator[None, None, DrawLog]:
+    """One member's periods (module docstring); yields after each command, returns its log or
+    raises the fault that stopped it, with the log to the safe stop."""
+    ref, kin, config = shared.ref, shared.kin, shared.config
+    placement = shared.model.placement
+    dt = shared.law_context.dt
+    law.start(shared.law_context)
+    watchdog = Watchdogs(shared.watch_context, shared.watchdogs)
+    surface = SurfaceEstimate()  # the paper's height along the normal, learnt while drawing
+    probes, drawing_starts = shared.probes, shared.drawing_starts
+    probing, probe_wall, probed = bool(probes), 0.0, ()
+
+    settle_ticks = round(config.settle_s / dt)
+    timeout_ticks = round(config.settle_timeout_s / dt)
+    stop_ticks = max(1, round(config.stop_s / dt))
+    log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + 2 * stop_ticks + 2, kin.n)
+    k_force = config.force_gain_mm_per_ns / 1000.0 * dt  # [m/N] per period
+    search_step = config.search_speed_mm_s / 1000.0 * dt  # [m] per period
+    z_limit = config.correction_limit_mm / 1000.0
+    f_star, threshold, settle_tol = config.force_n, config.contact_threshold_n, config.settle_tol_n
+    smoothing = dt / (config.force_filter_s + dt)
+    senses_force = "force" in plant.senses
+    senses_tip = "tip" in plant.senses
+    # Local names and Python lists: this loop runs once per control period and its Python cost
+    # is the budget. The plan's columns of the log are filled from ``ref_row`` afterwards.
+    q_ref, qd_ref, qdd_ref, normal_q = ref.q, ref.qd, ref.qdd, ref.normal_q
+    page_ref = ref.page_mm
+    phases = ref.phase.tolist()
+    hold_at = [False] * len(ref)  # rows where a descent waits for the force (if sensed)
+    for r in ref.settle:
+        hold_at[r] = senses_force
+    check, read, command, to_law = watchdog.check, plant.read, plant.command, law.command
+    log_time, log_q, log_qd, log_torque = log.time, log.q, log.qd, log.torque
+    log_tip, log_force = log.tip, log.force
+    ref_row = [0] * len(log)  # (Python lists: cheaper per period than numpy's items)
+    nan_torque = np.full(kin.n, np.nan)
+
+    z_corr = 0.0  # force integrator's correction along the normal, [m] (positive = deeper)
+    force_f = 0.0  # low-passed sensed force [N]
+    lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
+    lookahead_rows = int(lookahead_rows)
+    lookahead_step = lookahead_frac * (q_ref[1:] - q_ref[:-1])  # goal's share of the next row
+    commanded = [0] * len(log)  # reference row commanded at each log row
+    ref_blend = [0.0] * len(log)  # fraction of the way to the next commanded row
+    page_x, page_y = page_ref[:, 0].tolist(), page_ref[:, 1].tolist()
+    row, i, waited, settled_for = 0, 0, 0, 0
+    n_ref = len(ref)
+    state = None
+    loop_wall0 = _time.perf_counter()
+    try:
+        while i < n_ref:
+            state = read()
+            # The time of the first period: the plants' clock where they have one (a reading may
+            # be older: a plant used before has delayed readings from the start), else the
+            # first reading's.
+            if t_first is None:
+                t_first = state.time
+            if probing and i >= drawing_starts:  # the pen leaves the last probe dot
+                probing, probe_wall = False, _time.perf_counter() - loop_wall0
+                probed = (probe_note(probes, surface.describe()),)
+            phase = phases[i]
+            holding = hold_at[i]
+            tip = state.tip_mm if senses_tip else placement.to_page(kin.fk(state.q)[0])
+            # A reading is as old as the plant's sensing delay: compare it with the plan row
+            # that was current when it was taken (and the fraction of the way to the next).
+            commanded[row] = i
+            lag = (t_first + row * dt - state.time) / dt
+            if abs(lag - round(lag)) < 1e-6:  # whole periods, up to the clock's rounding
+                lag = float(round(lag))
+            lag = max(0.0, lag)
+            back, frac = int(lag), lag - int(lag)
+            seen = commanded[max(row - back - (frac > 0), 0)]
+            ref_blend[row] = blend = 1.0 - frac if frac > 0 else 0.0
+            if senses_force:
+                force = state.force
+                force_f += smoothing * (force - force_f)
+                # Press with the force loop while drawing and at the end of a descent; once
+                # touching, during the whole descent (the paper may be higher than believed).
+                if phase == DRAW or (holding and waited > 0) or (phase == DESCEND
+                                                                 and force_f > threshold):
+                    if force_f > threshold:
+                        z_corr = max(z_corr + k_force * (f_star - force_f), -z_limit)
+                    else:  # guarded search: no paper where the model puts it; go deeper
+                        z_corr += search_step
+                        if z_corr >= z_limit:
+                            raise RunFault(
+                                f"paper_not_found: no contact within "
+                                f"{config.correction_limit_mm:g} mm beyond where the model puts "
+                                f"the paper, at t = {state.time:.3f} s",
+                                watchdog="paper_not_found", time_s=state.time)
+                    if (phase == DRAW or holding) and abs(force_f - f_star) < settle_tol:
+                        x, y = page_x[i] / 1000.0, page_y[i] / 1000.0
+                        before = surface.height(x, y)
+                        surface.add(x, y, before + z_corr)
+                        z_corr -= surface.height(x, y) - before  # the same depth, shared anew
+            else:
+                force = np.nan
+            # The command leads the plan by the actuation latency the user stated (the goal
+            # interpolated between plan rows; the feed-forward of the nearer row).
+            c = min(i + lookahead_rows, n_ref - 1)
+            pressing = phase == DRAW or (holding and waited > 0)
+            depth = z_corr + surface.height(page_x[c] / 1000.0, page_y[c] / 1000.0)
+            q_goal = q_row = q_ref[c] + depth * normal_q[c]
+            if lookahead_frac and c + 1 < n_ref:
+                q_goal = q_row + lookahead_step[c]
+            order = to_law(state, Setpoint(c, q_goal, qd_ref[c], qdd_ref[c], q_row, pressing,
+                                           depth, seen, blend))
+            command(order)
+            log_time[row] = state.time
+            log_q[row] = state.q
+            log_qd[row] = state.qd
+            log_torque[row] = (order.torque if type(order) is TorqueCommand else
+                               state.torque if state.torque is not None else nan_torque)
+            log_tip[row] = tip
+            log_force[row] = force
+            ref_row[row] = seen
+            row += 1
+            # Joint-space moves (approach, home) run far above the sheet: their path is not gated.
+            if phase in (APPROACH, HOME):
+                error = 0.0
+            elif blend:  # (the reference between two plan rows, as the log has it)
+                after = min(seen + 1, n_ref - 1)
+                error = math.hypot(tip[0] - page_x[seen] - blend * (page_x[after] - page_x[seen]),
+                                   tip[1] - page_y[seen] - blend * (page_y[after] - page_y[seen]))
+            else:
+                error = math.hypot(tip[0] - page_x[seen], tip[1] - page_y[seen])
+            check(state.time, state.q, state.qd, state.torque, force_f, error)
+            yield
+            rows[member] = i
+            # Hold the end of a descent until the force has settled at its set point.
+            if holding and waited < timeout_ticks:
+                waited += 1
+                settled_for = settled_for + 1 if abs(force_f - f_star) < settle_tol else 0
+                if settled_for < settle_ticks:
+                    continue
+            waited, settled_for = 0, 0
+            i += 1
+    except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
+        stop_from = row
+        if state is not None and not isinstance(err, SimulationError):
+            saturated = getattr(err, "watchdog", "") in ("torque_saturated", "joint_speed")
+            if not saturated:  # a saturated arm is braked at once
+                row = yield from _safe_stop(plant, law, log, ref_row, row, min(i, n_ref - 1),
+                                            state, ref, config, stop_ticks, placement, kin,
+                                            senses_tip, shared.model.pen_travel_mm)
+        _brake(plant)
+        partial = _with_plan_columns(log, ref, ref_row, row, ref_blend)
+        partial.phase[stop_from:] = LIFT
+        partial = without_probes(partial, probes)
+        partial.wall_s = _time.perf_counter() - shared.wall0 - probe_wall
+        partial.notes = probed + shared.notes
+        err.log = partial
+        raise
+    result = without_probes(_with_plan_columns(log, ref, ref_row, row, ref_blend), probes)
+    result.wall_s = _time.perf_counter() - shared.wall0 - probe_wall
+    result.notes = probed + shared.notes
+    return result
+
+
+def _safe_stop(plant, law, log, ref_row, row, i, state, ref, config, ticks, placement, kin,
+               senses_tip, travel_mm: float) -> Generator[None, None, int]:
+    """After a fault: lift the pen by ``hover_mm`` plus its travel along the paper normal from
+    where the arm is, over ``stop_s``, and hold there for half as long again (commands may be
+    late); logged as a lift, each period's command the law's (``stopping``). A fault of the
+    plant during the stop ends it. Returns the next log row."""
+    q0 = np.asarray(state.q, dtype=float)
+    lift = -(config.hover_mm + travel_mm) / 1000.0 * ref.normal_q[i]
+    zero = np.zeros_like(q0)
+    try:
+        for k in range(1, ticks + ticks // 2 + 1):
+            goal = q0 + float(minimum_jerk_profile(k / ticks)) * lift
+            state = plant.read()
+            plant.command(law.command(state, Setpoint(i, goal, zero, zero, goal, False, 0.0, i,
+                                                      0.0, True)))
+            if row < len(log.time):
+                log.time[row], log.q[row], log.qd[row] = state.time, state.q, state.qd
+                log.torque[row] = state.torque if state.torque is not None else np.nan
+                log.tip[row] = (state.tip_mm if senses_tip
+                                else placement.to_page(kin.fk(state.q)[0]))
+                log.force[row] = state.force if state.force is not None else np.nan
+                ref_row[row] = i
+                row += 1
+            yield
+    except RunFault:  # the plant faulted again (diverged, a device fault): end the stop
+        pass
+    return row
+
+
+def _brake(plant) -> None:
+    """Hold the arm where it is: the plant's brakes where it has them."""
+    brake = getattr(plant, "brake", None)
+    if brake is not None:
+        brake()
+
+
+def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: list[int], k: int,
+                       blend: list[float] | None = None) -> DrawLog:
+    """The first ``k`` rows of ``log``, with the reference, phase and stroke of the plan rows
+    ``ref_row`` filled in; the reference ``blend`` of the way to the next plan row."""
+    rows = np.asarray(ref_row[:k], dtype=np.intp)
+    log.reference[:k] = ref.page_mm[rows]
+    w = None if blend is None else np.asarray(blend[:k])[:, None]
+    if w is not None and w.any():
+        after = np.minimum(rows + 1, len(ref) - 1)
+        log.reference[:k] += w * (ref.page_mm[after] - ref.page_mm[rows])
+    log.phase[:k] = ref.phase[rows]
+    log.stroke[:k] = ref.stroke[rows]
+    return log.truncated(k)
+
+
+__all__ = ["execute", "run_drawing"]

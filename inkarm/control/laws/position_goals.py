@@ -1,0 +1,73 @@
+"""``position``: joint goals with feed-forward, for plants whose own loop holds them (arm drives,
+servo firmware): the default law.
+
+Each period the drive gets the shaped goal q* (plan, force-loop depth along the normal,
+actuation lead), the planned velocity qd* and acceleration qdd*, and the torque feed-forward
+
+    tau_ff = c(q*, qd*) + M(q*) qdd* + F_hat tanh(qd* / w) [+ J(q*)^T f while pressing]
+
+with the bias and inertia terms of the plan row, and the Coulomb friction estimate F_hat
+adapted online from the joint error of the row the reading belongs to
+(:class:`inkarm.control.friction.FrictionCompensation`). A safe stop sends the lift goal with
+zero velocity and the bias c(q*, 0) only.
+"""
+
+from __future__ import annotations
+
+from inkarm.control.friction import FrictionCompensation
+from inkarm.control.laws import LawContext, Setpoint
+from inkarm.core.plant import PlantState, PositionCommand
+
+
+class PositionGoals:
+    """Position goals with feed-forward (module docstring).
+
+    Args:
+        friction_adaptation: Rate gamma of the Coulomb estimate's adaptation [N m/(rad s)];
+            None: the ``[controller]`` table's ``friction_adaptation``; 0: the model's
+            friction, fixed.
+    """
+
+    commands = frozenset({"position"})
+
+    def __init__(self, friction_adaptation: float | None = None):
+        if friction_adaptation is not None and not (0.0 <= friction_adaptation < 1e9):
+            raise ValueError(f"friction_adaptation: expected a rate in [0, 1e9) N m/(rad s), "
+                             f"got {friction_adaptation}")
+        self.friction_adaptation = friction_adaptation
+
+    def start(self, context: LawContext) -> None:
+        plan, kin = context.plan, context.kinematics
+        gamma = (context.config.friction_adaptation if self.friction_adaptation is None
+                 else self.friction_adaptation)
+        self.friction = FrictionCompensation(kin.model.dof_frictionloss[kin.dof_adr],
+                                             context.dt, gamma)
+        self.adapt = bool(self.friction.rate)
+        # What depends on the plan row only, for all rows at once (the same bits as row by row).
+        self.direction = FrictionCompensation.direction(plan.qd)
+        self.planned_torque = plan.bias + plan.inertia
+        self.contact_tau, self.q_ref, self.normal_q = plan.contact_tau, plan.q, plan.normal_q
+        self.last_row = len(plan) - 1
+        self.bias = kin.bias
+
+    def command(self, state: PlantState, setpoint: Setpoint) -> PositionCommand:
+        if setpoint.stopping:
+            return PositionCommand(setpoint.q, setpoint.qd, setpoint.qdd,
+                                   self.bias(setpoint.q, setpoint.qd).copy())
+        c, seen = setpoint.row, setpoint.seen
+        error = None
+        if self.adapt:  # the joint error of the row the reading belongs to
+            q_ref, normal_q = self.q_ref, self.normal_q
+            q_then = (setpoint.q_row if seen == c else
+                      q_ref[seen] + setpoint.depth * normal_q[seen])
+            if setpoint.blend:
+                q_then = q_then + setpoint.blend * (q_ref[min(seen + 1, self.last_row)]
+                                                    - q_ref[seen])
+            error = q_then - state.q
+        feedforward = self.planned_torque[c] + self.friction.torque(self.direction[c], error)
+        if setpoint.pressing:
+            feedforward += self.contact_tau[c]
+        return PositionCommand(setpoint.q, setpoint.qd, setpoint.qdd, feedforward)
+
+
+__all__ = ["PositionGoals"]

@@ -1,0 +1,202 @@
+"""A scenario drawn on a GRBL pen plotter: the plotter backend of :mod:`inkarm.jobs.backends`.
+
+The scenario's drawing is placed on its page (page frame = the plotter's machine frame,
+origin at the sheet's lower-left corner), the pen path sequenced as for the arms and streamed
+through a :class:`~inkarm.hardware.plotter.plant.GrblPlant`; the result is the same
+:class:`~inkarm.jobs.run.Run` as a simulated run, with the same metrics.
+
+The ink: a real plotter's is on paper. The Run's canvas is the one given (an in-process
+emulator's, or a scan); without one, the measured tip positions while the pen was down are
+inked on a canvas (a polyline through the status reports: coarse at 5 Hz).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from inkarm.analysis.metrics import compute_metrics
+from inkarm.control.plotter import run_plotter
+from inkarm.core.log import DrawLog
+from inkarm.core.run import Metrics, Senses
+from inkarm.errors import InkarmError, InputError, RunFault
+from inkarm.hardware.plotter.plant import GrblPlant
+from inkarm.hardware.plotter.profiles import load_profile
+from inkarm.hardware.plotter.stream import GrblStreamer
+from inkarm.ink.canvas import Canvas
+from inkarm.jobs.backends import BackendOptions, Progress, run_backend
+from inkarm.jobs.outcome import Run, undefined_unsensed
+from inkarm.jobs.scenario import Scenario, place, source_drawing
+from inkarm.sim.cell_config import Cell
+
+NO_FORCE = "a plotter senses no pen force (its pen is up or down)"
+STATUS_INK = "the ink is on the paper; this run's canvas inks the 5 Hz status reports"
+
+
+def plotter_senses(ink: bool) -> Senses:
+    """What a plotter senses for the judge: the tip (its status reports) and the pen's contact
+    (up or down, which the reports say), never a force; the ink only where the run has it
+    (an emulator's canvas, or a scan), not from the coarse status reports."""
+    lacking = {"force": NO_FORCE}
+    if not ink:
+        lacking["ink"] = STATUS_INK
+    return Senses.without(**lacking)
+
+
+def page_size_mm(scenario: Scenario) -> tuple[float, float]:
+    return Cell(scenario.cell, scenario.robot).paper_size_mm
+
+
+def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
+    """The scenario's drawing placed on the sheet; refused when any of it lies off the sheet
+    (the machine's space starts at the sheet's lower-left corner)."""
+    drawing = place(source_drawing(scenario), scenario.placement, size)
+    lo, hi = drawing.bounds()
+    if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
+        raise InputError(f"the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
+                         f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet "
+                         "(the plotter's origin is the sheet's lower-left corner)",
+                         key="placement")
+    return drawing
+
+
+def prepared(scenario: Scenario, profile: str | None):
+    """The pen profile, the sheet's size [mm] and the drawing placed on it; errors name the
+    scenario file."""
+    try:
+        pen = load_profile(profile)
+        size = page_size_mm(scenario)
+        return pen, size, placed_on_sheet(scenario, size)
+    except InkarmError as e:
+        raise e.within(file=scenario.path) from None
+
+
+class PlotterSession:
+    """A scenario on the GRBL plotter at ``options.port`` (module docstring)."""
+
+    believed = None  # (no arm: the firmware plans the moves)
+    interrupted = ("interrupted by the user (Ctrl-C); the plotter was reset and its pen "
+                   "lifted")
+
+    def __init__(self, scenario: Scenario, options: BackendOptions, dt: float = 0.01):
+        self.scenario = scenario
+        self.pen, size, self.drawing = prepared(scenario, options.profile
+                                                or scenario.plotter_profile)
+        self.own_canvas = options.canvas is None
+        self.canvas = scenario.ink.canvas(size) if self.own_canvas else options.canvas
+        self.senses = plotter_senses(ink=not self.own_canvas)
+        self.notes: tuple[str, ...] = ()
+        streamer = GrblStreamer(options.port, options.baudrate, time_scale=options.time_scale)
+        try:
+            streamer.wake()
+            streamer.unlock()  # GRBL starts locked when homing is on; $X is harmless otherwise
+            self.plant = GrblPlant(streamer, self.pen, dt=dt, time_scale=options.time_scale,
+                                   pen_force_n=scenario.controller.force_n)
+        except BaseException:
+            streamer.close()
+            raise
+
+    def execute(self, progress: Progress) -> DrawLog:
+        plant = self.plant
+        try:
+            log = run_plotter(self.drawing, plant, self.scenario.controller, progress=progress)
+        except KeyboardInterrupt:  # stop the machine now (soft reset, unlock, pen up)
+            plant.streamer.state.failure = plant.streamer.state.failure or \
+                "interrupted by the user"
+            raise
+        self.notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile "
+                      f"{self.pen.name!r}, {len(log)} status reports (the log's rows)"),)
+        if plant.clipped:
+            self.notes += ((f"plotter: {plant.clipped} pen-down moves slowed to the profile's "
+                           f"max_draw_speed_mm_s = {self.pen.max_draw_speed_mm_s:g} mm/s"),)
+        if self.own_canvas:
+            self.notes += (("plotter: the canvas inks the measured status positions (5 Hz), "
+                           "not paper"),)
+        if plant.failure:
+            fault = RunFault(f"the plotter stopped: {plant.failure}", watchdog="device")
+            fault.log = log
+            raise fault
+        return log
+
+    def measure(self, log: DrawLog | None, finished: bool) -> Metrics:
+        if log is not None and self.own_canvas:
+            ink_measured(self.canvas, log)
+        if not finished or log is None:
+            return Metrics()
+        travel = [self.plant.settings.get(130, 300.0), self.plant.settings.get(131, 300.0)]
+        metrics = compute_metrics(
+            times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
+            drawing=log.drawing, q=log.q,
+            joint_range=np.array([[0.0, travel[0] / 1000.0], [0.0, travel[1] / 1000.0]]),
+            wall_time_s=max(log.wall_s, 1e-9), canvas=self.canvas,
+            plan_strokes=[s.pos[:, :2] for s in self.drawing.strokes],
+            contact_threshold_n=self.scenario.controller.contact_threshold_n)
+        # The arms' judge; a plotter's tracking error is its distance from the firmware's own
+        # plan at the status reports' times (see inkarm.control.plotter), its force the nominal
+        # one while the pen is down (undefined here: not sensed).
+        return undefined_unsensed(metrics, self.senses)
+
+    def close(self) -> None:
+        self.plant.close()
+
+
+class PlotterBackend:
+    name = "plotter"
+    help = "a GRBL 1.1 pen plotter on a serial port"
+    needs_port = True
+
+    def check(self, scenario: Scenario, options: BackendOptions) -> str:
+        return check_plotter_scenario(scenario, options.profile or scenario.plotter_profile)
+
+    def open(self, scenario: Scenario, options: BackendOptions) -> PlotterSession:
+        return PlotterSession(scenario, options)
+
+
+def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str | None = None,
+                         baudrate: int = 115200, time_scale: float = 1.0,
+                         progress: Progress = None, canvas: Canvas | None = None) -> Run:
+    """Draw ``scenario`` on the GRBL plotter at ``port`` (the ``plotter`` backend); a failed
+    job (``error:N``, ``ALARM:N``, a disconnect) returns a Run with status "failed", the
+    reason naming the G-code line, the log so far and the pen lifted."""
+    return run_backend("plotter", scenario, BackendOptions(
+        port=port, profile=profile, baudrate=baudrate, time_scale=time_scale, canvas=canvas),
+        progress)
+
+
+def check_plotter_scenario(scenario: Scenario, profile: str | None = None) -> str:
+    """Everything a plotter run checks before it opens the port (profile, source, placement on
+    the sheet), and the job's G-code and time estimate on GRBL's planner with its default
+    settings; a one-line summary. Nothing is sent."""
+    from inkarm.hardware.plotter.gcode import drawing_to_gcode
+    from inkarm.hardware.plotter.timing import estimate_seconds
+
+    pen, _, drawing = prepared(scenario, profile)
+    job = drawing_to_gcode(drawing, pen)
+    return (f"ok: {scenario.title!r}, {len(drawing.strokes)} strokes on the sheet; "
+            f"{len(job.lines)} G-code lines for pen profile {pen.name!r}, about "
+            f"{estimate_seconds(job.lines):.1f} s on GRBL's planner (default settings); "
+            "nothing sent")
+
+
+def ink_measured(canvas: Canvas, log: DrawLog) -> None:
+    """Ink the measured tip positions of the rows with the pen down."""
+    for t, tip, force in zip(log.time, log.tip, log.force, strict=True):
+        if force > 0:
+            canvas.touch(tip[:2], float(force), float(t))
+        elif canvas.in_contact:
+            canvas.lift()
+    canvas.lift()
+
+
+def arm_and_plotter(scenario: Scenario, speedup: float = 2.0) -> tuple[Run, Run]:
+    """``scenario`` drawn by the simulated arm and by the GRBL emulator (in this process, on a
+    pseudo-terminal, at ``speedup``), both measured by the same metrics."""
+    from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator
+    from inkarm.jobs.run import run
+
+    arm = run(scenario)
+    canvas = scenario.ink.canvas(page_size_mm(scenario))
+    config = EmulatorConfig(speedup=speedup)
+    with GrblEmulator(config, canvas=canvas) as emulator:
+        plotter = run_plotter_scenario(scenario, emulator.port, time_scale=speedup,
+                                       canvas=canvas)
+    return arm, plotter
