@@ -31,7 +31,7 @@ TARGET = 1.05
 # Imports only what both trees have; ``run_drawing`` moved from control.loop to control.executor.
 DRAW = r"""
 import os, sys, time
-os.sched_setaffinity(0, {CPU})
+os.sched_setaffinity(0, {__CPU__})
 from inkarm.jobs.scenario import load_scenario, place, source_drawing
 from inkarm.sim.cell import Cell, kinematic_model
 from inkarm.sim.perturb import plant_model
@@ -58,24 +58,25 @@ print(min(times), len(log))
 
 ENSEMBLE = r"""
 import os, sys, time
-os.sched_setaffinity(0, {CPU})
+os.sched_setaffinity(0, {__CPU__})
 from inkarm.jobs.ensemble import run_ensemble
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
-s = load_scenario("{ROOT}/scenarios/realistic_iiwa.toml")
+s = load_scenario("__ROOT__/scenarios/realistic_iiwa.toml")
 seeds = list(range(16))
 t0 = time.perf_counter()
 batched = run_ensemble(s, seeds, processes=1, nthread=1)
 t1 = time.perf_counter()
-alone = [run(s.with_overrides({{"plant.seed": k}})) for k in seeds]
+alone = [run(s.with_overrides({"plant.seed": k})) for k in seeds]
 t2 = time.perf_counter()
 print((t1 - t0) / len(seeds), (t2 - t1) / len(seeds))
 """
 
 
 def reference_tree(commit: str, into: Path) -> Path:
-    """``commit``'s inkarm package exported into ``into`` (nothing in this checkout changes)."""
-    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "inkarm"],
+    """``commit``'s inkarm package and scenarios exported into ``into`` (nothing in this
+    checkout changes)."""
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "inkarm", "scenarios"],
                              capture_output=True, check=True).stdout
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
     return into
@@ -99,7 +100,7 @@ def main() -> int:
     try:
         trees = {"this tree": ROOT, f"reference {args.reference}":
                  reference_tree(args.reference, work)}
-        draw = DRAW.replace("{CPU}", str(args.cpu))
+        draw = DRAW.replace("__CPU__", str(args.cpu))
         runs: dict[str, list[float]] = {name: [] for name in trees}
         loads = []
         for block in range(args.blocks):
@@ -109,9 +110,9 @@ def main() -> int:
             loads.append(os.getloadavg()[0])
         ensemble = {}
         if not args.no_ensemble:
-            code = ENSEMBLE.replace("{CPU}", str(args.cpu)).replace("{ROOT}", str(ROOT))
-            for name, tree in trees.items():
-                ensemble[name] = timed(code, tree)
+            code = ENSEMBLE.replace("__CPU__", str(args.cpu))
+            for name, tree in trees.items():  # (each tree's own scenario file)
+                ensemble[name] = timed(code.replace("__ROOT__", str(tree)), tree)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     (new, old) = (statistics.median(v) for v in runs.values())

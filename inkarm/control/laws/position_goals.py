@@ -51,23 +51,20 @@ class PositionGoals:
         self.bias = kin.bias
 
     def command(self, state: PlantState, setpoint: Setpoint) -> PositionCommand:
-        if setpoint.stopping:
-            return PositionCommand(setpoint.q, setpoint.qd, setpoint.qdd,
-                                   self.bias(setpoint.q, setpoint.qd).copy())
-        c, seen = setpoint.row, setpoint.seen
+        c, q, qd, qdd, q_row, pressing, depth, seen, blend, stopping = setpoint
+        if stopping:
+            return PositionCommand(q, qd, qdd, self.bias(q, qd).copy())
         error = None
         if self.adapt:  # the joint error of the row the reading belongs to
-            q_ref, normal_q = self.q_ref, self.normal_q
-            q_then = (setpoint.q_row if seen == c else
-                      q_ref[seen] + setpoint.depth * normal_q[seen])
-            if setpoint.blend:
-                q_then = q_then + setpoint.blend * (q_ref[min(seen + 1, self.last_row)]
-                                                    - q_ref[seen])
+            q_ref = self.q_ref
+            q_then = q_row if seen == c else q_ref[seen] + depth * self.normal_q[seen]
+            if blend:
+                q_then = q_then + blend * (q_ref[min(seen + 1, self.last_row)] - q_ref[seen])
             error = q_then - state.q
         feedforward = self.planned_torque[c] + self.friction.torque(self.direction[c], error)
-        if setpoint.pressing:
+        if pressing:
             feedforward += self.contact_tau[c]
-        return PositionCommand(setpoint.q, setpoint.qd, setpoint.qdd, feedforward)
+        return PositionCommand(q, qd, qdd, feedforward)
 
 
 __all__ = ["PositionGoals"]

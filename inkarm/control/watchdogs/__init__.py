@@ -171,7 +171,11 @@ class Watchdogs:
     def check(self, time: float, q, qd, torque, force: float, error_mm: float) -> None:
         """Raise :class:`RunFault` when a watchdog fires."""
         checks = self._checks
-        if self._envelope is not None and torque is not None and self._inside(q, qd, torque):
+        envelope = self._envelope
+        if envelope is not None and torque is not None and all(
+                abs(a - mid) < half and abs(v) < speed and abs(t) < effort
+                for (mid, half, speed, effort), a, v, t in zip(envelope, q.tolist(), qd.tolist(),
+                                                               torque.tolist())):
             if self._counting:  # (their counts are zero again; until then nothing to clear)
                 for clear in self._clears:
                     clear()
@@ -185,13 +189,6 @@ class Watchdogs:
             if message is not None:
                 raise RunFault(f"{name}: {message} at t = {time:.3f} s", watchdog=name,
                                time_s=time)
-
-    def _inside(self, q, qd, torque) -> bool:
-        for (mid, half, speed, effort), a, v, t in zip(self._envelope, q.tolist(), qd.tolist(),
-                                                       torque.tolist()):
-            if not (abs(a - mid) < half and abs(v) < speed and abs(t) < effort):
-                return False
-        return True
 
 
 __all__ = ["BUILTIN_WATCHDOGS", "WATCHDOGS", "WatchContext", "Watchdog", "WatchdogSpec",

@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-from inkarm.control.executor import run_drawing
 from inkarm.core.plant import TorqueCommand
 from inkarm.core.run import Metrics, Senses
 from inkarm.errors import InputError
@@ -30,6 +29,7 @@ from inkarm.hardware.dynamixel.calibration import calibration_path, load_calibra
 from inkarm.hardware.dynamixel.config import DynamixelConfig, with_dynamixel
 from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, Fault, specs_for_profile
 from inkarm.jobs.backends import BackendOptions, Progress, run_backend
+from inkarm.jobs.backends.arm import ArmSession
 from inkarm.jobs.outcome import Run, failed_run, finished_run, measured
 from inkarm.jobs.preflight import placed_within_budget
 from inkarm.jobs.scenario import Scenario, load_scenario
@@ -51,10 +51,9 @@ def dynamixel_senses(ink: bool) -> Senses:
     return Senses.without(**lacking)
 
 
-class DynamixelSession:
+class DynamixelSession(ArmSession):
     """A scenario on the Dynamixel arm at ``options.port`` (module docstring)."""
 
-    interrupted = "interrupted by the user (Ctrl-C)"
 
     def __init__(self, scenario: Scenario, options: BackendOptions):
         from inkarm.hardware.dynamixel.plant import DynamixelPlant
@@ -78,19 +77,11 @@ class DynamixelSession:
             self.notes += (PAPER_INK,)
         self.plant = DynamixelPlant(options.port, profile, cal, trace_path=options.trace_path)
 
-    def execute(self, progress: Progress):
-        s = self.scenario
-        return run_drawing(self.drawing, self.plant, self.believed, s.robot.gains, s.controller,
-                           progress=progress, speed_limits=s.robot.speed_limits, law=s.law,
-                           watchdogs=s.watchdogs)
-
     def measure(self, log, finished: bool) -> Metrics | None:
         metrics = measured(log, self.drawing, self.believed, self.canvas, senses=self.senses)
         return metrics.replace(bus_overruns=self.plant.overruns) if finished and metrics \
             else metrics
 
-    def close(self) -> None:
-        self.plant.close()
 
 
 def _check_law(scenario: Scenario, cfg: DynamixelConfig) -> None:

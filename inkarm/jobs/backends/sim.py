@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from inkarm.control.executor import run_drawing
 from inkarm.core.plant import PositionCommand
 from inkarm.core.run import Metrics
 from inkarm.hardware.dynamixel.config import DynamixelConfig
-from inkarm.jobs.backends import BackendOptions, Progress
+from inkarm.jobs.backends import BackendOptions
+from inkarm.jobs.backends.arm import ArmSession
 from inkarm.jobs.outcome import SIM_SENSES
 from inkarm.jobs.preflight import placed_within_budget, substeps
 from inkarm.jobs.scenario import Scenario
@@ -27,10 +27,9 @@ from inkarm.sim.perturb import plant_model
 from inkarm.sim.plant import MujocoPlant
 
 
-class SimSession:
+class SimSession(ArmSession):
     """A scenario on its simulated arm (``servo``: the servo-only simulation)."""
 
-    interrupted = "interrupted by the user (Ctrl-C)"
     senses = SIM_SENSES
     notes = ()
 
@@ -56,17 +55,9 @@ class SimSession:
                             drive_gains=scenario.robot.drive if servos is None else None)
         self.plant = plant if servos is None else ServoGoals(plant, scenario.robot)
 
-    def execute(self, progress: Progress):
-        s = self.scenario
-        return run_drawing(self.drawing, self.plant, self.believed, s.robot.gains, s.controller,
-                           progress=progress, speed_limits=s.robot.speed_limits, law=s.law,
-                           watchdogs=s.watchdogs)
-
     def measure(self, log, finished: bool) -> Metrics | None:
         return None
 
-    def close(self) -> None:
-        self.plant.close()
 
 
 class SimBackend:
