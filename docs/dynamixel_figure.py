@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.jobs.dynamixel import hil_run, simulate_servo_arm
+from inkarm.jobs.backends.dynamixel import hil_run, simulate_servo_arm
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 from inkarm.plots.backends import BackendPanel, backends_figure

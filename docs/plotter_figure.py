@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.jobs.plotter import arm_and_plotter
+from inkarm.jobs.backends.plotter import arm_and_plotter
 from inkarm.jobs.scenario import load_scenario
 from inkarm.plots.backends import BackendPanel, backends_figure
 from inkarm.plots.figure import save_figure

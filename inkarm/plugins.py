@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import threading
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from importlib import metadata
@@ -51,41 +53,53 @@ class Registry:
         self._loader = loader
         self._entry_points_loaded = False
         self._plugged: set[str] = set()  # the names an entry point added
+        self._lock = threading.RLock()  # (a registry is filled once, whichever thread asks)
 
     def register(self, name: str, item: Any = None):
         """Add ``item`` as ``name`` (replacing one of the same name); as a decorator when
         ``item`` is left out. Returns the item. An item given as :class:`Lazy` is imported at
-        its first lookup (a built-in whose module is heavy: the simulator's backend)."""
+        its first lookup (a built-in whose module is heavy: the simulator's backend). A thing
+        registered in code lives in the process that registered it: a sweep's or an
+        ensemble's worker processes know it only by an import path or an entry point."""
         if item is None:
             return lambda thing: self.register(name, thing)
         if not name or ":" in name:
             raise InputError(f"a {self.kind} name must be non-empty and have no ':', got "
                              f"{name!r}", key=self.kind, value=name)
-        self._items[name] = item
+        with self._lock:
+            self._items[name] = item
+            self._plugged.discard(name)
         return item
 
     def _builtins(self) -> None:
-        if self._loader is not None:
-            loader, self._loader = self._loader, None
-            loader()
+        if self._loader is None:
+            return
+        with self._lock:
+            if self._loader is not None:
+                self._loader()
+                self._loader = None  # (only once it has worked: a failed import is retried)
 
     def _entry_points(self) -> None:
+        """List the installed plug-ins of this kind, without importing them: one that fails to
+        load is refused when it is asked for, not when another name is."""
         if self._entry_points_loaded:
             return
-        self._entry_points_loaded = True
         prefix = f"{self.kind}."
-        for point in metadata.entry_points(group=GROUP):
-            if point.name.startswith(prefix) and point.name[len(prefix):] not in self._items:
-                try:
-                    self._items[point.name[len(prefix):]] = point.load()
-                    self._plugged.add(point.name[len(prefix):])
-                except Exception as e:  # noqa: BLE001 (a broken plug-in is named, not a traceback)
-                    self._entry_points_loaded = False  # (asked again: it fails again)
-                    dist = getattr(point, "dist", None)
-                    package = f" of the package {dist.name!r}" if dist is not None else ""
-                    raise InputError(f"the {self.kind} plug-in {point.name!r}{package} "
-                                     f"({point.value}) failed to load: {type(e).__name__}: {e}",
-                                     key=self.kind, value=point.name) from None
+        with self._lock:
+            if self._entry_points_loaded:
+                return
+            for point in metadata.entry_points(group=GROUP):
+                if not point.name.startswith(prefix):
+                    continue
+                name = point.name[len(prefix):]
+                if name in self._items:
+                    warnings.warn(f"the {self.kind} plug-in {point.name!r} ({point.value}) is "
+                                  f"not used: {name!r} is taken (a built-in or another "
+                                  f"plug-in's)", UserWarning, stacklevel=3)
+                    continue
+                self._items[name] = point
+                self._plugged.add(name)
+            self._entry_points_loaded = True
 
     def names(self) -> tuple[str, ...]:
         """The registered names, built-ins and installed plug-ins."""
@@ -110,6 +124,19 @@ class Registry:
         item = self._items[name]
         if isinstance(item, Lazy):
             item = self._items[name] = import_path(item.path, key=self.kind)
+        elif isinstance(item, metadata.EntryPoint):
+            try:
+                loaded = item.load()
+            except Exception as e:  # noqa: BLE001 (a broken plug-in is named, not a traceback)
+                dist = getattr(item, "dist", None)
+                package = f" of the package {dist.name!r}" if dist is not None else ""
+                raise InputError(f"the {self.kind} plug-in {item.name!r}{package} "
+                                 f"({item.value}) failed to load: {type(e).__name__}: {e}",
+                                 key=self.kind, value=item.name) from None
+            with self._lock:
+                if self._items.get(name) is item:
+                    self._items[name] = loaded
+            item = loaded
         return item
 
     def __iter__(self) -> Iterator[str]:

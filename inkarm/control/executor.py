@@ -6,11 +6,12 @@ reference (:mod:`inkarm.control.reference`); every member shares that plan. Then
 period, each member runs the same steps:
 
 1. read its plant;
-2. shape the reference: where the plant senses the pen force, the force loop moves the pen
-   reference along the paper normal, dz/dt = k_F (F* - F), mapped to joints through the planned
-   direction J5^+ (-n), with a guarded search when no contact is found, and the settled depths
-   feed the paper's surface estimate (:class:`inkarm.control.surface.SurfaceEstimate`); each
-   descent holds until F has settled at F*; the goal leads the plan by the actuation latency;
+2. shape the reference (:class:`inkarm.control.force.ForceLoop`): where the plant senses the
+   pen force, the force loop moves the pen reference along the paper normal, dz/dt =
+   k_F (F* - F), mapped to joints through the planned direction J5^+ (-n), with a guarded
+   search when no contact is found, and the settled depths feed the paper's surface estimate;
+   each descent holds until F has settled at F*; the goal leads the plan by the actuation
+   latency;
 3. ask its control law for the command (:mod:`inkarm.control.laws`: the executor never knows
    which law it runs);
 4. check its watchdogs (:mod:`inkarm.control.watchdogs`) and log the period;
@@ -35,19 +36,19 @@ from collections.abc import Callable, Generator
 import numpy as np
 
 from inkarm.control.config import LoopConfig
+from inkarm.control.force import ForceLoop
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.laws import Controller, LawContext, LawSpec, Setpoint
 from inkarm.control.members import Members, as_members
 from inkarm.control.probe import first_drawing_row, probe_note, with_probes, without_probes
 from inkarm.control.reference import JointReference, check_reachable, plan_within_speed_limits
-from inkarm.control.surface import SurfaceEstimate
+from inkarm.control.stopping import brake, fallback_law, law_error, safe_stop
 from inkarm.control.watchdogs import WatchContext, Watchdogs, WatchdogSpec
-from inkarm.core.log import APPROACH, DESCEND, DRAW, HOME, LIFT, PHASES, DrawLog
+from inkarm.core.log import APPROACH, DRAW, HOME, LIFT, PHASES, DrawLog
 from inkarm.core.plant import Plant, TorqueCommand
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError, RunFault, SimulationError
-from inkarm.models.minjerk import minimum_jerk_profile
 from inkarm.robots.gains import PIDGains
 from inkarm.robots.kinematic import KinematicModel
 
@@ -133,11 +134,11 @@ def execute(
         watchdogs=tuple(watchdogs), probes=probes,
         drawing_starts=first_drawing_row(ref.stroke, probes), notes=notes, wall0=wall0)
     laws = [law.make() for _ in plants_]
-    rows = [0] * len(plants_)  # each member's plan row, for the progress
+    board = _Board(len(plants_))
     t_first = members.now()
-    runs = [_member(shared, plant, law_, m, rows, t_first) for m, (plant, law_) in
+    runs = [_member(shared, plant, law_, m, board, t_first) for m, (plant, law_) in
             enumerate(zip(plants_, laws))]
-    results = _lockstep(runs, members, rows, len(ref), ref.phase, progress)
+    results = _lockstep(runs, members, board, len(ref), ref.phase, progress)
     if len(runs) > 1:  # the members ran at once: each one's share of the wall time
         wall = (_time.perf_counter() - wall0) / len(runs)
         for result in results:
@@ -168,12 +169,26 @@ def run_drawing(
     return result
 
 
-def _lockstep(runs: list[Generator], members: Members, rows: list[int], n_ref: int,
+class _Board:
+    """What the members tell the executor between periods: each one's plan row (the progress),
+    whether it is stopping after a fault (then it is not told of a Ctrl-C: it is lifting
+    already), and whether a Ctrl-C reached one of them (then every other one stops too)."""
+
+    __slots__ = ("interrupted", "rows", "stopping")
+
+    def __init__(self, n: int):
+        self.rows = [0] * n
+        self.stopping = [False] * n
+        self.interrupted = False
+
+
+def _lockstep(runs: list[Generator], members: Members, board: _Board, n_ref: int,
               phases: np.ndarray, progress: Progress) -> list[DrawLog | RunFault]:
     """Advance every member one period at a time until each has finished or faulted.
 
     A member resumed by a fault (thrown in at its yield) commands the first period of its safe
     stop at once: it is ``ready`` and is stepped before it is resumed again."""
+    rows = board.rows
     results: list = [None] * len(runs)
     active = list(range(len(runs)))
     ready: set[int] = set()  # members that have commanded the coming step already
@@ -216,8 +231,8 @@ def _lockstep(runs: list[Generator], members: Members, rows: list[int], n_ref: i
                         ready.discard(m)
                         going.append(m)
                         continue
-                    if interrupt is not None and m not in told:  # Ctrl-C: lift and stop
-                        told.add(m)
+                    if interrupt is not None and m not in told and not board.stopping[m]:
+                        told.add(m)  # Ctrl-C: lift and stop
                         alive = resume(m, KeyboardInterrupt())
                     else:
                         alive = resume(m)
@@ -235,6 +250,8 @@ def _lockstep(runs: list[Generator], members: Members, rows: list[int], n_ref: i
                         ended.add(m)
                 if ended:
                     active = [m for m in active if m not in ended]
+            if board.interrupted and interrupt is None:  # a member met Ctrl-C: all stop
+                interrupt = KeyboardInterrupt()
             if not active:
                 break
             faults = members.step(active)
@@ -255,12 +272,12 @@ def _lockstep(runs: list[Generator], members: Members, rows: list[int], n_ref: i
         stop.logs = [getattr(r, "log", r if isinstance(r, DrawLog) else None) for r in results]
         stop.log = stop.logs[0]
         raise stop
-    if progress is not None:
+    if progress is not None:  # (the execution is over, whether the members drew or failed)
         progress(1.0, PHASES[phases[-1]])
     return results
 
 
-def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: list[int],
+def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: _Board,
             t_first: float | None) -> Generator[None, None, DrawLog]:
     """One member's periods (module docstring); yields after each command, returns its log or
     raises the fault that stopped it, with the log to the safe stop."""
@@ -269,7 +286,8 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
     dt = shared.law_context.dt
     law.start(shared.law_context)
     watchdog = Watchdogs(shared.watch_context, shared.watchdogs)
-    surface = SurfaceEstimate()  # the paper's height along the normal, learnt while drawing
+    force_loop = ForceLoop(config, dt)  # and the paper's surface, learnt while drawing
+    shape, depth_at, surface = force_loop.shape, force_loop.depth, force_loop.surface
     probes, drawing_starts = shared.probes, shared.drawing_starts
     probing, probe_wall, probed = bool(probes), 0.0, ()
 
@@ -277,11 +295,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
     timeout_ticks = round(config.settle_timeout_s / dt)
     stop_ticks = max(1, round(config.stop_s / dt))
     log = DrawLog.empty(len(ref) + len(ref.settle) * timeout_ticks + 2 * stop_ticks + 2, kin.n)
-    k_force = config.force_gain_mm_per_ns / 1000.0 * dt  # [m/N] per period
-    search_step = config.search_speed_mm_s / 1000.0 * dt  # [m] per period
-    z_limit = config.correction_limit_mm / 1000.0
-    f_star, threshold, settle_tol = config.force_n, config.contact_threshold_n, config.settle_tol_n
-    smoothing = dt / (config.force_filter_s + dt)
+    f_star, settle_tol = config.force_n, config.settle_tol_n
     senses_force = "force" in plant.senses
     senses_tip = "tip" in plant.senses
     # Local names and Python lists: this loop runs once per control period and its Python cost
@@ -298,8 +312,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
     ref_row = [0] * len(log)  # (Python lists: cheaper per period than numpy's items)
     nan_torque = np.full(kin.n, np.nan)
 
-    z_corr = 0.0  # force integrator's correction along the normal, [m] (positive = deeper)
-    force_f = 0.0  # low-passed sensed force [N]
+    force_f = 0.0  # low-passed sensed force [N] (0 where not sensed)
     lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
     lookahead_rows = int(lookahead_rows)
     lookahead_step = lookahead_frac * (q_ref[1:] - q_ref[:-1])  # goal's share of the next row
@@ -308,11 +321,12 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
     page_x, page_y = page_ref[:, 0].tolist(), page_ref[:, 1].tolist()
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
-    state = None
+    state, fresh, logged = None, False, False  # fresh: read and not commanded yet; logged
+    rows = board.rows
     loop_wall0 = _time.perf_counter()
     try:
         while i < n_ref:
-            state = read()
+            state, fresh, logged = read(), True, False
             # The time of the first period: the plants' clock where they have one (a reading may
             # be older: a plant used before has delayed readings from the start), else the
             # first reading's.
@@ -334,41 +348,26 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
             back, frac = int(lag), lag - int(lag)
             seen = commanded[max(row - back - (frac > 0), 0)]
             ref_blend[row] = blend = 1.0 - frac if frac > 0 else 0.0
+            pressing = phase == DRAW or (holding and waited > 0)
             if senses_force:
                 force = state.force
-                force_f += smoothing * (force - force_f)
-                # Press with the force loop while drawing and at the end of a descent; once
-                # touching, during the whole descent (the paper may be higher than believed).
-                if phase == DRAW or (holding and waited > 0) or (phase == DESCEND
-                                                                 and force_f > threshold):
-                    if force_f > threshold:
-                        z_corr = max(z_corr + k_force * (f_star - force_f), -z_limit)
-                    else:  # guarded search: no paper where the model puts it; go deeper
-                        z_corr += search_step
-                        if z_corr >= z_limit:
-                            raise RunFault(
-                                f"paper_not_found: no contact within "
-                                f"{config.correction_limit_mm:g} mm beyond where the model puts "
-                                f"the paper, at t = {state.time:.3f} s",
-                                watchdog="paper_not_found", time_s=state.time)
-                    if (phase == DRAW or holding) and abs(force_f - f_star) < settle_tol:
-                        x, y = page_x[i] / 1000.0, page_y[i] / 1000.0
-                        before = surface.height(x, y)
-                        surface.add(x, y, before + z_corr)
-                        z_corr -= surface.height(x, y) - before  # the same depth, shared anew
+                force_f = shape(force, state.time, phase, holding, pressing, page_x[i], page_y[i])
             else:
                 force = np.nan
             # The command leads the plan by the actuation latency the user stated (the goal
             # interpolated between plan rows; the feed-forward of the nearer row).
             c = min(i + lookahead_rows, n_ref - 1)
-            pressing = phase == DRAW or (holding and waited > 0)
-            depth = z_corr + surface.height(page_x[c] / 1000.0, page_y[c] / 1000.0)
+            depth = depth_at(page_x[c], page_y[c])
             q_goal = q_row = q_ref[c] + depth * normal_q[c]
             if lookahead_frac and c + 1 < n_ref:
                 q_goal = q_row + lookahead_step[c]
-            order = to_law(state, Setpoint(c, q_goal, qd_ref[c], qdd_ref[c], q_row, pressing,
-                                           depth, seen, blend))
-            command(order)
+            try:
+                order = to_law(state, Setpoint(c, q_goal, qd_ref[c], qdd_ref[c], q_row, pressing,
+                                               depth, seen, blend))
+            except RunFault:
+                raise
+            except Exception as e:  # a law's bug is a fault like a watchdog's, not a crash
+                raise law_error(e, state.time) from e
             log_time[row] = state.time
             log_q[row] = state.q
             log_qd[row] = state.qd
@@ -378,6 +377,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
             log_force[row] = force
             ref_row[row] = seen
             row += 1
+            logged = True
             # Joint-space moves (approach, home) run far above the sheet: their path is not gated.
             if phase in (APPROACH, HOME):
                 error = 0.0
@@ -387,7 +387,15 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
                                    tip[1] - page_y[seen] - blend * (page_y[after] - page_y[seen]))
             else:
                 error = math.hypot(tip[0] - page_x[seen], tip[1] - page_y[seen])
+            # (watched before the command goes out: a fault's first command is the safe stop's)
             check(state.time, state.q, state.qd, state.torque, force_f, error)
+            try:
+                command(order)
+            except RunFault:
+                raise
+            except Exception as e:  # a command the plant does not take
+                raise law_error(e, state.time) from e
+            fresh = False
             yield
             rows[member] = i
             # Hold the end of a descent until the force has settled at its set point.
@@ -399,14 +407,22 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
             waited, settled_for = 0, 0
             i += 1
     except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
+        board.stopping[member] = True
+        if isinstance(err, KeyboardInterrupt):
+            board.interrupted = True
         stop_from = row
         if state is not None and not isinstance(err, SimulationError):
             saturated = getattr(err, "watchdog", "") in ("torque_saturated", "joint_speed")
             if not saturated:  # a saturated arm is braked at once
-                row = yield from _safe_stop(plant, law, log, ref_row, row, min(i, n_ref - 1),
-                                            state, ref, config, stop_ticks, placement, kin,
-                                            senses_tip, shared.model.pen_travel_mm)
-        _brake(plant)
+                stopper = law if getattr(err, "watchdog", "") != "law_error" else \
+                    fallback_law(plant, shared.law_context)
+                row, interrupted = yield from safe_stop(
+                    plant, stopper, shared.law_context, log, ref_row, row, min(i, n_ref - 1),
+                    state if fresh else None, fresh and logged, ref, config, stop_ticks,
+                    placement, kin, senses_tip, shared.model.pen_travel_mm)
+                if interrupted and not isinstance(err, KeyboardInterrupt):
+                    board.interrupted = True  # (Ctrl-C during the stop: the others stop too)
+        brake(plant)
         partial = _with_plan_columns(log, ref, ref_row, row, ref_blend)
         partial.phase[stop_from:] = LIFT
         partial = without_probes(partial, probes)
@@ -418,42 +434,6 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, rows: l
     result.wall_s = _time.perf_counter() - shared.wall0 - probe_wall
     result.notes = probed + shared.notes
     return result
-
-
-def _safe_stop(plant, law, log, ref_row, row, i, state, ref, config, ticks, placement, kin,
-               senses_tip, travel_mm: float) -> Generator[None, None, int]:
-    """After a fault: lift the pen by ``hover_mm`` plus its travel along the paper normal from
-    where the arm is, over ``stop_s``, and hold there for half as long again (commands may be
-    late); logged as a lift, each period's command the law's (``stopping``). A fault of the
-    plant during the stop ends it. Returns the next log row."""
-    q0 = np.asarray(state.q, dtype=float)
-    lift = -(config.hover_mm + travel_mm) / 1000.0 * ref.normal_q[i]
-    zero = np.zeros_like(q0)
-    try:
-        for k in range(1, ticks + ticks // 2 + 1):
-            goal = q0 + float(minimum_jerk_profile(k / ticks)) * lift
-            state = plant.read()
-            plant.command(law.command(state, Setpoint(i, goal, zero, zero, goal, False, 0.0, i,
-                                                      0.0, True)))
-            if row < len(log.time):
-                log.time[row], log.q[row], log.qd[row] = state.time, state.q, state.qd
-                log.torque[row] = state.torque if state.torque is not None else np.nan
-                log.tip[row] = (state.tip_mm if senses_tip
-                                else placement.to_page(kin.fk(state.q)[0]))
-                log.force[row] = state.force if state.force is not None else np.nan
-                ref_row[row] = i
-                row += 1
-            yield
-    except RunFault:  # the plant faulted again (diverged, a device fault): end the stop
-        pass
-    return row
-
-
-def _brake(plant) -> None:
-    """Hold the arm where it is: the plant's brakes where it has them."""
-    brake = getattr(plant, "brake", None)
-    if brake is not None:
-        brake()
 
 
 def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: list[int], k: int,

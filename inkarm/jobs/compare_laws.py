@@ -53,8 +53,9 @@ DEFAULT_LAWS = (
     ("sensorimotor", "sensorimotor: DPPLA targets, learnt (LWR) inverse, PID"),
     ("sensorimotor", "sensorimotor, analytic Jacobian inverse", {"inverse": "jacobian"}),
 )
-"""(law, label[, settings]): each law drawn with the scenario's ``[controller.<law>]`` settings
-updated by ``settings``; the first is the reference the others' ink is compared with."""
+"""(law, label[, settings]): each law drawn with ``settings`` (the scenario's own law with its
+``[controller.<law>]`` settings updated by them); the first is the reference the others' ink is
+compared with."""
 CURVATURE_BINS = (0.0, 0.05, 0.2, 0.5, math.inf)
 """Edges of the curvature bins [1/mm] (radius > 20 mm, 5-20 mm, 2-5 mm, < 2 mm)."""
 ARC_MM = 1.5
@@ -312,8 +313,8 @@ def _measure(law: str, label: str, settings, result: Run, plan: JointReference, 
 def compare_laws(scenario: Scenario, laws=DEFAULT_LAWS, compression: float | None = None,
                  arc_mm: float = ARC_MM) -> Comparison:
     """Draw ``scenario`` with each law of ``laws`` ((name, label[, settings]), the reference
-    first; each with its settings from the scenario's ``[controller.<name>]`` table, updated by
-    ``settings``) and measure them
+    first; the scenario's own law with its ``[controller.<name>]`` settings, updated by
+    ``settings``; another law with ``settings``) and measure them
     (module docstring). ``compression``: the DPPLA rate of the targets the overshoot is
     measured at; default the sensorimotor law's (its setting in the scenario, else its
     default)."""
@@ -326,7 +327,7 @@ def compare_laws(scenario: Scenario, laws=DEFAULT_LAWS, compression: float | Non
         spec = scenario.with_overrides({"controller.law": "sensorimotor"}).law
         compression = dict(spec.settings).get("compression", Sensorimotor().compression)
     runs = [run(scenario.with_overrides({"controller.law": name, **{
-        f"controller.{name}.{key}": value for key, value in settings}}))
+        f'controller."{name}".{key}': value for key, value in settings}}))
         for name, _, settings in laws]
     plan = _plan_of(scenario, runs[0])
     targets = dppla_targets(plan.page_mm, plan.phase, plan.stroke, compression)

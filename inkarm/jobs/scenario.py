@@ -89,7 +89,7 @@ from typing import Any
 import numpy as np
 
 from inkarm.control.config import LoopConfig
-from inkarm.control.laws import LawSpec
+from inkarm.control.laws import DEFAULT_LAW, LawSpec
 from inkarm.control.watchdogs import WatchdogSpec
 from inkarm.core.run import Bounds
 from inkarm.core.trajectory import Drawing, Trajectory
@@ -213,22 +213,51 @@ class Scenario:
         "robot.gains.kp": [...]}``), checked by the same rules as the TOML: an unknown key is
         refused with the closest valid one, a bad value with the message the file would get."""
         data = copy.deepcopy(self.to_dict())  # the tables may be this scenario's own
+        own = set(data["controller"]) - set(table_of(self.controller))  # law, watchdog tables
+        touched = set()
         for dotted, value in overrides.items():
-            head, _, rest = dotted.partition(".")
-            if head in OLD_SIM_TABLES and rest:  # the 0.2 spelling of a [sim] key
-                dotted = f"{OLD_SIM_TABLES[head]}.{rest}"
-            _set_dotted(data, dotted, value)
+            parts = _split_dotted(dotted)
+            if parts[0] in OLD_SIM_TABLES and len(parts) > 1:  # the 0.2 spelling of [sim] keys
+                parts = [*OLD_SIM_TABLES[parts[0]].split("."), *parts[1:]]
+            if parts[0] == "controller" and len(parts) > 1:
+                touched.add(parts[1])
+            _set_dotted(data, parts, value, dotted)
+        # A law or watchdog replaced by the overrides takes its settings table with it.
+        controller = data.get("controller")
+        if isinstance(controller, dict):
+            names = controller.get("watchdogs", [])
+            used = {controller.get("law", DEFAULT_LAW), *(names if isinstance(names, list) else ())}
+            for name in own - {"law", "watchdogs"} - used - touched:
+                controller.pop(name, None)
         return parse_scenario(data, source=f"{self.path} (with overrides)",
                               base_dir=self.base_dir, overridden=True)
 
 
-def _set_dotted(data: dict, dotted: str, value) -> None:
-    """``data[a][b][c] = value`` for ``dotted = "a.b.c"``, creating tables on the way; a key
-    that cannot exist is refused by the parse that follows, with its closest valid key."""
-    parts = dotted.split(".")
-    if not all(parts):
-        raise ScenarioError("expected a dotted key like controller.force_n", file="overrides",
+def _split_dotted(dotted: str) -> list[str]:
+    """The keys of a dotted key, TOML's way: ``controller."mylab.laws:Law".gain`` is
+    ``["controller", "mylab.laws:Law", "gain"]``; refused when a key is empty or a quote is not
+    closed."""
+    parts, part, quoted, was_quoted = [], "", False, False
+    for ch in dotted:
+        if ch == '"':
+            quoted, was_quoted = not quoted, True
+        elif ch == "." and not quoted:
+            parts.append((part, was_quoted))
+            part, was_quoted = "", False
+        else:
+            part += ch
+    parts.append((part, was_quoted))
+    if quoted or not all(p or q for p, q in parts):
+        raise ScenarioError('expected a dotted key like controller.force_n (a key with dots in '
+                            'double quotes: controller."mylab.laws:Law".gain)', file="overrides",
                             key=dotted, value=dotted)
+    return [p for p, _ in parts]
+
+
+def _set_dotted(data: dict, parts: list[str], value, dotted: str) -> None:
+    """``data[a][b][c] = value`` for the keys ``parts`` of ``dotted``, creating tables on the
+    way; a key that cannot exist is refused by the parse that follows, with its closest valid
+    key."""
     table = data
     for part in parts[:-1]:
         if part not in table:

@@ -178,11 +178,20 @@ def read_controller(rd: TomlReader, raw) -> dict[str, Any]:
     if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
         raise rd.error("controller.watchdogs", f"expected a list of watchdog names, got "
                        f"{names!r}", value=names)
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise rd.error("controller.watchdogs", f"each watchdog once: {', '.join(twice)} is "
+                       f"listed more than once", value=names)
     settings = {}
-    for name in (law_name, *names):
+    for name in dict.fromkeys((law_name, *names)):  # (a law and a watchdog may share a name)
         section = table.pop(name, {})
         settings[name] = tuple((k, frozen(v)) for k, v in
                                rd.table(section, f"controller.{name}").items())
+    for name, value in table.items():
+        if isinstance(value, dict):  # the settings of a law or watchdog not in use
+            raise rd.error(f"controller.{name}", f"settings of {name!r}, which this scenario "
+                           f"does not use (law = {law_name!r}, watchdogs = {names}); name it, "
+                           f"or remove the table", value=name)
     try:
         law = LawSpec(law_name, settings[law_name])
         make_law(law.name, dict(law.settings))

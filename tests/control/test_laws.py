@@ -262,3 +262,94 @@ def test_members_must_start_at_one_pose(quick):
 def test_commands_are_typed():
     q = np.zeros(2)
     assert PositionCommand(q).qd is None and TorqueCommand(q).torque is q
+
+
+class Broken(PositionGoals):
+    """A user's law with a bug at its 50th period."""
+
+    def start(self, context):
+        super().start(context)
+        self.periods = 0
+
+    def command(self, state, setpoint):
+        self.periods += 1
+        if self.periods == 50:
+            return 1 / 0
+        return super().command(state, setpoint)
+
+
+@pytest.mark.sim
+def test_a_law_that_raises_fails_its_run_with_the_pen_lifted_and_the_log_kept(quick):
+    from inkarm.jobs.run import run
+
+    failed = run(quick.with_overrides({"controller.law": "tests.control.test_laws:Broken"}))
+    assert failed.status == "failed"
+    assert failed.reason.startswith("law_error: the control law raised ZeroDivisionError: "
+                                    "division by zero at t = ")
+    assert failed.log.phase[-1] == LIFT and failed.log.force[-1] == 0.0
+    assert len(failed.log) == 49 + 15  # its 49 periods, then the built-in law's lift and hold
+    assert np.all(np.diff(failed.log.time) > 0)  # one row a period
+
+
+@pytest.mark.sim
+def test_a_law_that_raises_in_one_member_leaves_the_others_drawing(quick):
+    drawing, plants, believed = _two_arms(quick)
+
+    class OneBroken(LawSpec):  # member 1's law is the broken one
+        def make(self, made=[]):  # noqa: B006 (counts the members made)
+            made.append(1)
+            return Broken() if len(made) == 2 else PositionGoals()
+
+    ok, failed = execute(drawing, _Faulting(plants, 0), believed, quick.robot.gains,
+                         quick.controller, law=OneBroken("position"))
+    assert isinstance(ok, type(run_drawing(drawing, _two_arms(quick)[1][0], believed,
+                                           quick.robot.gains, quick.controller)))
+    assert isinstance(failed, RunFault) and failed.watchdog == "law_error"
+
+
+@pytest.mark.sim
+def test_a_watchdog_fault_logs_one_row_a_period_and_commands_once_a_period(quick):
+    from inkarm.jobs.run import run
+
+    failed = run(quick.with_overrides({"controller.tracking_limit_mm": 0.001,
+                                       "controller.watchdog_s": 0.006}))
+    assert failed.status == "failed" and failed.reason.startswith("tracking_limit")
+    assert np.all(np.diff(failed.log.time) > 0)
+
+
+@pytest.mark.sim
+def test_ctrl_c_while_a_member_lifts_after_its_fault_keeps_both_logs(quick):
+    drawing, plants, believed = _two_arms(quick)
+    members = _Faulting(plants, 50)
+    step = members.step
+
+    def interrupting(ids):
+        if members.steps == 53:
+            raise KeyboardInterrupt
+        return step(ids)
+
+    members.step = interrupting
+    with pytest.raises(KeyboardInterrupt) as info:
+        execute(drawing, members, believed, quick.robot.gains, quick.controller)
+    faulted, interrupted = info.value.logs
+    ticks = max(1, round(quick.controller.stop_s / plants[0].dt))
+    # the faulted member finished its whole lift (it was not told again), the other lifted too
+    assert faulted is not None and (faulted.phase == LIFT).sum() == ticks + ticks // 2
+    assert interrupted is not None and interrupted.phase[-1] == LIFT
+
+
+def test_switching_the_law_leaves_the_old_laws_settings_behind(quick):
+    tuned = quick.with_overrides({"controller.law": "joint_pid"}).with_overrides(
+        {"controller.law": "tests.control.test_laws:Recording",
+         'controller."tests.control.test_laws:Recording".friction_adaptation': 0.0})
+    assert tuned.law == LawSpec("tests.control.test_laws:Recording",
+                                (("friction_adaptation", 0.0),))
+    assert tuned.with_overrides({"controller.law": "position"}).law == LawSpec("position")
+    with pytest.raises(InputError, match=r"controller.impedance: settings of 'impedance', "
+                                         r"which this scenario does not use \(law = 'position'"):
+        quick.with_overrides({"controller.impedance": {"stiffness_n_per_mm": 3.0}})
+    with pytest.raises(InputError, match=r"controller.watchdogs: each watchdog once: "
+                                         r"force_limit is listed more than once"):
+        quick.with_overrides({"controller.watchdogs": ["force_limit", "force_limit"]})
+    with pytest.raises(InputError, match=r"overrides: controller.\"a.b: expected a dotted key"):
+        quick.with_overrides({'controller."a.b': 1.0})

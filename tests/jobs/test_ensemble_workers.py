@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 
 from inkarm.core.log import PHASES
 from inkarm.errors import InkarmError, InputError
-from inkarm.jobs.ensemble import workers as ensemble_workers
 from inkarm.jobs.ensemble import iter_ensemble, run_ensemble
+from inkarm.jobs.ensemble import workers as ensemble_workers
 from inkarm.jobs.ensemble.workers import nonzero_box, pack, stream_shares
 from inkarm.jobs.scenario import load_scenario
 

@@ -221,8 +221,8 @@ def test_an_entry_point_that_fails_to_load_names_the_plugin_its_package_and_targ
     with pytest.raises(InputError, match=r"the backend plug-in 'backend.broken' .*\(inkarm_demo_"
                                          r"plugin.backend:Nothing\) failed to load: AttributeError"):
         get_backend("broken")
-    with pytest.raises(InputError, match=r"quick_stroke.toml: ink: the ink plug-in 'ink.broken'"):
-        load_scenario(SCENARIOS / "quick_stroke.toml")  # a scenario lists the inks
+    # a broken plug-in is refused when it is asked for, never when another name is
+    assert load_scenario(SCENARIOS / "quick_stroke.toml").ink.model == "marker"
     with pytest.raises(InputError, match=r"the law plug-in 'law.broken'"):  # every time asked
         make_law("broken")
 

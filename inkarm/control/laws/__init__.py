@@ -27,6 +27,7 @@ Units: SI in the joint arrays (rad, rad/s, N m); page millimetres in ``LawContex
 
 from __future__ import annotations
 
+import copy
 import inspect
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, runtime_checkable
@@ -126,8 +127,9 @@ DEFAULT_LAW = "position"
 @dataclass(frozen=True)
 class LawSpec:
     """A law as a scenario names it: ``name`` (registered, or ``"package.module:Class"``) and
-    its settings (keyword arguments of its class, as a tuple of pairs so the spec hashes and
-    pickles). :meth:`make` builds a fresh, unstarted instance: one per plant."""
+    its settings (keyword arguments of its class, as a tuple of pairs, arrays as tuples: the
+    spec compares and pickles). :meth:`make` builds a fresh, unstarted instance with its own
+    copy of the settings: one per plant."""
 
     name: str = DEFAULT_LAW
     settings: tuple[tuple[str, Any], ...] = ()
@@ -136,7 +138,7 @@ class LawSpec:
         return law_class(self.name)
 
     def make(self) -> Controller:
-        return make_law(self.name, dict(self.settings))
+        return make_law(self.name, copy.deepcopy(dict(self.settings)))
 
     @property
     def commands(self) -> frozenset[str]:

@@ -172,10 +172,14 @@ class Watchdogs:
         """Raise :class:`RunFault` when a watchdog fires."""
         checks = self._checks
         envelope = self._envelope
-        if envelope is not None and torque is not None and all(
-                abs(a - mid) < half and abs(v) < speed and abs(t) < effort
-                for (mid, half, speed, effort), a, v, t in zip(envelope, q.tolist(), qd.tolist(),
-                                                               torque.tolist())):
+        inside = envelope is not None and torque is not None
+        if inside:
+            for (mid, half, speed, effort), a, v, t in zip(envelope, q.tolist(), qd.tolist(),
+                                                           torque.tolist()):
+                if not (abs(a - mid) < half and abs(v) < speed and abs(t) < effort):
+                    inside = False
+                    break
+        if inside:
             if self._counting:  # (their counts are zero again; until then nothing to clear)
                 for clear in self._clears:
                     clear()

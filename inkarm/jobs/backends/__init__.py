@@ -139,8 +139,8 @@ def run_backend(name: str, scenario: Scenario, options: BackendOptions | None = 
                          f"{name}` prints one)", key="--port")
     try:
         session = backend.open(scenario, options)
-    except InkarmError as e:
-        raise e.within(file=scenario.path) from None
+    except InkarmError as e:  # (a device's own error names its option, not the scenario)
+        raise (e if (e.key or "").startswith("--") else e.within(file=scenario.path)) from None
     try:
         log = session.execute(progress)
     except RunFault as fault:

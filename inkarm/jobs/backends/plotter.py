@@ -105,6 +105,10 @@ class PlotterSession:
             raise
         self.notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile "
                       f"{self.pen.name!r}, {len(log)} status reports (the log's rows)"),)
+        s = self.scenario
+        if s.law.name != "position" or s.law.settings or s.watchdogs:
+            self.notes += ((f"plotter: the firmware's planner moves the pen; the scenario's law "
+                           f"{s.law.name!r} and watchdogs are an arm's, not used here"),)
         if plant.clipped:
             self.notes += ((f"plotter: {plant.clipped} pen-down moves slowed to the profile's "
                            f"max_draw_speed_mm_s = {self.pen.max_draw_speed_mm_s:g} mm/s"),)
