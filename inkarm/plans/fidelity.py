@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from inkarm.core.plan import StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
@@ -36,6 +35,14 @@ def sample_letters(plan: StrokePlan, traj: Trajectory) -> tuple[np.ndarray, np.n
     active = _active_targets(plan, traj)
     return np.asarray(plan.meta["letters"])[active], ~np.asarray(plan.meta["connectors"])[active]
 
+
+
+def kd_tree(points: np.ndarray):
+    """A ``scipy.spatial.cKDTree`` of ``points`` (SciPy is imported when a text's fidelity is
+    measured, not when the module is: a command that only writes needs none)."""
+    from scipy.spatial import cKDTree
+
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 class _Samples(NamedTuple):
     """Every sample of a written text, strokes one after the other, with its active target.
@@ -335,8 +342,8 @@ class _OwnInk:
         self.any_near = drawn_at[index[:, None] + np.arange(3)].any(axis=1)  # g - 1 .. g + 1
         self.by_letter = np.argsort(self.letter, kind="stable")  # samples, sorted by letter
         self.sorted_letters = self.letter[self.by_letter]
-        self.tree = cKDTree(ink, balanced_tree=False, compact_nodes=False)
-        self.own_trees: dict[int, cKDTree] = {}
+        self.tree = kd_tree(ink)
+        self.own_trees: dict = {}  # (scipy.spatial.cKDTree per stroke)
 
     def _in_stroke(self, sample: np.ndarray, letter: np.ndarray) -> np.ndarray:
         key = self.first[sample] * self.top + letter
@@ -359,7 +366,7 @@ class _OwnInk:
         ok[step_out] = self._includes(e[step_out] - 1, g[step_out])
         return ok
 
-    def own_tree(self, k: int) -> cKDTree:
+    def own_tree(self, k: int):
         """The tree of the ink of glyph k (position in the glyphs)."""
         if k not in self.own_trees:
             g = int(self.index[k])
@@ -372,7 +379,7 @@ class _OwnInk:
             after = after[self.first[after] == self.first[after - 1]]  # the samples after them
             j = np.unique(np.concatenate([j, self.at[after]]))
             j = j[self.allowed(j, np.full(len(j), g))]
-            self.own_trees[k] = cKDTree(self.ink[j], balanced_tree=False, compact_nodes=False)
+            self.own_trees[k] = kd_tree(self.ink[j])
         return self.own_trees[k]
 
     def query(self, points: np.ndarray, glyph: np.ndarray) -> np.ndarray:

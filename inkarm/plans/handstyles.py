@@ -42,7 +42,7 @@ from inkarm.core.plan import GaussianTarget, MotorPlan, StrokePlan, stroke_from_
 from inkarm.core.trajectory import A4_MM, Drawing
 from inkarm.errors import ScenarioError
 from inkarm.io.toml import load_toml
-from inkarm.models.lqt import LQTConfig, semi_tied_covariances, solve
+from inkarm.models.lqt import LQTConfig, semi_tied_covariances
 
 
 def slanted_basis(slant_deg: float, stretch: float = 1.0) -> np.ndarray:
@@ -193,6 +193,8 @@ class Handstyle:
             pen_up_time: Pause between strokes in [s] (pen travel, not simulated here).
             page_size: (width, height) of the page in [mm].
         """
+        from inkarm.models.lqt import solve  # (the solvers bring SciPy: only when solving)
+
         cfg = self.lqt_config(dt)
         strokes = [solve(stroke, cfg) for stroke in plan.strokes]
         meta = {"style": self.name, "strokes": [dict(s.meta) for s in plan.strokes]}

@@ -180,8 +180,8 @@ def test_measures_take_a_bounded_number_of_passes_however_many_strokes(monkeypat
     monkeypatch.setattr(
         fidelity._OwnInk, "query", lambda s, p, g: queries.append(len(p)) or query(s, p, g)
     )
-    tree = fidelity.cKDTree
-    monkeypatch.setattr(fidelity, "cKDTree", lambda *a, **k: trees.append(1) or tree(*a, **k))
+    tree = fidelity.kd_tree
+    monkeypatch.setattr(fidelity, "kd_tree", lambda *a, **k: trees.append(1) or tree(*a, **k))
     _, tp, drawing, _ = CASES[0]
     assert len(drawing.strokes) >= 5
     monkeypatch.setattr(fidelity, "_PAIRS", 1 << 40)  # one chunk

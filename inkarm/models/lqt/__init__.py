@@ -44,16 +44,45 @@ extent against the oracle.
 
 from __future__ import annotations
 
-from inkarm.models.covariances import semi_tied_covariances
-from inkarm.models.lqt.config import (
-    MAX_ORDER,
-    SOLVERS,
-    LQTConfig,
-    Reference,
-    velocity_direction_reference,
-)
-from inkarm.models.lqt.model import LQT, covariance, sample, solve
-from inkarm.models.lqt.oracle import system_matrices
+import importlib
+from typing import TYPE_CHECKING
+
+# Public names -> the module that defines them, imported on first use: the configuration is
+# cheap, the solvers bring SciPy (a command that only names a style never pays for it).
+_LAZY = {
+    "LQT": "inkarm.models.lqt.model",
+    "covariance": "inkarm.models.lqt.model",
+    "sample": "inkarm.models.lqt.model",
+    "solve": "inkarm.models.lqt.model",
+    "system_matrices": "inkarm.models.lqt.oracle",
+    "semi_tied_covariances": "inkarm.models.covariances",
+    "MAX_ORDER": "inkarm.models.lqt.config",
+    "SOLVERS": "inkarm.models.lqt.config",
+    "LQTConfig": "inkarm.models.lqt.config",
+    "Reference": "inkarm.models.lqt.config",
+    "velocity_direction_reference": "inkarm.models.lqt.config",
+}
+
+if TYPE_CHECKING:
+    from inkarm.models.covariances import semi_tied_covariances
+    from inkarm.models.lqt.config import (
+        MAX_ORDER,
+        SOLVERS,
+        LQTConfig,
+        Reference,
+        velocity_direction_reference,
+    )
+    from inkarm.models.lqt.model import LQT, covariance, sample, solve
+    from inkarm.models.lqt.oracle import system_matrices
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "LQT",
