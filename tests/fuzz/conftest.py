@@ -7,6 +7,7 @@ The parent has imported inkarm and its dependencies once; each case forks (milli
 
 from __future__ import annotations
 
+import gc
 import itertools
 import math
 import os
@@ -74,6 +75,10 @@ def run_isolated(argv: list[str], cwd: Path, timeout_s: float = TIMEOUT_S,
         if pid == 0:  # the child: never returns
             code = 3
             try:
+                # The collector must not walk the test session's inherited objects: touching
+                # them copies every page of a long session's heap into the child (seconds, and
+                # address space against the limit) before the case has done anything.
+                gc.freeze()
                 os.chdir(cwd)
                 # The limit is on top of what the (forked) test process already maps, so that a
                 # long test session's address space does not eat into the case's allowance.
