@@ -4,12 +4,10 @@ and compare them with their baselines (:mod:`inkarm.jobs.regress`)."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
-from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir
+from inkarm.io.outputs import check_out_dir, check_out_file
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -36,23 +34,22 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def check_junit_path(path: str) -> Path:
-    """``--junit``: a file in a writable folder, checked before any run."""
-    file = Path(path)
-    folder = file.parent
-    if file.is_dir() or not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"{file}: cannot write there ({folder} is not a writable folder)",
-                         key="--junit", value=path)
-    return file
+def check_junit_path(path: str, inputs=()) -> Path:
+    """``--junit``: an ``.xml`` file in a writable folder, not a device or a link loop, and
+    none of the run's ``inputs`` (its scenarios, their baselines), checked before any run."""
+    return check_out_file(path, "JUnit XML", (".xml",), inputs=inputs, key="--junit")
 
 
 def run(args: argparse.Namespace) -> int:
     from inkarm.jobs.regress import find_scenarios
     from inkarm.jobs.scenario import load_scenario
 
-    junit = check_junit_path(args.junit) if args.junit else None
+    junit = check_junit_path(args.junit) if args.junit else None  # (before the search)
     report = check_out_dir(args.report) if args.report else None
     pairs = find_scenarios(args.scenarios, args.baselines, update=args.update)
+    if junit is not None:  # and not one of the files the run reads
+        check_junit_path(args.junit, [path for path, _ in pairs] + [
+            file for _, folder in pairs if Path(folder).is_dir() for file in Path(folder).iterdir()])
     scenarios = [(load_scenario(path), folder) for path, folder in pairs]  # all checked first
     if args.update:
         return update(scenarios)

@@ -46,27 +46,35 @@ def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
 
 
 def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
-                   inputs: Iterable[str | Path] = ()) -> Path:
-    """The ``--out`` file, checked before any work: a ``what`` file name (not empty, not a
-    folder) ending in one of ``suffixes`` (lower case, with the dot), in a writable folder, and
-    none of the ``inputs``, which it would overwrite."""
+                   inputs: Iterable[str | Path] = (), key: str = "--out") -> Path:
+    """The output file ``key`` (``--out``), checked before any work: a ``what`` file name (not
+    empty, not a folder) ending in one of ``suffixes`` (lower case, with the dot), in a writable
+    folder; not an existing device, pipe or socket, nor a link that leads nowhere or in a loop
+    (replacing it would write where the user did not mean); and none of the ``inputs``, which
+    it would overwrite."""
     text = str(path)
     if not text.strip():
-        raise InputError("expected a file name, got an empty string", key="--out", value=text)
+        raise InputError("expected a file name, got an empty string", key=key, value=text)
     out = Path(text)
     expected = f"a {what} file name ({' or '.join(suffixes)})"
     if out.is_dir():
-        raise InputError(f"{out} is a folder: expected {expected}", key="--out", value=text)
+        raise InputError(f"{out} is a folder: expected {expected}", key=key, value=text)
     if out.suffix.lower() not in suffixes:
-        raise InputError(f"{out}: expected {expected}", key="--out", value=text)
+        raise InputError(f"{out}: expected {expected}", key=key, value=text)
+    if out.is_symlink() and not out.exists():
+        raise InputError(f"{out} is a link that leads nowhere or in a loop; expected {expected}",
+                         key=key, value=text)
+    if out.exists() and not out.is_file():
+        raise InputError(f"{out} exists and is not a regular file (a device, pipe or socket); "
+                         f"expected {expected}", key=key, value=text)
     parent = out.absolute().parent
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(f"cannot write {out}: {parent} is not a writable folder",
-                         key="--out", value=text)
+                         key=key, value=text)
     for source in inputs:
         if Path(source).exists() and out.resolve() == Path(source).resolve():
             raise InputError(f"{out} is the input {source}, which this command would overwrite; "
-                             "choose another file", key="--out", value=text)
+                             "choose another file", key=key, value=text)
     return out
 
 

@@ -16,6 +16,7 @@ A scenario ``scenarios/<name>.toml`` has its baseline in ``scenarios/baselines/<
 from __future__ import annotations
 
 import json
+import math
 import platform
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -115,9 +116,41 @@ def read_baseline(folder: str | Path, known_metrics=()) -> Baseline:
     except (OSError, ValueError, KeyError) as e:
         raise InputError(f"damaged baseline in {folder}: {e}; remake it with --update",
                          file=str(folder)) from None
+    _check_metrics(metrics, folder / "metrics.json")
+    if not (math.isfinite(px_per_mm) and px_per_mm > 0):
+        raise InputError(f"damaged baseline in {folder}: px_per_mm {px_per_mm} in {MARKER} is "
+                         f"not a positive number; remake it with --update", file=str(folder))
     return Baseline(folder, str(info.get("status", "ok")), metrics, grey, px_per_mm, tip,
                     pen_down, dict(info.get("versions", {})),
                     read_tolerances(folder / TOLERANCES_FILE, known_metrics))
+
+
+# Every finished run measures these: a baseline without them compares nothing.
+REQUIRED_METRICS = ("tracking_rms_mm", "tracking_max_mm", "ink_chamfer_mm")
+
+
+def _check_metrics(metrics, path: Path) -> None:
+    """Refuse a baseline's metrics that cannot be trusted to compare with: not a table of
+    names to numbers, a number that is not finite (an undefined metric is written as null),
+    or a metric every finished run measures missing; each refusal names the file and the
+    metric."""
+    fix = "; remake it with inkarm regress SCENARIO --update"
+    if not isinstance(metrics, dict):
+        raise InputError(f"expected a table of metric names to numbers, got "
+                         f"{type(metrics).__name__}{fix}", file=str(path))
+    for name, value in metrics.items():
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | float) or \
+                not math.isfinite(value):
+            raise InputError(f"metric {name!r} is {value!r}: expected a finite number (or null "
+                             f"for an undefined one){fix}", file=str(path), key=name,
+                             value=value)
+    missing = [name for name in REQUIRED_METRICS if name not in metrics]
+    if missing:
+        raise InputError(f"no {', '.join(missing)}: every finished run measures "
+                         f"{'them' if len(missing) > 1 else 'it'}, so this baseline compares "
+                         f"nothing{fix}", file=str(path))
 
 
 def read_tolerances(path: Path, known_metrics=()) -> dict[str, float]:
