@@ -14,8 +14,7 @@ public surface.
 
 from __future__ import annotations
 
-import importlib
-
+from inkarm.core.lazy import lazy_names
 from inkarm.errors import (
     InkarmError,
     InputError,
@@ -111,12 +110,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'inkarm' has no attribute {name!r}")
+__getattr__ = lazy_names(__name__, globals(), _LAZY)
 
 
 def __dir__() -> list[str]:

@@ -60,10 +60,7 @@ class _Shared:
     """What every member of one execution shares: the plan and what was derived from it."""
 
     ref: JointReference
-    kin: ArmKinematics
-    model: KinematicModel
-    config: LoopConfig
-    law_context: LawContext
+    law_context: LawContext  # (the model, its kinematics, the config and the period)
     watch_context: WatchContext
     watchdogs: tuple[WatchdogSpec, ...]
     probes: int
@@ -127,7 +124,7 @@ def execute(
                                           speed_limits)
     senses = frozenset(first.senses)
     shared = _Shared(
-        ref=ref, kin=kin, model=model, config=config,
+        ref=ref,
         law_context=LawContext(ref, kin, model, gains, config, dt, senses),
         watch_context=WatchContext(config, dt, tuple(kin.joint_names), gains.torque_limit,
                                    speed_limits, np.column_stack([kin.lower, kin.upper])),
@@ -281,10 +278,11 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
             t_first: float | None) -> Generator[None, None, DrawLog]:
     """One member's periods (module docstring); yields after each command, returns its log or
     raises the fault that stopped it, with the log to the safe stop."""
-    ref, kin, config = shared.ref, shared.kin, shared.config
-    placement = shared.model.placement
-    dt = shared.law_context.dt
-    law.start(shared.law_context)
+    context = shared.law_context
+    ref, kin, config = shared.ref, context.kinematics, context.config
+    placement = context.model.placement
+    dt = context.dt
+    law.start(context)
     watchdog = Watchdogs(shared.watch_context, shared.watchdogs)
     force_loop = ForceLoop(config, dt)  # and the paper's surface, learnt while drawing
     shape, depth_at, surface = force_loop.shape, force_loop.depth, force_loop.surface
@@ -415,11 +413,11 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
             saturated = getattr(err, "watchdog", "") in ("torque_saturated", "joint_speed")
             if not saturated:  # a saturated arm is braked at once
                 stopper = law if getattr(err, "watchdog", "") != "law_error" else \
-                    fallback_law(plant, shared.law_context)
+                    fallback_law(plant, context)
                 row, interrupted = yield from safe_stop(
-                    plant, stopper, shared.law_context, log, ref_row, row, min(i, n_ref - 1),
+                    plant, stopper, context, log, ref_row, row, min(i, n_ref - 1),
                     state if fresh else None, fresh and logged, ref, config, stop_ticks,
-                    placement, kin, senses_tip, shared.model.pen_travel_mm)
+                    placement, kin, senses_tip, context.model.pen_travel_mm)
                 if interrupted and not isinstance(err, KeyboardInterrupt):
                     board.interrupted = True  # (Ctrl-C during the stop: the others stop too)
         brake(plant)

@@ -127,12 +127,12 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
     Each log's wall time is the share's over ``members``: the shares run at once, so that is
     the ensemble's."""
     keep = keep or _whole
-    cell = Cell(scenario.cell, scenario.robot)
-    believed = kinematic_model(cell)
     if batch_refusal(scenario, seeds) is not None:  # each member a batch of one
         for seed in seeds:
             yield keep(run(with_point(scenario, {"plant.seed": seed})))
         return
+    cell = Cell(scenario.cell, scenario.robot)
+    believed = kinematic_model(cell)
     try:
         steps = substeps(scenario.robot.control_period_s, scenario.cell.timestep)
         truths = [scenario.plant.realised(s) for s in seeds]

@@ -44,8 +44,9 @@ extent against the oracle.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from inkarm.core.lazy import lazy_names
 
 # Public names -> the module that defines them, imported on first use: the configuration is
 # cheap, the solvers bring SciPy (a command that only names a style never pays for it).
@@ -76,12 +77,7 @@ if TYPE_CHECKING:
     from inkarm.models.lqt.oracle import system_matrices
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_names(__name__, globals(), _LAZY)
 
 
 __all__ = [
