@@ -96,8 +96,8 @@ def _learn(args) -> int:
         config = PrimitivesConfig(n_chains=args.chains, n_states=args.states,
                                   max_outer=args.iterations, max_inner=args.sweeps,
                                   self_loops=not args.no_self_loops)
-        if args.restarts < 1:
-            raise InputError(f"expected an integer >= 1, got {args.restarts}",
+        if not 1 <= args.restarts <= 100:
+            raise InputError(f"expected an integer in 1..100, got {args.restarts}",
                              key="restarts", value=args.restarts)
     data = load_training_set(args.data, args.samples, args.styles, args.seed)
     lengths = [len(s) for s in data.sequences]

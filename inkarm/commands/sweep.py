@@ -55,6 +55,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def build_points(args: argparse.Namespace, scenario):
     """The design's points, every one checked against the scenario."""
     from inkarm.jobs.sweep.design import (
+        check_design_size,
         grid_design,
         make_points,
         parse_axis,
@@ -74,13 +75,18 @@ def build_points(args: argparse.Namespace, scenario):
                          key="--set", value="seed")
     if len(set(keys)) != len(keys):
         raise InputError(f"an axis is given twice: {keys}", key="--set")
+    seeds = parse_seeds(args.seeds) if args.seeds is not None else (scenario.seed,)
+    if args.random is not None and args.random < 1:
+        raise InputError(f"expected --random N >= 1, got {args.random}", key="--random",
+                         value=args.random)
+    check_design_size(axes, zip_axes=args.zip, random=args.random, seeds=len(seeds))
+    validate(scenario, make_points([{a.key: a.first for a in axes}], seeds[:1]))  # a bad key in a fraction of a second
     if args.random is not None:
         design = random_design(axes, args.random, args.design_seed)
     elif args.zip:
         design = zip_design(axes)
     else:
         design = grid_design(axes)
-    seeds = parse_seeds(args.seeds) if args.seeds is not None else (scenario.seed,)
     points = make_points(design, seeds)
     validate(scenario, points)
     return keys, points

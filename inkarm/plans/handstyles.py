@@ -56,6 +56,9 @@ def slanted_basis(slant_deg: float, stretch: float = 1.0) -> np.ndarray:
     return np.array([[1.0, stretch * np.sin(a)], [0.0, stretch * np.cos(a)]])
 
 
+
+MIN_SPACING = 0.01  # [fraction of the letter height]: 100 targets a letter height at most
+
 @dataclass(frozen=True)
 class Handstyle:
     """A handstyle: semi-tied covariance settings plus LQT and planning parameters.
@@ -122,6 +125,9 @@ class Handstyle:
         object.__setattr__(self, "order", int(self.order))
         if self.max_spacing is not None:
             self._check_positive("max_spacing")
+            if self.max_spacing < MIN_SPACING:  # a budget: each letter gets 1 / spacing targets
+                self._fail(f"max_spacing must be at least {MIN_SPACING} (a fraction of the "
+                           f"letter height), got {self.max_spacing}", self.max_spacing)
         if not (np.isfinite(self.eyelet) and 0.0 <= self.eyelet <= 1.0):
             self._fail(f"eyelet must be in [0, 1] (a fraction of the letter height), got "
                        f"{self.eyelet}", self.eyelet)

@@ -117,3 +117,15 @@ def test_write_takes_new_lines_and_tabs(tmp_path, capsys):
     assert main(["write", "an\\nmu\tno", "--out", str(tmp_path)]) == 0  # \\n as typed in a shell
     assert "6 letters in" in capsys.readouterr().out
     assert len(Drawing.from_csv(tmp_path / "drawing.csv").strokes) == 3  # three words
+
+
+def test_a_handstyle_spacing_too_fine_to_plan_is_refused_at_once(tmp_path, capsys):
+    """max_spacing = 1e-6 of the letter height would put a million targets on each letter
+    (a run of minutes to hours): refused from the request, naming the style and key."""
+    styles = tmp_path / "styles.toml"
+    styles.write_text("[styles.fine]\nmax_spacing = 1e-6\n")
+    code = main(["write", "hello", "--style", "fine", "--styles", str(styles),
+                 "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "max_spacing must be at least 0.01" in err[0] and "1e-06" in err[0]

@@ -149,3 +149,56 @@ def test_a_folder_of_another_sweep_is_refused(tmp_path):
     other = scenario.with_overrides({"controller.hover_mm": 9.0})
     with pytest.raises(InputError, match="another scenario"):
         run_sweep(other, points, tmp_path / "s", workers=1)
+
+
+def _plant_table(path: Path, digest: str, ids=("p0", "p1")) -> None:
+    import pyarrow as pa
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rows = [{"point_id": i, "index": k, "seed": 0, "status": "ok", "reason": "",
+             "scenario_digest": digest} for k, i in enumerate(ids)]
+    pq.write_table(pa.Table.from_pylist(rows), path)
+
+
+@pytest.mark.parametrize("where", [TABLE_FILE, f"{PARTS_DIR}/p0.parquet"])
+def test_a_table_copied_from_a_sweep_of_another_scenario_is_refused_naming_both(
+        tmp_path, capsys, where):
+    from inkarm.jobs.sweep import scenario_digest
+    out = tmp_path / "sweep"
+    _plant_table(out / where, "0123456789abcdef")
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
+    assert main(["sweep", str(QUICK), "--set", "controller.force_n=1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "another scenario" in err[0] and "0123456789abcdef" in err[0]
+    assert scenario_digest(load_scenario(QUICK)) in err[0] and where.split("/")[-1] in err[0]
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == before  # no sweep.json either
+
+
+@pytest.mark.parametrize("content", [b"", b"PAR1 garbage", b"not parquet at all\n" * 40])
+def test_a_garbage_or_truncated_table_is_refused_naming_it(tmp_path, capsys, content):
+    out = tmp_path / "sweep"
+    out.mkdir()
+    (out / TABLE_FILE).write_bytes(content)
+    assert main(["sweep", str(QUICK), "--set", "controller.force_n=1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and TABLE_FILE in err[0] and "not a table of sweep results" in err[0]
+
+
+def test_a_truncated_copy_of_a_real_table_is_refused(tmp_path, capsys):
+    from inkarm.jobs.sweep import scenario_digest
+    out = tmp_path / "sweep"
+    _plant_table(out / TABLE_FILE, scenario_digest(load_scenario(QUICK)))
+    data = (out / TABLE_FILE).read_bytes()
+    (out / TABLE_FILE).write_bytes(data[: len(data) // 2])
+    assert main(["sweep", str(QUICK), "--set", "controller.force_n=1", "--out", str(out)]) == 2
+    assert "not a table of sweep results" in capsys.readouterr().err
+
+
+def test_a_table_without_digests_is_refused(tmp_path):
+    import pyarrow as pa
+    out = tmp_path / "sweep"
+    out.mkdir()
+    pq.write_table(pa.Table.from_pylist([{"point_id": "p0", "index": 0}]), out / TABLE_FILE)
+    points = make_points(grid_design([parse_axis("controller.force_n=1.0")]), (0,))
+    with pytest.raises(InputError, match="expected the columns point_id and scenario_digest"):
+        run_sweep(load_scenario(QUICK), points, out, workers=1)

@@ -124,3 +124,31 @@ def test_overriding_a_point_leaves_the_scenario_as_it_was():
     changed = with_point(scenario, {"source.plan.model.d": 10.0})
     assert changed.source.plan["model"]["d"] == 10.0
     assert scenario.source.plan["model"]["d"] == 5.0
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--set", "controller.force_n=0:1:1000000", "--set", "controller.hover_mm=0:1:1000000"],
+     "1000000000000 runs (1000000 x 1000000 design"),
+    (["--set", "controller.force_n=0:1:1000000000000"], "1000000000000 runs"),
+    (["--set", "controller.force_n=0:1", "--random", "1000000000"], "1000000000 runs (random"),
+    (["--set", "controller.force_n=1", "--seeds", "0:1000000000"], "1000000000 seeds"),
+    (["--set", "controller.force_n=1,2", "--seeds", "0:60000"], "120000 runs"),
+    (["--set", "controller.forse_n=0:1:1000"], "did you mean 'force_n'"),
+])
+def test_budgets_are_refused_from_the_request_before_any_point_is_made(
+        tmp_path, capsys, monkeypatch, args, message):
+    """A design too big for a sweep is refused from the axes' sizes: no design, point or
+    scenario copy is made (each would take minutes or all the memory)."""
+    from inkarm.cli import main
+    from inkarm.jobs.sweep import design
+
+    def never(*a, **k):
+        raise AssertionError("a design was made before the budget was checked")
+
+    for name in ("grid_design", "zip_design", "random_design"):
+        monkeypatch.setattr(design, name, never)
+    scenario = Path(__file__).parents[2] / "scenarios" / "quick_stroke.toml"
+    assert main(["sweep", str(scenario), "--out", str(tmp_path / "s"), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "s").exists()

@@ -244,8 +244,10 @@ def test_unreadable_model_files(tmp_path):
 
 
 @pytest.mark.parametrize(("kwargs", "message"), [
-    ({"n_chains": 0}, "n_chains: expected an integer >= 1"),
-    ({"n_states": 1}, "n_states: expected an integer >= 2"),
+    ({"n_chains": 0}, "n_chains: expected an integer in 1..200"),
+    ({"n_states": 1}, "n_states: expected an integer in 2..100"),
+    ({"max_outer": 1_000_000_000}, "max_outer: expected an integer in 0..10000, got 1000000000"),
+    ({"max_inner": 10**6}, "max_inner: expected an integer in 1..1000"),
     ({"max_inner": 2.5}, "max_inner: expected an integer"),
     ({"stay_init": 1.0}, "stay_init: expected a number in"),
     ({"tol_outer": -1.0}, "tol_outer: expected a number in"),

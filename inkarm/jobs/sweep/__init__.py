@@ -36,7 +36,7 @@ from inkarm.jobs.ensemble.workers import available_cpus
 from inkarm.jobs.outputs import strict_json
 from inkarm.jobs.scenario import Scenario
 from inkarm.jobs.sweep.design import Point, with_point
-from inkarm.jobs.sweep.table import compact, finished_ids, write_part
+from inkarm.jobs.sweep.table import DIGEST_COLUMN, compact, finished_ids, write_part
 
 MANIFEST = "sweep.json"
 INK_DIR = "ink"
@@ -220,8 +220,9 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
         raise InputError(f"unknown executor {executor!r}; expected one of {EXECUTORS}",
                          key="executor", value=executor, choices=EXECUTORS)
     out = Path(out_dir)
+    digest = scenario_digest(scenario)
+    done = finished_ids(out, digest)  # before the manifest: a refused folder stays as it was
     check_manifest(out, scenario)
-    done = finished_ids(out)
     todo = [p for p in points if p.point_id not in done]
     summary = SweepSummary(total=len(points), skipped=len(points) - len(todo))
     if workers is None:
@@ -233,7 +234,7 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
     try:
         if todo:
             for result in results:
-                save_result(out, result)
+                save_result(out, result, digest)
                 summary.ran.append(result.row["point_id"])
                 summary.failed += result.row["status"] != "ok"
                 if progress is not None:
@@ -248,15 +249,16 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
     return summary
 
 
-def save_result(out: Path, result: PointResult) -> None:
-    """The run's ink crop, then its row (the row marks the point finished)."""
+def save_result(out: Path, result: PointResult, digest: str) -> None:
+    """The run's ink crop, then its row with the scenario's ``digest`` (the row marks the
+    point finished)."""
     if result.grey is not None:
         ink = out / INK_DIR
         ink.mkdir(exist_ok=True)
         np.savez_compressed(ink / f"{result.row['point_id']}.npz", box=np.array(result.box),
                             grey=result.grey, page_rows=result.page_rows,
                             px_per_mm=result.px_per_mm)
-    write_part(out, result.row)
+    write_part(out, {**result.row, DIGEST_COLUMN: digest})
 
 
 def write_figures(out_dir: str | Path, keys: list[str], metrics: list[str]) -> list[Path]:

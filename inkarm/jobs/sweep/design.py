@@ -42,14 +42,31 @@ class Axis:
     count: int | None = None
     integer: bool = False
 
+    def check_counted(self) -> None:
+        """Refuse a range without a count (a grid or zip needs lo:hi:n)."""
+        if self.span is not None and self.count is None:
+            raise InputError(f"{self.key}={self.span[0]:g}:{self.span[1]:g} is a range without "
+                             "a count: give lo:hi:n for a grid or zip, or use --random N",
+                             key="--set", value=self.key)
+
+    @property
+    def first(self):
+        """The axis's first value, without making the others."""
+        if self.span is None:
+            return self.values[0]
+        return round(self.span[0]) if self.integer else self.span[0]
+
+    @property
+    def size(self) -> int | None:
+        """How many values a grid or zip design takes from the axis (None: a range without a
+        count), known before any value is made."""
+        return len(self.values) if self.span is None else self.count
+
     def grid_values(self) -> tuple:
         """The axis's values for a grid or zip design."""
         if self.span is None:
             return self.values
-        if self.count is None:
-            raise InputError(f"{self.key}={self.span[0]:g}:{self.span[1]:g} is a range without "
-                             "a count: give lo:hi:n for a grid or zip, or use --random N",
-                             key="--set", value=self.key)
+        self.check_counted()
         values = np.linspace(self.span[0], self.span[1], self.count)
         return tuple(round(float(v)) for v in values) if self.integer else \
             tuple(float(v) for v in values)
@@ -105,18 +122,43 @@ def parse_axis(text: str) -> Axis:
 def parse_seeds(text: str) -> tuple[int, ...]:
     """``--seeds``: ``a:b`` (a, a+1, ..., b-1) or ``a,b,c``."""
     try:
-        if ":" in text:
-            lo, hi = (int(v) for v in text.split(":"))
-            seeds = tuple(range(lo, hi))
-        else:
-            seeds = tuple(int(v) for v in text.split(","))
+        bounds = [int(v) for v in text.split(":")] if ":" in text else None
+        listed = None if bounds else [int(v) for v in text.split(",")]
     except ValueError:
         raise InputError(f"expected seeds as a:b or a,b,c (integers), got {text!r}",
                          key="--seeds", value=text) from None
+    if bounds is not None:
+        if len(bounds) != 2:
+            raise InputError(f"expected seeds as a:b or a,b,c (integers), got {text!r}",
+                             key="--seeds", value=text)
+        if bounds[1] - bounds[0] > MAX_POINTS:  # refused before the range is made
+            raise InputError(f"{bounds[1] - bounds[0]} seeds, more than the {MAX_POINTS} runs "
+                             f"a sweep may have, got {text!r}", key="--seeds", value=text)
+    seeds = tuple(range(*bounds)) if bounds is not None else tuple(listed)
     if not seeds or min(seeds) < 0:
         raise InputError(f"expected at least one seed, all >= 0, got {text!r}", key="--seeds",
                          value=text)
     return seeds
+
+
+def check_design_size(axes: list[Axis], *, zip_axes: bool = False, random: int | None = None,
+                      seeds: int = 1) -> int:
+    """The number of runs the design asks for (points x ``seeds``), from the axes' sizes alone,
+    refused past :data:`MAX_POINTS` before any point (or value) is made."""
+    if random is not None:
+        points = random
+    else:
+        for axis in axes:
+            axis.check_counted()
+        sizes = [axis.size or 0 for axis in axes]
+        points = (max(sizes) if sizes else 0) if zip_axes else math.prod(sizes)
+    runs = points * seeds
+    if runs > MAX_POINTS:
+        shape = "random" if random is not None else "zip" if zip_axes else " x ".join(
+            str(a.size) for a in axes)
+        raise InputError(f"{runs} runs ({shape} design, {seeds} seed(s)), more than the "
+                         f"{MAX_POINTS} a sweep may have", key="--set")
+    return runs
 
 
 def grid_design(axes: list[Axis]) -> list[dict]:

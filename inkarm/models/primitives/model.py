@@ -61,11 +61,15 @@ class PrimitivesConfig:
     min_variance: float = 1e-6
 
     def __post_init__(self) -> None:
-        for name, low in (("n_chains", 1), ("n_states", 2), ("max_inner", 1), ("max_outer", 0)):
+        # the ceilings are budgets, checked before any allocation: past them a request is a
+        # typo that would run for days (EM costs max_outer * max_inner * M * K^2 per sample)
+        for name, low, high in (("n_chains", 1, 200), ("n_states", 2, 100),
+                                ("max_inner", 1, 1000), ("max_outer", 0, 10_000)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise InputError(f"expected an integer >= {low}, got {value!r}", key=name,
-                                 value=value)
+            if (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+                    or not low <= value <= high):
+                raise InputError(f"expected an integer in {low}..{high}, got {value!r}",
+                                 key=name, value=value)
         for name, lo, hi in (("tol_inner", 0.0, np.inf), ("tol_outer", 0.0, np.inf),
                              ("stay_init", 0.0, 1.0), ("min_variance", 0.0, 1.0)):
             value = getattr(self, name)
