@@ -8,10 +8,16 @@ command owns but did not produce this time (a failed run has no ``metrics.json``
 no file of an earlier run is left beside a new one. If anything fails before the move (a full
 disk, an error, Ctrl-C), ``--out`` is left exactly as it was. A single file is written the
 same way (:func:`atomic_file`): complete under a hidden name beside it, then renamed.
+
+A rename works only within one file system, so the staging folder is made on the target's own:
+inside ``--out`` when it exists (a mount point, or a link to a folder elsewhere, included),
+else beside it. Where a rename still crosses file systems (a single file that is itself a mount
+point), the file is copied beside the target and renamed, else copied onto it.
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import tempfile
@@ -78,16 +84,53 @@ def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
     return out
 
 
+def _stage_dir(out: Path) -> Path:
+    """Where to stage files for ``out``: inside it when it is a folder (followed to where a
+    link leads: the rename into it must stay on its file system), else in its parent."""
+    if out.is_dir():
+        return out.resolve()
+    parent = out.absolute().parent
+    parent.mkdir(parents=True, exist_ok=True)
+    return parent.resolve()
+
+
+def move_into_place(src: Path, dst: Path) -> None:
+    """Rename ``src`` to ``dst`` atomically; across file systems (``EXDEV``, or ``EBUSY`` for a
+    mount point) copy it to a hidden file beside ``dst`` and rename that, or, if that too
+    crosses (``dst`` is itself a mount point), copy it onto ``dst``."""
+    try:
+        os.replace(src, dst)
+        return
+    except OSError as e:
+        if e.errno not in (errno.EXDEV, errno.EBUSY):
+            raise
+    fd, name = tempfile.mkstemp(prefix=f".{dst.stem}.", suffix=".partial",
+                                dir=dst.absolute().parent)
+    os.close(fd)
+    beside = Path(name)
+    try:
+        shutil.copyfile(src, beside)
+        try:
+            os.replace(beside, dst)
+        except OSError as e:
+            if e.errno not in (errno.EXDEV, errno.EBUSY):
+                raise
+            shutil.copyfile(beside, dst)
+    finally:
+        beside.unlink(missing_ok=True)
+        Path(src).unlink(missing_ok=True)
+
+
 @contextmanager
 def staged(out_dir: str | Path, marker: str | None = None,
            owned: Iterable[str] = ()) -> Iterator[Path]:
-    """Yield a fresh staging folder; on a normal exit move its files into ``out_dir`` (created
-    if missing), ``marker`` last, and remove the ``owned`` names that were not produced. On an
-    exception the staging folder is deleted and ``out_dir`` is untouched."""
+    """Yield a fresh staging folder on ``out_dir``'s file system; on a normal exit move its
+    files into ``out_dir`` (created if missing), ``marker`` last, and remove the ``owned``
+    names that were not produced. On an exception the staging folder is deleted and
+    ``out_dir``'s files are untouched."""
     out = Path(out_dir)
-    parent = out.absolute().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=parent))
+    stage = Path(tempfile.mkdtemp(prefix=f".{out.name or 'out'}.", suffix=".partial",
+                                  dir=_stage_dir(out)))
     try:
         yield stage
         out.mkdir(exist_ok=True)
@@ -97,7 +140,7 @@ def staged(out_dir: str | Path, marker: str | None = None,
         for name in set(owned) - set(produced):
             (out / name).unlink(missing_ok=True)
         for name in sorted(produced, key=lambda n: n == marker):
-            os.replace(stage / name, out / name)
+            move_into_place(stage / name, out / name)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 
@@ -114,6 +157,6 @@ def atomic_file(path: str | Path) -> Iterator[Path]:
     staging = Path(name)
     try:
         yield staging
-        os.replace(staging, out)
+        move_into_place(staging, out)
     finally:
         staging.unlink(missing_ok=True)

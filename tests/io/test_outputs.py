@@ -1,6 +1,8 @@
 """Output folders: checked before work, staged, moved in whole, never writing through links."""
 
 import os
+import shutil
+from pathlib import Path
 
 import pytest
 
@@ -100,3 +102,86 @@ def test_an_out_file_is_checked_before_any_work(tmp_path, name, message):
     assert message in str(err.value) and err.value.key == "--out"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data.npz"]  # nothing created
     assert check_out_file(tmp_path / "M.NPZ", "model", (".npz",)) == tmp_path / "M.NPZ"
+
+
+def _other_file_system(tmp_path: Path) -> Path:
+    """A fresh folder on another file system than ``tmp_path`` (/dev/shm is a tmpfs on Linux),
+    or a skip where there is none."""
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or not os.access(shm, os.W_OK) or \
+            shm.stat().st_dev == tmp_path.stat().st_dev:
+        pytest.skip("no second file system (/dev/shm) to write to")
+    import tempfile
+    return Path(tempfile.mkdtemp(prefix="inkarm-test-", dir=shm))
+
+
+@pytest.fixture
+def elsewhere(tmp_path):
+    folder = _other_file_system(tmp_path)
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_out_linked_to_another_file_system_gets_its_files(tmp_path, elsewhere):
+    """--out a link to a folder on another file system (as a mount point is): the staging
+    folder is made there, so every rename stays on one file system (no 'Invalid cross-device
+    link'), and an earlier run's marker survives a failure."""
+    out = tmp_path / "out"
+    os.symlink(elsewhere, out)
+    (elsewhere / "status.json").write_text("earlier run")
+    with pytest.raises(RuntimeError), staged(out, marker="status.json",
+                                             owned=("status.json",)) as stage:
+        (stage / "status.json").write_text("half")
+        raise RuntimeError("the run failed")
+    assert (elsewhere / "status.json").read_text() == "earlier run"
+    with staged(out, marker="status.json", owned=("status.json", "metrics.json")) as stage:
+        (stage / "status.json").write_text("new")
+        (stage / "canvas.png").write_bytes(b"png")
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["canvas.png", "status.json"]
+    assert (elsewhere / "status.json").read_text() == "new"
+    assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
+
+
+def test_a_new_out_under_a_link_to_another_file_system(tmp_path, elsewhere):
+    os.symlink(elsewhere, tmp_path / "mnt")
+    with staged(tmp_path / "mnt" / "run") as stage:
+        (stage / "canvas.png").write_bytes(b"png")
+    assert (elsewhere / "run" / "canvas.png").read_bytes() == b"png"
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["run"]
+
+
+def test_a_rename_that_crosses_file_systems_is_copied_then_renamed(tmp_path, monkeypatch):
+    """The fallback for a target that is itself a mount point: every rename onto it fails
+    with EXDEV, so the file is copied (whole) onto it and nothing hidden is left behind."""
+    import errno
+
+    import inkarm.io.outputs as outputs
+
+    real = os.replace
+    target = tmp_path / "model.npz"
+    target.write_bytes(b"old")
+
+    def replace(src, dst):
+        if Path(dst) == target:
+            raise OSError(errno.EXDEV, "Invalid cross-device link")
+        return real(src, dst)
+
+    monkeypatch.setattr(outputs.os, "replace", replace)
+    with atomic_file(target) as partial:
+        partial.write_bytes(b"new model")
+    assert target.read_bytes() == b"new model"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.npz"]
+
+
+def test_other_rename_errors_are_not_hidden(tmp_path, monkeypatch):
+    import errno
+
+    import inkarm.io.outputs as outputs
+
+    def replace(src, dst):
+        raise OSError(errno.EACCES, "Permission denied")
+
+    monkeypatch.setattr(outputs.os, "replace", replace)
+    with pytest.raises(PermissionError), atomic_file(tmp_path / "a.json") as partial:
+        partial.write_text("{}")
+    assert list(tmp_path.iterdir()) == []
