@@ -22,8 +22,14 @@ _UNSET: Any = object()
 
 
 def closest(name: str, choices: Iterable[str]) -> str | None:
-    """The valid name closest to ``name`` (difflib ratio >= 0.6), else None."""
-    match = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1, cutoff=0.6)
+    """The valid name closest to ``name``: the shortest one it begins (a key written without
+    its unit, ``force_gain`` for ``force_gain_mm_per_ns``), else the nearest by difflib's
+    ratio (>= 0.6), else None."""
+    name, options = str(name), [str(c) for c in choices]
+    extended = sorted((c for c in options if name and c.startswith(name) and c != name), key=len)
+    if extended:
+        return extended[0]
+    match = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
     return match[0] if match else None
 
 

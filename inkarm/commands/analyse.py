@@ -8,14 +8,14 @@ from pathlib import Path
 
 from inkarm.commands import add_trace_options, load_trace_for
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import check_out_dir, out_path, staged
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "analyse",
         help="target density vs curvature and the power law of a trace's DPPLA targets",
-        description="Adaptive sampling of a trace by DPPLA (seed 001) at a compression rate; "
+        description="Adaptive sampling of a trace by DPPLA (Marteau and Gibet 2005) at a compression rate; "
         "prints the correlation of target density with curvature and the exponent gamma of "
         "V_T = K (1/D_s)^gamma, per stroke and pooled over all strokes.",
     )
@@ -26,7 +26,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default=0.75,
         help="compression rate rho in (0, 1) (default 0.75)",
     )
-    p.add_argument("--out", type=Path, help="folder for the figures (density-curvature, power law)")
+    p.add_argument("--out", type=out_path, help="folder for the figures (density-curvature, power law)")
     p.add_argument(
         "--banded", action="store_true", help="banded DPPLA, O(w^2/k), instead of the exact one"
     )

@@ -34,7 +34,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("scenario", nargs="?", default=None,
                    help="scenario file (TOML); default: the embedded letter N")
     p.add_argument("--robot", metavar="NAME|FILE.toml", default=None,
-                   help="robot profile: a built-in name (inkarm robots: "
+                   help="robot profile: a built-in name ("
                    f"{', '.join(robot_names())}) or a profile file; default: the scenario's")
     p.add_argument("--out", default="out/draw", help="output folder (default out/draw)")
     p.add_argument("--video", metavar="FILE.mp4", default=None,

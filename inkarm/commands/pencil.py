@@ -8,7 +8,7 @@ from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.errors import InputError
-from inkarm.io.outputs import atomic_file, check_out_dir, check_out_file, staged
+from inkarm.io.outputs import atomic_file, check_out_dir, check_out_file, out_path, staged
 
 SHOW_FILES = ("profile.png", "line.png")
 
@@ -17,7 +17,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "pencil",
         help="pencil textures: extract a profile from a scanned line, show one",
-        description="Pencil texture of seed 002 ch. 4: 'extract' reads a greyscale scan of one "
+        description="Pencil texture of the Human Line Algorithm (Al-Meraj 2008, ch. 4): 'extract' reads a greyscale scan of one "
         "straight pencil line and writes its profile (mid-line and whole-line histograms, "
         "co-occurrence matrices) for [ink] grade = \"PROFILE.npz\"; 'show' draws a profile "
         "(a shipped grade or a file) and a line synthesized from it.",
@@ -26,7 +26,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     ex = sub.add_parser("extract", help="a profile from a scanned pencil line")
     ex.add_argument("scan", type=Path, help="greyscale image (PNG, TIFF, ...) of one straight "
                     "pencil line on white paper, any direction")
-    ex.add_argument("--out", type=Path, required=True, help="profile file to write (.npz)")
+    ex.add_argument("--out", type=out_path, required=True, help="profile file to write (.npz)")
     ex.add_argument("--name", help="the pencil's name (default: the scan's file name)")
     ex.add_argument("--dpi", type=float, default=600.0,
                     help="resolution of the scan in [dots per inch] (default 600)")
@@ -37,7 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     show = sub.add_parser("show", help="figure of a profile and a line synthesized from it")
     show.add_argument("profile", help="a shipped grade (2H, H, F, HB, B, 3B, 6B, 8B) or a "
                       "profile file")
-    show.add_argument("--out", type=Path, required=True,
+    show.add_argument("--out", type=out_path, required=True,
                       help="folder for profile.png and line.png")
     show.add_argument("--length-mm", type=float, default=30.0,
                       help="length of the synthesized line in [mm] (default 30)")

@@ -26,7 +26,7 @@ import numpy as np
 
 from inkarm.core import budget
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import check_out_dir, out_path, staged
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -37,7 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "and the plan figure (plan.png, plan.svg). Schema: see inkarm.io.planfile.",
     )
     p.add_argument("file", type=Path, help="plan file (TOML); schema in inkarm.io.planfile")
-    p.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
+    p.add_argument("--out", type=out_path, required=True, help="output directory (created if missing)")
     p.add_argument(
         "--samples",
         type=int,

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.errors import InputError
-from inkarm.io.outputs import atomic_file, check_out_file
+from inkarm.io.outputs import atomic_file, check_out_file, out_path
 
 LETTER_PREFIX = "letter:"
 
@@ -30,7 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "(one sample per file), or letter:X for --samples stochastic LQT samples of the letter "
         "X across handstyles. Prints one line per EM iteration to stderr; writes MODEL (.npz).")
     learn.add_argument("data", help="CSV file, folder of CSV files, or letter:X")
-    learn.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
+    learn.add_argument("--out", type=out_path, required=True, help="model file to write (.npz)")
     learn.add_argument("--chains", type=int, default=20, help="primitives M (default 20)")
     learn.add_argument("--states", type=int, default=10,
                        help="states per chain K, silent state included (default 10)")
@@ -55,7 +55,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "and integrates the output to a pen path from (0, 0). Writes drawing.csv, drawing.svg, "
         "scribble.png and primitives.png into --out.")
     scribble.add_argument("model", type=Path, help="model file (.npz) from `primitives learn`")
-    scribble.add_argument("--out", type=Path, required=True, help="output folder")
+    scribble.add_argument("--out", type=out_path, required=True, help="output folder")
     scribble.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     scribble.add_argument("--duration", type=float, default=4.0,
                           help="length of the scribble in [s] (default 4)")

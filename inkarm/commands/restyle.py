@@ -8,7 +8,7 @@ from pathlib import Path
 
 from inkarm.commands import add_trace_options, load_trace_for, options_named
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import check_out_dir, out_path, staged
 from inkarm.plans.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
@@ -18,12 +18,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "restyle",
         help="re-draw a trace (CSV or SVG) through its DPPLA targets with the LQT",
-        description="Each stroke of the trace is reduced to DPPLA targets (seed 001), which "
-        "become Gaussians shaped by the local geometry, tracked by the LQT (seed 000). Writes "
+        description="Each stroke of the trace is reduced to DPPLA targets (Marteau and Gibet 2005), which "
+        "become Gaussians shaped by the local geometry, tracked by the LQT (Berio, Calinon and Leymarie 2017). Writes "
         "the stylised drawing as CSV and SVG and a figure comparing trace, targets and result.",
     )
     p.add_argument("trace", type=Path, help="trace file: CSV (t,x,y[,z][,stroke]) or SVG")
-    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument("--out", type=out_path, required=True, help="output folder")
     p.add_argument(
         "--compression",
         type=float,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from inkarm.commands import options_named
 from inkarm.commands.write import check_common
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import check_out_dir, out_path, staged
 from inkarm.plans.glyphs import check_tag, make_tag
 from inkarm.plans.handstyles import get_handstyle, load_handstyles
 
@@ -25,7 +25,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "The glyphs are joined with ligatures into one stroke that the LQT draws in the chosen "
         "handstyle. Writes drawing.csv, drawing.svg and tag.png.",
     )
-    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument("--out", type=out_path, required=True, help="output folder")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
         "--style", default=DEFAULT_STYLE, help=f"handstyle name (default {DEFAULT_STYLE})"

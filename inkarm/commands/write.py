@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from inkarm.errors import InputError
-from inkarm.io.outputs import check_out_dir, staged
+from inkarm.io.outputs import check_out_dir, out_path, staged
 from inkarm.plans.handstyles import PRESETS, get_handstyle, load_handstyles
 from inkarm.plans.text import (
     DEFAULT_FONT,
@@ -30,7 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "Handstyles: " + "; ".join(f"{s.name}: {s.description}" for s in PRESETS.values()),
     )
     p.add_argument("text", help="the text (use \\n in the shell's quoting for new lines)")
-    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument("--out", type=out_path, required=True, help="output folder")
     p.add_argument(
         "--style", default=DEFAULT_STYLE, help=f"handstyle name (default {DEFAULT_STYLE})"
     )

@@ -28,6 +28,16 @@ from pathlib import Path
 from inkarm.errors import InputError
 
 
+def out_path(text: str) -> Path:
+    """An argparse ``type`` for ``--out``: the path, refusing an empty string (``Path('')``
+    would be the working directory, which no user means)."""
+    if not text.strip():
+        import argparse
+
+        raise argparse.ArgumentTypeError("expected a file or folder name, got an empty string")
+    return Path(text)
+
+
 def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
                   names: Iterable[str] = ()) -> Path:
     """The ``--out`` folder, checked before any work (nothing is created): not empty, not a
@@ -84,6 +94,19 @@ def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
     return out
 
 
+def _umask() -> int:
+    """The process's file-creation mask (read without changing it where Linux allows)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except OSError:
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def _stage_dir(out: Path) -> Path:
     """Where to stage files for ``out``: inside it when it is a folder (followed to where a
     link leads: the rename into it must stay on its file system), else in its parent."""
@@ -109,7 +132,7 @@ def move_into_place(src: Path, dst: Path) -> None:
     os.close(fd)
     beside = Path(name)
     try:
-        shutil.copyfile(src, beside)
+        shutil.copy(src, beside)  # content and mode
         try:
             os.replace(beside, dst)
         except OSError as e:
@@ -153,6 +176,7 @@ def atomic_file(path: str | Path) -> Iterator[Path]:
     out = Path(path)
     fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=f".partial{out.suffix}",
                                 dir=out.absolute().parent)
+    os.fchmod(fd, 0o666 & ~_umask())  # mkstemp's 0600 would make every output private
     os.close(fd)
     staging = Path(name)
     try:

@@ -6,14 +6,13 @@ key path, says what was expected and, for a mistyped key or value, the closest v
 
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from inkarm.errors import ScenarioError
+from inkarm.errors import ScenarioError, closest
 
 MAX_TOML_BYTES = 16 * 1024 * 1024  # far above any plan, scenario or profile a person writes
 
@@ -61,8 +60,8 @@ class TomlReader:
         for name in table:
             if name not in allowed:
                 where = f"{key}.{name}" if key else name
-                close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
-                hint = f" (did you mean '{close[0]}'?)" if close else ""
+                close = closest(name, allowed)
+                hint = f" (did you mean '{close}'?)" if close else ""
                 raise self.error(
                     where, f"unknown key{hint}; valid keys here: {', '.join(allowed)}",
                     value=name, choices=allowed,
@@ -100,8 +99,8 @@ class TomlReader:
         if not isinstance(value, str):
             raise self.error(key, f"expected one of {', '.join(map(repr, options))}, got {describe(value)}")
         if value not in options:
-            close = difflib.get_close_matches(value, options, n=1, cutoff=0.6)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            close = closest(value, options)
+            hint = f" (did you mean '{close}'?)" if close else ""
             raise self.error(key, f"unknown value {value!r}{hint}; expected one of "
                              f"{', '.join(map(repr, options))}", value=value, choices=options)
         return value

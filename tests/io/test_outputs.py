@@ -155,7 +155,7 @@ def test_a_rename_that_crosses_file_systems_is_copied_then_renamed(tmp_path, mon
     with EXDEV, so the file is copied (whole) onto it and nothing hidden is left behind."""
     import errno
 
-    import inkarm.io.outputs as outputs
+    from inkarm.io import outputs
 
     real = os.replace
     target = tmp_path / "model.npz"
@@ -176,7 +176,7 @@ def test_a_rename_that_crosses_file_systems_is_copied_then_renamed(tmp_path, mon
 def test_other_rename_errors_are_not_hidden(tmp_path, monkeypatch):
     import errno
 
-    import inkarm.io.outputs as outputs
+    from inkarm.io import outputs
 
     def replace(src, dst):
         raise OSError(errno.EACCES, "Permission denied")
@@ -185,3 +185,13 @@ def test_other_rename_errors_are_not_hidden(tmp_path, monkeypatch):
     with pytest.raises(PermissionError), atomic_file(tmp_path / "a.json") as partial:
         partial.write_text("{}")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_atomic_file_gets_the_usual_mode_not_mkstemps_private_one(tmp_path):
+    mask = os.umask(0o022)
+    try:
+        with atomic_file(tmp_path / "job.gcode") as partial:
+            partial.write_text("G0 X0\n")
+    finally:
+        os.umask(mask)
+    assert (tmp_path / "job.gcode").stat().st_mode & 0o777 == 0o644
