@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from inkarm.core.npz import read_npz
 from inkarm.errors import InputError
 
 PHASES = ("approach", "descend", "draw", "lift", "travel", "home")
@@ -105,22 +106,14 @@ class DrawLog:
     @classmethod
     def from_npz(cls, path) -> DrawLog:
         """Read a log written by :meth:`to_npz`; the same arrays, bit for bit."""
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                missing = [f.name for f in fields(cls)
-                           if f.name not in data.files and f.name != "notes"]
-                if missing:
-                    raise InputError(f"not a DrawLog: missing {', '.join(missing)}",
-                                     file=str(path))
-                phases = tuple(data["phases"].tolist()) if "phases" in data.files else PHASES
-                if phases != PHASES:
-                    raise InputError(f"phase names {phases} differ from {PHASES}",
-                                     file=str(path))
-                columns = {f.name: data[f.name] for f in fields(cls) if f.name in data.files}
-        except (OSError, ValueError) as e:
-            if isinstance(e, InputError):
-                raise
-            raise InputError(f"cannot read a DrawLog: {e}", file=str(path)) from None
+        data = read_npz(path, "a DrawLog")
+        missing = [f.name for f in fields(cls) if f.name not in data and f.name != "notes"]
+        if missing:
+            raise InputError(f"not a DrawLog: missing {', '.join(missing)}", file=str(path))
+        phases = tuple(data["phases"].tolist()) if "phases" in data else PHASES
+        if phases != PHASES:
+            raise InputError(f"phase names {phases} differ from {PHASES}", file=str(path))
+        columns = {f.name: data[f.name] for f in fields(cls) if f.name in data}
         columns["wall_s"] = float(columns["wall_s"])
         columns["notes"] = tuple(columns.get("notes", np.array([], dtype=str)).tolist())
         return cls(**columns)

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.core.equality import same
+from inkarm.core.npz import read_npz
 from inkarm.errors import InputError
 
 A4_MM = (210.0, 297.0)
@@ -424,12 +425,12 @@ class Drawing:
 
     @staticmethod
     def from_npz(path: str | Path) -> Drawing:
-        with np.load(path) as z:
-            missing = {"t", "pos", "stroke"} - set(z.files)
-            if missing:
-                raise InputError(f"{path}: missing arrays {sorted(missing)}")
-            t, pos, sid = z["t"], z["pos"], z["stroke"]
-            page = tuple(z["page_size"]) if "page_size" in z.files else A4_MM
+        z = read_npz(path, "a drawing")
+        missing = {"t", "pos", "stroke"} - set(z)
+        if missing:
+            raise InputError(f"{path}: missing arrays {sorted(missing)}")
+        t, pos, sid = z["t"], z["pos"], z["stroke"]
+        page = tuple(z["page_size"]) if "page_size" in z else A4_MM
         strokes = [Trajectory(t=t[sid == k], pos=pos[sid == k]) for k in np.unique(sid)]
         return Drawing(strokes, page_size=page)
 

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.npz import read_npz, scalar_int
 from inkarm.errors import InputError, unknown_name
 
 FORMAT = "inkarm-pencil-profile"
@@ -148,16 +149,10 @@ def load_profile(path: str | Path) -> PencilProfile:
     file that is missing, not an npz, of another format or version, or whose arrays are not a
     profile's."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("no such pencil profile file", file=str(path))
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {key: data[key] for key in data.files}
-    except (OSError, ValueError) as e:
-        raise InputError(f"not a pencil profile (.npz) file: {e}", file=str(path)) from None
+    arrays = read_npz(path, "a pencil profile")
     if str(arrays.get("format", "")) != FORMAT:
         raise InputError(f"not a pencil profile: expected format {FORMAT!r}", file=str(path))
-    version = int(arrays.get("version", -1))
+    version = scalar_int(arrays, "version", path)
     if version != VERSION:
         raise InputError(f"pencil profile version {version}: this inkarm reads version "
                          f"{VERSION}", file=str(path), key="version", value=version)

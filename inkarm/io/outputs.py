@@ -47,6 +47,10 @@ def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
     if not text.strip():
         raise InputError("expected a folder name, got an empty string", key="--out", value=text)
     out = Path(text)
+    dangling = next((p for p in (out, *out.parents) if p.is_symlink() and not p.exists()), None)
+    if dangling is not None:
+        raise InputError(f"{dangling} is a link that leads nowhere or in a loop; expected a "
+                         "folder", key="--out", value=text)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out} exists and is not a directory", key="--out", value=text)
     existing = next((p for p in (out, *out.parents) if p.exists()), Path("."))

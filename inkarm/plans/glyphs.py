@@ -36,6 +36,9 @@ MAX_GLYPH_TARGETS = 1000
 """Most random targets in one glyph."""
 MAX_GLYPH_SIZE = 1000.0
 """Largest glyph height in [mm]."""
+MIN_GLYPH_SIZE = 0.1
+"""Smallest glyph height in [mm]: below a pen's line width, and where the figure's size
+underflows."""
 DT_RANGE = (1e-4, 1.0)
 """Accepted LQT time steps of a tag in [s]."""
 
@@ -272,9 +275,9 @@ def check_tag(
             f"make_tag: targets per glyph must satisfy 2 <= min <= max <= {MAX_GLYPH_TARGETS}, "
             f"got {targets}", key="targets", value=targets,
         )
-    if not (isinstance(size, (int, float)) and 0 < size <= MAX_GLYPH_SIZE):
+    if not (isinstance(size, (int, float)) and MIN_GLYPH_SIZE <= size <= MAX_GLYPH_SIZE):
         raise InputError(
-            f"make_tag: glyph size must be positive and at most {MAX_GLYPH_SIZE:g} mm, got "
+            f"make_tag: glyph size must be in [{MIN_GLYPH_SIZE:g}, {MAX_GLYPH_SIZE:g}] mm, got "
             f"{size} mm", key="size", value=size,
         )
     require(n_glyphs, TEXT, f"a tag of {n_glyphs} glyphs", key="n_glyphs", value=n_glyphs)

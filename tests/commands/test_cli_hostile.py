@@ -199,7 +199,7 @@ def test_restyle_lqt_steps_are_estimated_before_any_work(svg, tmp_path, capsys):
         (["--dt", "1e-4", "--glyphs", "200"], ["--dt: LQT of 200 glyphs", "INKARM_MAX_STEPS"]),
         (["--dt", "0"], ["--dt: must be a positive number of seconds"]),
         (["--dt", "nan"], ["--dt: must be a positive number of seconds"]),
-        (["--size", "1e300"], ["--size: make_tag: glyph size must be positive and at most 1000"]),
+        (["--size", "1e300"], ["--size: make_tag: glyph size must be in [0.1, 1000] mm"]),
         (["--size", "inf"], ["--size"]),
     ],
 )

@@ -72,7 +72,8 @@ def test_write_with_a_user_style_file(tmp_path, capsys):
         (["write", "ab", "--dt", "0"], "dt: must be a positive number of seconds"),
         (["tag", "--style", "fancy"], r"unknown handstyle 'fancy'; available: .*graffiti"),
         (["tag", "--glyphs", "0"], "n_glyphs must be >= 1"),
-        (["tag", "--size", "-3"], "glyph size must be positive"),
+        (["tag", "--size", "-3"], "glyph size must be in"),
+        (["tag", "--size", "1e-300"], r"glyph size must be in \[0.1, 1000\] mm, got 1e-300"),
         (["tag", "--seed", "-2"], r"--seed: expected an integer >= 0, got -2"),
     ],
 )

@@ -103,7 +103,7 @@ def test_an_npz_that_is_not_a_log_is_refused_naming_the_file(tmp_path):
 def test_a_file_that_is_not_an_npz_is_refused_naming_it(tmp_path):
     path = tmp_path / "log.npz"
     path.write_text("not a zip")
-    with pytest.raises(InputError, match="cannot read a DrawLog") as info:
+    with pytest.raises(InputError, match="not a DrawLog") as info:
         DrawLog.from_npz(path)
     assert info.value.file == str(path)
     missing = tmp_path / "absent.npz"

@@ -61,7 +61,7 @@ def test_every_shipped_grade_loads_and_orders_from_hard_to_soft():
 
 @pytest.mark.parametrize(("write", "message"), [
     (None, r"no such pencil profile file"),
-    (lambda f: f.write_text("hello"), r"not a pencil profile \(.npz\) file"),
+    (lambda f: f.write_text("hello"), r"not a pencil profile \(.npz\)"),
     (lambda f: np.savez(f, format=np.array("something else")),
      r"not a pencil profile: expected format 'inkarm-pencil-profile'"),
     (lambda f: np.savez(f, format=np.array(pp.FORMAT), version=np.array(99)),

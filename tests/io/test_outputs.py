@@ -195,3 +195,16 @@ def test_an_atomic_file_gets_the_usual_mode_not_mkstemps_private_one(tmp_path):
     finally:
         os.umask(mask)
     assert (tmp_path / "job.gcode").stat().st_mode & 0o777 == 0o644
+
+
+@pytest.mark.parametrize("make", [
+    lambda d: os.symlink(d / "loop", d / "loop") or d / "loop",
+    lambda d: (os.symlink(d / "b", d / "a"), os.symlink(d / "a", d / "b")) and d / "a" / "run",
+    lambda d: os.symlink(d / "gone", d / "dangling") or d / "dangling" / "run",
+])
+def test_an_out_through_a_link_loop_or_a_dangling_link_is_refused(tmp_path, make):
+    out = make(tmp_path)
+    before = sorted(os.listdir(tmp_path))
+    with pytest.raises(InputError, match="a link that leads nowhere or in a loop"):
+        check_out_dir(out)
+    assert sorted(os.listdir(tmp_path)) == before

@@ -235,7 +235,7 @@ def test_bad_model_files_name_file_and_field(tmp_path, changes, message):
 
 
 def test_unreadable_model_files(tmp_path):
-    with pytest.raises(InputError, match="no such file"):
+    with pytest.raises(InputError, match="no such primitives model file"):
         PrimitiveModel.load(tmp_path / "missing.npz")
     junk = tmp_path / "junk.npz"
     junk.write_text("not a zip")

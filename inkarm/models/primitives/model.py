@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.npz import read_npz, scalar_int
 from inkarm.errors import InputError
 
 FORMAT_VERSION = 1
@@ -176,20 +177,14 @@ class PrimitiveModel:
     def load(cls, path: str | Path) -> PrimitiveModel:
         """Read a model written by :meth:`save`; a bad file names the file and the field."""
         path = Path(path)
-        if not path.is_file():
-            raise InputError(f"{path}: no such file", file=str(path))
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {k: data[k] for k in data.files}
-        except (OSError, ValueError, EOFError) as e:
-            raise InputError(f"not a primitives model (.npz): {e}", file=str(path)) from None
+        arrays = read_npz(path, "a primitives model")
         names = [f.name for f in fields(cls)]
         for name in ("version", *names):
             if name not in arrays:
                 raise InputError("missing field", file=str(path), key=name)
-        version = arrays["version"]
-        if version.shape != () or int(version) != FORMAT_VERSION:
-            raise InputError(f"unsupported version {version!r}; this inkarm reads version "
+        version = scalar_int(arrays, "version", path)
+        if version != FORMAT_VERSION:
+            raise InputError(f"unsupported version {version}; this inkarm reads version "
                              f"{FORMAT_VERSION}", file=str(path), key="version")
         kwargs = {}
         for name in names:
