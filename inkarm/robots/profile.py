@@ -51,7 +51,7 @@ import numpy as np
 
 from inkarm.errors import InputError
 from inkarm.io.toml import TomlReader, load_toml
-from inkarm.robots.arms import BUILDERS
+from inkarm.robots.arms import BUILDER_JOINTS, BUILDERS
 from inkarm.robots.gains import PIDGains
 
 TOP_KEYS = ("name", "description", "control_period_s", "model", "pen", "paper", "joints",
@@ -214,10 +214,12 @@ def _joint(rd: TomlReader, raw, i: int, menagerie: bool) -> Joint:
                        f"{np.rad2deg(joint_range).round(3).tolist()}", value=home)
     return Joint(
         name=rd.text(table["name"], f"{key}.name"),
-        speed_limit=float(np.deg2rad(rd.number(table["speed_deg_s"], f"{key}.speed_deg_s", 0.0,
-                                               strict=True, maximum=36000.0))),
-        torque_limit=rd.number(table["torque_nm"], f"{key}.torque_nm", 0.0, strict=True,
-                               maximum=1e5),
+        # the floors are where a profile stops describing an arm that can draw (a joint slower
+        # than 0.1 deg/s, a motor weaker than 1 mN m): smaller values are typos, and break the
+        # time scaling and MuJoCo's actuator limits downstream
+        speed_limit=float(np.deg2rad(rd.number(table["speed_deg_s"], f"{key}.speed_deg_s", 0.1,
+                                               maximum=36000.0))),
+        torque_limit=rd.number(table["torque_nm"], f"{key}.torque_nm", 1e-3, maximum=1e5),
         home=home,
         range=joint_range,
     )
@@ -239,6 +241,10 @@ def _model(rd: TomlReader, raw, n: int) -> ModelSource:
     kw = {}
     if "builder" in table:
         kw["builder"] = rd.choice(table["builder"], "model.builder", tuple(BUILDERS))
+        if BUILDER_JOINTS[kw["builder"]] != n:
+            raise rd.error("joints", f"the {kw['builder']} builder makes "
+                           f"{BUILDER_JOINTS[kw['builder']]} joints; got {n} [[joints]] tables",
+                           value=n)
     else:
         kw["menagerie"] = rd.text(table["menagerie"], "model.menagerie")
         if "flange_site" in table:
@@ -267,6 +273,7 @@ def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
     names = [j.name for j in joints]
     if len(set(names)) != n:
         raise rd.error("joints", f"joint names repeat: {names}", value=names)
+    model = _model(rd, model_table, n)  # before the gains: a joint count the builder cannot make
     pid = _gains(rd, data["gains"], "gains", joints, source)
     drive = _gains(rd, data["drive"], "drive", joints, source) if "drive" in data else None
     pen = rd.table(data.get("pen", {}), "pen")
@@ -288,11 +295,11 @@ def parse_profile(data: dict, source: str = "robot profile") -> RobotProfile:
         description=rd.text(data.get("description", ""), "description"),
         joints=joints,
         gains=pid,
-        model=_model(rd, model_table, n),
+        model=model,
         control_period_s=rd.number(data.get("control_period_s", 0.006), "control_period_s", 1e-4,
                                    maximum=0.1),
-        pen=PenMount(**{k: rd.number(v, f"pen.{k}", 0.0, strict=True, maximum=1000.0)
-                        for k, v in pen.items()}),
+        pen=PenMount(**{k: rd.number(v, f"pen.{k}", 1.0, maximum=1000.0)  # [mm]: MuJoCo needs
+                        for k, v in pen.items()}),                    # a holder it can draw
         source=source,
         backends={k: dict(rd.table(v, f"backends.{k}")) for k, v in backends.items()},
         drive_gains=drive,

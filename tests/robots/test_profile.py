@@ -157,6 +157,25 @@ BAD_PROFILES = [
         r"expected numbers in \[0, 1e\+07\]",
     ),
     (
+        "a joint too slow to draw",
+        lambda t: re.sub(r"speed_deg_s = [0-9.]+", "speed_deg_s = 1e-300", t, count=1),
+        "joints[0].speed_deg_s",
+        r"expected a number >= 0.1, got 1e-300",
+    ),
+    (
+        "a pen holder MuJoCo cannot build",
+        lambda t: re.sub(r"holder_mm = [0-9.]+", "holder_mm = 1e-300", t),
+        "pen.holder_mm",
+        r"expected a number >= 1, got 1e-300",
+    ),
+    (
+        "fewer joints than the builder makes",
+        lambda t: re.sub(r"(\[\[joints\]\]\nname = \"joint7\".*?)(?=\[gains\])", "", t,
+                         flags=re.DOTALL),
+        "joints",
+        r"the iiwa14 builder makes 7 joints; got 6 \[\[joints\]\] tables",
+    ),
+    (
         "unknown key",
         lambda t: t.replace("[pen]\n", "[pen]\nholder = 3.0\n"),
         "pen.holder",

@@ -8,3 +8,6 @@ builder name against this table without loading MuJoCo.
 
 BUILDERS = {"iiwa14": "inkarm.robots.arms.iiwa14", "wx250s": "inkarm.robots.arms.wx250s"}
 """Builder name -> module in :mod:`inkarm.robots.arms`."""
+
+BUILDER_JOINTS = {"iiwa14": 7, "wx250s": 6}
+"""Builder name -> the number of joints it builds (a profile must list as many)."""
