@@ -44,6 +44,8 @@ MIN_LINE_ROWS = 10
 GLCM_ANGLES = (math.pi / 2, 0.0, math.pi / 4, 3 * math.pi / 4)
 
 
+MAX_SCAN_PIXELS = 50_000_000  # an A4 page at 600 dpi is 35 M: more is not a scan of a line
+
 def read_scan(path: str | Path) -> np.ndarray:
     """The scan at ``path`` as an 8-bit grey image (rows, cols).
 
@@ -57,10 +59,24 @@ def read_scan(path: str | Path) -> np.ndarray:
         raise InputError("no such scan file", file=str(path))
     try:
         with Image.open(path) as image:
+            width, height = image.size
+            if width * height > MAX_SCAN_PIXELS:  # checked from the header, before decoding
+                raise InputError(f"a {width} x {height} pixel image: more than the "
+                                 f"{MAX_SCAN_PIXELS:,} pixels a scan of a line may have (crop "
+                                 f"it to the line, or scan at a lower resolution)",
+                                 file=str(path))
             image.load()
             mode = image.mode
             array = np.asarray(image)
-    except (UnidentifiedImageError, OSError, ValueError) as e:
+    except Image.DecompressionBombError as e:  # Pillow's own guard, past 179 M pixels
+        raise InputError(f"{str(e).split(',')[0]}: more than the {MAX_SCAN_PIXELS:,} pixels a "
+                         "scan of a line may have (crop it to the line, or scan at a lower "
+                         "resolution)", file=str(path)) from None
+    except (UnidentifiedImageError, OSError) as e:
+        raise InputError(f"cannot read the scan as an image: {e}", file=str(path)) from None
+    except ValueError as e:
+        if isinstance(e, InputError):
+            raise
         raise InputError(f"cannot read the scan as an image: {e}", file=str(path)) from None
     if array.size == 0:
         raise InputError("the scan has no pixels", file=str(path))

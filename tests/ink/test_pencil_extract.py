@@ -126,3 +126,38 @@ def test_read_scan_refuses_each_bad_file_naming_it(tmp_path):
         with pytest.raises(InputError, match=message) as caught:
             read_scan(tmp_path / name)
         assert caught.value.file == str(tmp_path / name)
+
+
+def _png_header(path, width: int, height: int) -> None:
+    """A PNG whose header says width x height (8-bit grey) and whose pixels are missing: what
+    a decompression bomb looks like before it is decoded."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    idat = zlib.compress(b"\0" * 64)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat)
+                     + chunk(b"IEND", b""))
+
+
+def test_a_huge_image_is_refused_from_its_header_before_decoding(tmp_path):
+    for width, height in ((30000, 30000), (9000, 9000)):  # past Pillow's guard, and below it
+        scan = tmp_path / f"huge{width}.png"
+        _png_header(scan, width, height)
+        with pytest.raises(InputError, match=rf"huge{width}.png: .*more than the 50,000,000 "
+                                             r"pixels a scan of a line may have"):
+            read_scan(scan)
+
+
+def test_the_command_refuses_it_in_one_line(tmp_path, capsys):
+    from inkarm.cli import main
+
+    scan = tmp_path / "huge.png"
+    _png_header(scan, 30000, 30000)
+    assert main(["pencil", "extract", str(scan), "--out", str(tmp_path / "p.npz")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "900000000 pixels" in err[0] and "50,000,000" in err[0]
