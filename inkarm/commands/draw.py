@@ -119,6 +119,20 @@ def scenario_inputs(scenario) -> list[Path]:
     return [f for f in files if f.is_file()]
 
 
+def summary_line(m) -> str:
+    """The run's metrics in one line; what the backend does not sense says so (never "nan")."""
+    from inkarm.core.run import metric_text
+
+    force = ("not sensed" if math.isnan(m["contact_force_mean_n"]) else
+             f"{m['contact_force_mean_n']:.2f} +- {m['contact_force_std_n']:.3f} N "
+             f"({m['force_p1_n']:.2f}..{m['force_p99_n']:.2f} N while drawing)")
+    return (f"tracking RMS {metric_text(m, 'tracking_rms_mm')}, max "
+            f"{metric_text(m, 'tracking_max_mm')}; ink chamfer {metric_text(m, 'ink_chamfer_mm')}; "
+            f"gaps {metric_text(m, 'gap_mm', spec='.2f')}; force {force}; joint margin "
+            f"{metric_text(m, 'joint_limit_margin_rad', 'rad', '.2f')}; real-time factor "
+            f"{metric_text(m, 'realtime_factor', '', '.1f')}")
+
+
 def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     if args.video:  # offscreen GL must be chosen before anything imports mujoco
@@ -189,15 +203,7 @@ def run(args: argparse.Namespace) -> int:
     if not result.ok:
         print(f"inkarm draw: warning: the drawing is {result.status}: {result.reason}",
               file=sys.stderr)
-    m = {key: math.nan for key in SUMMARY_KEYS} | dict(result.metrics)
-    print(
-        f"tracking RMS {m['tracking_rms_mm']:.3f} mm, max {m['tracking_max_mm']:.3f} mm; "
-        f"ink chamfer {m['ink_chamfer_mm']:.3f} mm; gaps {m['gap_mm']:.2f} mm; "
-        f"force {m['contact_force_mean_n']:.2f} +- {m['contact_force_std_n']:.3f} N "
-        f"({m['force_p1_n']:.2f}..{m['force_p99_n']:.2f} N while drawing); "
-        f"joint margin {m['joint_limit_margin_rad']:.2f} rad; "
-        f"real-time factor {m['realtime_factor']:.1f}"
-    )
+    print(summary_line({key: math.nan for key in SUMMARY_KEYS} | dict(result.metrics)))
     for unjudged in result.unjudged:  # the backend cannot sense these: never passed in silence
         print(unjudged)  # "force_band_n not judged: <why>"
     out = Path(args.out)

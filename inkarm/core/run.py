@@ -265,5 +265,17 @@ class Metrics(Mapping):
 
 _METRIC_NAMES = tuple(f.name for f in dataclasses.fields(Metrics))
 
+def metric_text(metrics: Mapping, key: str, unit: str = "mm", spec: str = ".3f") -> str:
+    """``metrics[key]`` as people read it: the number and ``unit``, "not sensed" where it is
+    undefined (NaN: the backend cannot sense it, or it is absent), "nothing to compare" where
+    it is infinite (no ink to measure a distance to)."""
+    value = float(metrics.get(key, math.nan))
+    if math.isnan(value):
+        return "not sensed"
+    if math.isinf(value):
+        return "nothing to compare"
+    return f"{value:{spec}} {unit}".rstrip()
+
+
 __all__ = ["BOUND_NEEDS", "QUANTITIES", "Bounds", "Metrics", "Senses", "Shortfall", "Status",
-           "judge"]
+           "judge", "metric_text"]

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from inkarm.core.run import metric_text
 from inkarm.errors import InputError
 from inkarm.plots.figure import Figure, new_figure
 from inkarm.plots.report import plot_canvas
@@ -30,8 +31,9 @@ def _summary(panel: BackendPanel) -> str:
     if not m:
         return f"{panel.label}: {panel.status}"
     status = "" if panel.status == "ok" else f" ({panel.status})"
-    return (f"{panel.label}{status}\nink chamfer {m['ink_chamfer_mm']:.3f} mm, tracking RMS "
-            f"{m['tracking_rms_mm']:.2f} mm,\ngaps {m['gap_mm']:.1f} mm")
+    return (f"{panel.label}{status}\nink chamfer {metric_text(m, 'ink_chamfer_mm')}, tracking "
+            f"RMS {metric_text(m, 'tracking_rms_mm', spec='.2f')},\ngaps "
+            f"{metric_text(m, 'gap_mm', spec='.1f')}")
 
 
 def backends_figure(rows: Sequence[tuple[str, Sequence[BackendPanel]]], fig=None) -> Figure:

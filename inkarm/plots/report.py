@@ -12,12 +12,14 @@ pipeline costs tens of bytes per pixel drawn, so it must not see the whole page.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from inkarm.analysis.metrics import ink_box, plan_strokes_from_reference
+from inkarm.core.run import metric_text
 from inkarm.errors import InputError
 from inkarm.plots.figure import Figure, figure_of, new_axes, new_figure, save_figure
 
@@ -243,7 +245,8 @@ def report_figure(
         ax.tick_params(labelbottom=False)
     heading = title or "drawing run"
     if metrics:
-        items = [f"{key} = {value:.3g}" for key, value in metrics.items()]
+        items = [f"{key} = {value:.3g}" if math.isfinite(value) else
+                 f"{key} {metric_text(metrics, key)}" for key, value in metrics.items()]
         heading += "".join("\n" + "   ".join(items[i : i + 4]) for i in range(0, len(items), 4))
     fig.suptitle(heading, fontsize="medium")
     return figure_of(panels[0])
