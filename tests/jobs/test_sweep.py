@@ -202,3 +202,37 @@ def test_a_table_without_digests_is_refused(tmp_path):
     points = make_points(grid_design([parse_axis("controller.force_n=1.0")]), (0,))
     with pytest.raises(InputError, match="expected the columns point_id and scenario_digest"):
         run_sweep(load_scenario(QUICK), points, out, workers=1)
+
+
+def test_a_new_sweep_that_keeps_no_row_leaves_no_trace(tmp_path, monkeypatch):
+    """A full disk at the first row (the part file cannot be written): the error propagates
+    and the new folder is gone, not left holding a sweep.json that says a sweep is there."""
+    import errno
+
+    import inkarm.jobs.sweep as sweep
+
+    def full_disk(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(sweep, "write_part", full_disk)
+    points = make_points(grid_design([parse_axis("controller.force_n=1.0")]), (0,))
+    with pytest.raises(OSError, match="No space left"):
+        run_sweep(load_scenario(QUICK), points, tmp_path / "s", workers=1)
+    assert not (tmp_path / "s").exists()
+
+
+def test_the_junit_file_of_a_full_disk_leaves_no_partial(tmp_path, monkeypatch):
+    import errno
+    import xml.etree.ElementTree as ET
+
+    from inkarm.jobs.regress.report import write_junit
+
+    def full_disk(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(ET.ElementTree, "write", full_disk)
+    (tmp_path / "old.xml").write_text("<old/>")
+    with pytest.raises(OSError, match="No space left"):
+        write_junit([], tmp_path / "old.xml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.xml"]
+    assert (tmp_path / "old.xml").read_text() == "<old/>"

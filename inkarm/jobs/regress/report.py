@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 
-from inkarm.io.outputs import staged
+from inkarm.io.outputs import atomic_file, staged
 from inkarm.jobs.regress import Comparison
 
 REPORT_FILE = "report.md"
@@ -100,9 +100,9 @@ def junit_xml(comparisons: Sequence[Comparison]) -> ET.ElementTree:
 
 
 def write_junit(comparisons: Sequence[Comparison], path: str | Path) -> Path:
-    """Write :func:`junit_xml` to ``path`` (atomically: a temporary file renamed)."""
+    """Write :func:`junit_xml` to ``path`` (atomically: a temporary file renamed; on a failure,
+    a full disk included, nothing is left behind and ``path`` is as it was)."""
     path = Path(path)
-    partial = path.with_name(f".{path.name}.partial")
-    junit_xml(comparisons).write(partial, encoding="utf-8", xml_declaration=True)
-    partial.replace(path)
+    with atomic_file(path) as partial:
+        junit_xml(comparisons).write(partial, encoding="utf-8", xml_declaration=True)
     return path

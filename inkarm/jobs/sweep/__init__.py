@@ -32,11 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from inkarm.errors import InkarmError, InputError, SimulationError
+from inkarm.io.outputs import atomic_file
 from inkarm.jobs.ensemble.workers import available_cpus
 from inkarm.jobs.outputs import strict_json
 from inkarm.jobs.scenario import Scenario
 from inkarm.jobs.sweep.design import Point, with_point
-from inkarm.jobs.sweep.table import DIGEST_COLUMN, compact, finished_ids, write_part
+from inkarm.jobs.sweep.table import DIGEST_COLUMN, PARTS_DIR, compact, finished_ids, write_part
 
 MANIFEST = "sweep.json"
 INK_DIR = "ink"
@@ -132,8 +133,9 @@ def check_manifest(out: Path, scenario: Scenario) -> None:
                              key="--out", value=str(out))
         return
     out.mkdir(parents=True, exist_ok=True)
-    manifest.write_text(strict_json({"scenario": scenario.path, "title": scenario.title,
-                                     "scenario_digest": digest}))
+    with atomic_file(manifest) as partial:
+        partial.write_text(strict_json({"scenario": scenario.path, "title": scenario.title,
+                                        "scenario_digest": digest}))
 
 
 def _ignore_sigint() -> None:
@@ -222,6 +224,7 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
     out = Path(out_dir)
     digest = scenario_digest(scenario)
     done = finished_ids(out, digest)  # before the manifest: a refused folder stays as it was
+    new_folder = not (out / MANIFEST).exists()
     check_manifest(out, scenario)
     todo = [p for p in points if p.point_id not in done]
     summary = SweepSummary(total=len(points), skipped=len(points) - len(todo))
@@ -245,8 +248,26 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
     finally:
         if todo:
             results.close()
-        compact(out)
+        try:
+            compact(out)
+        finally:
+            if new_folder and not summary.ran:  # nothing of this sweep was kept (a full disk,
+                _remove_sweep_folder(out)       # an error, Ctrl-C before a run): no trace left
     return summary
+
+
+def _remove_sweep_folder(out: Path) -> None:
+    """Remove what a sweep that kept no row made in its new folder ``out``: the manifest, ink
+    crops of runs whose row was never written, and the folders once empty (anything else a
+    user put there is left)."""
+    (out / MANIFEST).unlink(missing_ok=True)
+    for crop in (out / INK_DIR).glob("*.npz"):
+        crop.unlink(missing_ok=True)
+    for folder in (out / PARTS_DIR, out / INK_DIR, out):
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
 
 
 def save_result(out: Path, result: PointResult, digest: str) -> None:
