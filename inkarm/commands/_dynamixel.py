@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from inkarm.commands._serve import check_png, serve
+from inkarm.errors import InputError
 
 
 def add_emulate_parser(sub) -> None:
@@ -47,11 +48,15 @@ def run_emulate(args: argparse.Namespace) -> int:
         simple_emulator,
         specs_for_profile,
     )
+    from inkarm.hardware.dynamixel.tables import BAUD_RATES
     from inkarm.jobs.backends.dynamixel import twin_emulator
     from inkarm.jobs.scenario import load_scenario
     from inkarm.sim.cell import Cell
 
     check_png(args.out)
+    if args.baudrate is not None and args.baudrate not in BAUD_RATES.values():
+        raise InputError(f"expected one of the X series' rates {sorted(BAUD_RATES.values())} "
+                         f"bit/s, got {args.baudrate}", key="--baudrate", value=args.baudrate)
     faults = [parse_fault(text) for text in args.fault]
     scenario = load_scenario(args.scenario)
     robot = args.robot or (None if args.scenario else "wx250s")
@@ -71,7 +76,13 @@ def run_emulate(args: argparse.Namespace) -> int:
         cell = Cell(scenario.cell, profile)
         (w, h), (x, y) = cell.paper_size_mm, cell.paper_centre_mm
         print(f"twin's sheet: {w:g} x {h:g} mm centred at ({x:g}, {y:g}) mm", file=sys.stderr)
-    ids = ", ".join(str(s.id) for s in emulator.bus.servos)
+    on_bus = [s.id for s in emulator.bus.servos]
+    for fault in faults:
+        if fault.servo_id not in on_bus:
+            raise InputError(f"no servo {fault.servo_id} on the bus of {profile.name} (its ids: "
+                             f"{', '.join(map(str, on_bus))})", key="--fault",
+                             value=f"{fault.kind}:{fault.servo_id}:{fault.at_s:g}")
+    ids = ", ".join(map(str, on_bus))
     serve(emulator, lambda port: f"Dynamixel Protocol 2.0 emulator of {profile.name} (servos "
                                  f"{ids}) at {emulator.baudrate} bit/s on {port}; Ctrl-C to stop",
           args.out)

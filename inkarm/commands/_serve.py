@@ -7,9 +7,8 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 
-from inkarm.errors import InputError
+from inkarm.io.outputs import check_out_file
 
 
 def _interrupt(signum, frame):
@@ -17,9 +16,11 @@ def _interrupt(signum, frame):
 
 
 def check_png(out: str | None) -> None:
-    """Refuse an ``--out`` that does not name a .png file, before the emulator is built."""
-    if out is not None and Path(out).suffix.lower() != ".png":
-        raise InputError(f"{out}: expected a .png file name", key="--out", value=out)
+    """Refuse an ``--out`` that is not a .png file the command can write (a folder, a device,
+    a link loop, a folder it cannot create files in), before the emulator is built: the canvas
+    is written when the emulator stops, too late to say so."""
+    if out is not None:
+        check_out_file(out, "PNG", (".png",), probe=True)
 
 
 def serve(emulator, banner: Callable[[str], str], out: str | None = None) -> None:

@@ -66,12 +66,14 @@ def check_out_dir(path: str | Path, inputs: Iterable[str | Path] = (),
 
 
 def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
-                   inputs: Iterable[str | Path] = (), key: str = "--out") -> Path:
+                   inputs: Iterable[str | Path] = (), key: str = "--out",
+                   probe: bool = False) -> Path:
     """The output file ``key`` (``--out``), checked before any work: a ``what`` file name (not
     empty, not a folder) ending in one of ``suffixes`` (lower case, with the dot), in a writable
     folder; not an existing device, pipe or socket, nor a link that leads nowhere or in a loop
     (replacing it would write where the user did not mean); and none of the ``inputs``, which
-    it would overwrite."""
+    it would overwrite. ``probe``: also make (and remove) a file in its folder, for a command
+    that writes the file only when it ends."""
     text = str(path)
     if not text.strip():
         raise InputError("expected a file name, got an empty string", key=key, value=text)
@@ -88,7 +90,8 @@ def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
         raise InputError(f"{out} exists and is not a regular file (a device, pipe or socket); "
                          f"expected {expected}", key=key, value=text)
     parent = out.absolute().parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK) or (
+            probe and not _can_create_in(parent)):
         raise InputError(f"cannot write {out}: {parent} is not a writable folder",
                          key=key, value=text)
     for source in inputs:
@@ -96,6 +99,18 @@ def check_out_file(path: str | Path, what: str, suffixes: tuple[str, ...],
             raise InputError(f"{out} is the input {source}, which this command would overwrite; "
                              "choose another file", key=key, value=text)
     return out
+
+
+def _can_create_in(folder: Path) -> bool:
+    """Whether a file can be made in ``folder`` (a hidden one, removed at once): the only test
+    that holds for root and for virtual file systems (/proc), where access() says yes."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".inkarm-probe.", dir=folder)
+    except OSError:
+        return False
+    os.close(fd)
+    os.unlink(name)
+    return True
 
 
 def _umask() -> int:
