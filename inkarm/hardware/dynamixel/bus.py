@@ -4,7 +4,11 @@
   contiguous on every X-series) per control period; the status packets' error bytes are kept
   (the SDK drops them), so a servo's hardware alert is seen in the same transaction.
 * One GroupSyncWrite of the goals per period (no status packets).
-* Configuration goes through acknowledged writes, read back where it matters.
+* Configuration goes through acknowledged writes, read back where it matters. A servo whose
+  Status Return Level (68) is 1 answers only PING and reads (e-Manual; dynamixel-sdk's
+  ``write*TxRx`` would wait for a status packet that never comes): its writes are sent
+  without waiting (``writeTxOnly``) and read back, a refused one named. The level is learnt
+  from :meth:`status_return_level` (or, after a write goes unanswered, from a read of it).
 * Every transaction is tried ``1 + retries`` times; before each try the input buffer is
   cleared (a late reply from the last try must not pass for this one) and the SDK's
   ``is_using`` flag released (an interrupted call leaves it set: "port in use" forever).
@@ -112,6 +116,7 @@ class DynamixelBus:
         self.last_attempts = 1      # tries the last successful transaction took
         self.last_failed = None     # the servo whose reply failed the last retried sync read
         self.last_waits: dict[int, float] = {}  # per servo: wait for its reply [s], last read
+        self.levels: dict[int, int] = {}  # Status Return Level per servo, where known
         try:
             ok = self.port.openPort() and self.port.setBaudRate(self.baudrate)
         except (serial.SerialException, OSError, ValueError) as e:
@@ -221,17 +226,85 @@ class DynamixelBus:
         return value
 
     def write(self, servo_id: int, name: str, value: int) -> None:
-        """An acknowledged write of register ``name``; a status error raises."""
+        """A write of register ``name``, acknowledged (or, at Status Return Level 1, read
+        back); a status error, or a value that does not read back, raises."""
         reg = _REG[name]
         data = _encode(reg, value)
+        what = f"write {name} = {value}"
+        if self.levels.get(servo_id, 2) < 2:
+            return self._write_unanswered(servo_id, name, value)
 
         def call():
             result, error = self.packet.writeTxRx(self.port, servo_id, reg.address, reg.size,
                                                   data)
             return result, error, None
 
-        error, _ = self._try(call, servo_id, f"write {name} = {value}")
-        self._checked(servo_id, error, f"write {name} = {value}")
+        try:
+            error, _ = self._try(call, servo_id, what)
+        except DynamixelFault as fault:
+            if fault.kind != "no reply" or self._learn_level(servo_id) >= 2:
+                raise
+            return self._write_unanswered(servo_id, name, value)
+        self._checked(servo_id, error, what)
+        if name == "status_return_level":
+            self.levels[servo_id] = int(value)
+
+    def status_return_level(self, servo_id: int) -> int:
+        """Read (and keep) the servo's Status Return Level (68): a servo that answers PING but
+        not this read is at level 0, and refused naming the register."""
+        try:
+            level = self.read(servo_id, "status_return_level")
+        except DynamixelFault as fault:
+            if fault.kind != "no reply" or self.ping(servo_id) is None:
+                raise
+            raise DynamixelFault(
+                f"{self.who(servo_id)}: answers PING but not READ: its Status Return Level (68) "
+                "is 0 (PING only); set it to 2 (or 1), e.g. with status_return_level = 2 in "
+                "[backends.dynamixel], which inkarm writes at start", servo_id,
+                "status return level 0") from None
+        self.levels[servo_id] = level
+        return level
+
+    def set_status_return_level(self, servo_id: int, level: int) -> None:
+        """Write Status Return Level (68) := ``level`` (1 or 2) whatever it is now (0 answers
+        nothing but PING), then read it back."""
+        current = self.levels.get(servo_id, 0)  # unknown: as 0 (let a reply pass, read back)
+        if current == 2:
+            return self.write(servo_id, "status_return_level", level)
+        self.levels[servo_id] = current
+        self._write_unanswered(servo_id, "status_return_level", level)
+
+    def _learn_level(self, servo_id: int) -> int:
+        """After a write went unanswered: the servo's Status Return Level if it answers a read
+        of it (kept), else 2 (the servo is silent, not at level 1); at level 0 (it answers PING
+        only) the fault says so."""
+        try:
+            return self.status_return_level(servo_id)
+        except DynamixelFault as fault:
+            if fault.kind == "status return level 0":
+                raise
+            return 2
+
+    def _write_unanswered(self, servo_id: int, name: str, value: int) -> None:
+        reg = _REG[name]
+        data = _encode(reg, value)
+        level = self.levels.get(servo_id, 2)
+        what = f"write {name} = {value}"
+        self._try(lambda: (self.packet.writeTxOnly(self.port, servo_id, reg.address, reg.size,
+                                                   data), 0, None), servo_id, what)
+        if name == "status_return_level":
+            if level == 0:  # a servo at 2 answers this write after all: let it pass
+                time.sleep((2.0 * self.port.latency_ms + 2.0) / 1000.0)
+            self.levels[servo_id] = int(value)
+        back = self.read(servo_id, name)
+        if back != int(value):  # or a straggler's reply taken for this read's: read again
+            time.sleep(RETRY_QUIET_S)
+            back = self.read(servo_id, name)
+        if back != int(value):
+            raise DynamixelFault(
+                f"{self.who(servo_id)}: {what} not applied (reads back {back}); at Status Return "
+                f"Level (68) {level} the servo does not answer writes, so it cannot say why (2 "
+                "makes it answer)", servo_id, "write not applied")
 
     def read_state(self, ids) -> tuple[list[int], list[int], list[int], dict[int, int]]:
         """One sync read: present positions [ticks], velocities [0.229 rpm], currents [units]

@@ -13,6 +13,9 @@
     position_i = [...]                       #   P/I/D, feedforward_1st/2nd,
     position_d = [...]                       #   profile_velocity, profile_acceleration
     return_delay_us = 0                      # Return Delay Time written at start [us]
+    status_return_level = 2                  # Status Return Level (68) written at start: 2
+                                             #   (every instruction answered) or 1 (only
+                                             #   PING and reads); absent: as the servos are
     watchdog_ms = 100                        # Bus Watchdog dead-man [ms] (0: off)
     max_step_deg = 3.0                       # largest goal change per control period [deg]
     limit_margin_deg = 2.0                   # software limits inside the joint ranges [deg]
@@ -40,8 +43,8 @@ from inkarm.io.toml import TomlReader
 GAIN_KEYS = ("position_p", "position_i", "position_d", "feedforward_1st", "feedforward_2nd",
              "profile_velocity", "profile_acceleration")
 KEYS = ("ids", "shadows", "models", "baudrate", "operating_mode", *GAIN_KEYS, "return_delay_us",
-        "watchdog_ms", "max_step_deg", "limit_margin_deg", "pen_lift_deg", "park_deg",
-        "on_fault", "on_close", "retries", "latency_ms")
+        "status_return_level", "watchdog_ms", "max_step_deg", "limit_margin_deg",
+        "pen_lift_deg", "park_deg", "on_fault", "on_close", "retries", "latency_ms")
 GAIN_MAX = {"profile_velocity": 32767, "profile_acceleration": 32767}
 
 
@@ -56,6 +59,7 @@ class DynamixelConfig:
     operating_mode: str = "extended_position"
     gains: Mapping[str, np.ndarray] = field(default_factory=dict)
     return_delay_us: int = 0
+    status_return_level: int | None = None
     watchdog_ms: int = 100
     max_step_deg: float = 3.0
     limit_margin_deg: float = 2.0
@@ -145,12 +149,18 @@ class DynamixelConfig:
                 raise rd.error(key("operating_mode"), "a servo in current mode cannot lift the "
                                "pen or hold by itself: set on_fault and on_close to "
                                "\"torque_off\"", value=mode)
+        for i, m in enumerate(models):
+            if OPERATING_MODES[mode] not in table(m)["operating_mode"].values:
+                raise rd.error(key("operating_mode"), f"a {m} (models[{i}]) has no {mode} mode "
+                               "(its Operating Mode (11) would refuse it)", value=mode)
         return cls(
             ids=ids, models=tuple(models), shadows=shadows, baudrate=baud,
             operating_mode=mode,
             gains=gains,
             return_delay_us=int(rd.integer(data.get("return_delay_us", 0),
                                            key("return_delay_us"), 0, 508)),
+            status_return_level=None if "status_return_level" not in data else int(
+                rd.integer(data["status_return_level"], key("status_return_level"), 1, 2)),
             watchdog_ms=int(rd.integer(data.get("watchdog_ms", 100), key("watchdog_ms"), 0, 2540)),
             max_step_deg=rd.number(data.get("max_step_deg", 3.0), key("max_step_deg"), 0.0,
                                    strict=True, maximum=180.0),

@@ -9,6 +9,10 @@
   Range Error until the host writes 0 to it.
 * A hardware error in the Shutdown mask turns the torque off; Torque Enable cannot be set
   again (Result Fail) until a REBOOT clears the error.
+* Indirect Data n stands for the byte at the address Indirect Address n holds (one level: an
+  Indirect Address that names an Indirect Data, as each does at first, is plain storage); a
+  read or write through it behaves as one of those bytes would, with the same rules. An
+  Indirect Address outside 64..661 is a Data Range Error.
 * EEPROM survives REBOOT; RAM returns to its defaults.
 """
 
@@ -18,6 +22,7 @@ from inkarm.hardware.dynamixel import protocol as p
 from inkarm.hardware.dynamixel.tables import (
     EEPROM,
     EXTENDED_RANGE,
+    INDIRECT_BLOCKS,
     POSITION_MODE,
     RW,
     ControlTable,
@@ -36,6 +41,11 @@ class ServoMemory:
         self.table = table
         self.data = bytearray(table.size)
         self._owner = table.by_address
+        # Indirect Data address -> its Indirect Address register's address
+        self._pointer = {data0 + k: address0 + 2 * k
+                         for _, count, address0, data0 in INDIRECT_BLOCKS
+                         for k in range(count) if data0 + k < table.size}
+        self._indirect = [(data0, data0 + count) for _, count, _, data0 in INDIRECT_BLOCKS]
         self.factory_reset(0xFF)
         self.set("id", servo_id)
 
@@ -59,7 +69,21 @@ class ServoMemory:
         """(error, data) for a READ of ``length`` bytes at ``address``."""
         if length < 1 or address < 0 or address + length > len(self.data):
             return p.ACCESS_ERROR, b""
-        return 0, bytes(self.data[address:address + length])
+        if not self._touches_indirect(address, address + length):
+            return 0, bytes(self.data[address:address + length])
+        return 0, bytes(self.data[self._target(a)] for a in range(address, address + length))
+
+    def _touches_indirect(self, start: int, end: int) -> bool:
+        return any(start < high and low < end for low, high in self._indirect)
+
+    def _target(self, address: int) -> int:
+        """The byte ``address`` stands for: itself, or what its Indirect Address names."""
+        pointer = self._pointer.get(address)
+        if pointer is None:
+            return address
+        target = int.from_bytes(self.data[pointer:pointer + 2], "little")
+        return target if 0 <= target < len(self.data) and target not in self._pointer \
+            else address
 
     def check_write(self, address: int, data: bytes) -> tuple[int, list[tuple[Register, int]]]:
         """(error, [(register, value), ...]) of writing ``data`` at ``address``; nothing is
@@ -67,6 +91,24 @@ class ServoMemory:
         end = address + len(data)
         if not data or address < 0 or end > len(self.data):
             return p.ACCESS_ERROR, []
+        if self._touches_indirect(address, end):
+            error, writes = self._indirect_writes(address, data)
+        else:
+            error, writes = self._direct_writes(address, data)
+        if error:
+            return error, []
+        torque_on = self.get("torque_enable") == 1
+        for reg, value in writes:
+            if reg.access != RW or (reg.area == EEPROM and torque_on):
+                return p.ACCESS_ERROR, []
+        for reg, value in writes:
+            error = self._check_value(reg, value, {r.name: v for r, v in writes})
+            if error:
+                return error, []
+        return 0, writes
+
+    def _direct_writes(self, address: int, data: bytes) -> tuple[int, list[tuple[Register, int]]]:
+        end = address + len(data)
         first, last = self._owner[address], self._owner[end - 1]
         if first is None or last is None or first.address != address or \
                 last.address + last.size != end:
@@ -81,18 +123,32 @@ class ServoMemory:
             raw = int.from_bytes(data[a - address:a - address + reg.size], "little")
             writes.append((reg, decode(reg, raw)))
             a += reg.size
-        torque_on = self.get("torque_enable") == 1
-        for reg, value in writes:
-            if reg.access != RW or (reg.area == EEPROM and torque_on):
+        return 0, writes
+
+    def _indirect_writes(self, address: int, data: bytes) -> tuple[int, list[tuple[Register,
+                                                                                  int]]]:
+        """A write through Indirect Data: each byte to the address it stands for; every
+        register so touched must get all its bytes (else Data Length Error)."""
+        target: dict[int, int] = {}
+        for k, byte in enumerate(data):
+            target[self._target(address + k)] = byte
+        writes, seen = [], set()
+        for a in sorted(target):
+            reg = self._owner[a]
+            if reg is None:
                 return p.ACCESS_ERROR, []
-        for reg, value in writes:
-            error = self._check_value(reg, value, {r.name: v for r, v in writes})
-            if error:
-                return error, []
+            if reg.name in seen:
+                continue
+            span = range(reg.address, reg.address + reg.size)
+            if any(b not in target for b in span):
+                return p.DATA_LENGTH_ERROR, []
+            seen.add(reg.name)
+            raw = int.from_bytes(bytes(target[b] for b in span), "little")
+            writes.append((reg, decode(reg, raw)))
         return 0, writes
 
     def _check_value(self, reg: Register, value: int, pending: dict[str, int]) -> int:
-        if not reg.minimum <= value <= reg.maximum:
+        if not reg.takes(value):
             return p.DATA_RANGE_ERROR
         if reg.name in GOALS and self.get("bus_watchdog") == -1:
             return p.DATA_RANGE_ERROR

@@ -3,8 +3,10 @@
 Start-up (refused, naming the difference, when the bus does not match the profile):
 
 1. every servo of ``[backends.dynamixel]`` (joints and shadows) answers PING with the model
-   the profile names; each shadow carries its joint's servo as Secondary ID; no servo reports
-   a hardware error;
+   the profile names; its Status Return Level (68) is read, and set where the profile's
+   ``status_return_level`` says (at 1 writes go unanswered and are read back; at 0, which
+   answers PING only, the servo is refused naming the register); each shadow carries its
+   joint's servo as Secondary ID; no servo reports a hardware error;
 2. torque off; operating mode, return delay and (in position mode) the Min/Max Position
    Limits written and acknowledged; the PID, feed-forward and profile registers written;
 3. Goal Position := Present Position (no jump at torque-on), torque on, bus watchdog on.
@@ -164,6 +166,9 @@ class DynamixelPlant:
             problems.append(f"{bus.who(servo_id)}: no reply (expected a {model})" if name is None
                             else f"{bus.who(servo_id)}: a {name} answers, the profile expects a "
                             f"{model}")
+        for servo_id in cfg.all_ids:  # before any other read: level 0 answers none
+            if servo_id not in missing:
+                self._status_return_level(servo_id)
         for j, sid in cfg.shadows.items():
             if sid not in missing:
                 secondary = bus.read(sid, "secondary_id")
@@ -214,6 +219,19 @@ class DynamixelPlant:
         self._watchdog_armed = False
         self._goal_q = self.calibration.to_rad(positions, self._turns)
         self._next_tick = self.clock.now()
+
+    def _status_return_level(self, servo_id: int) -> None:
+        """Read the servo's Status Return Level (68) (at 1 the bus reads its writes back, at 0
+        it is refused naming the register) and set the profile's ``status_return_level``."""
+        want, bus = self.config.status_return_level, self.bus
+        try:
+            level = bus.status_return_level(servo_id)
+        except DynamixelFault:
+            if want is None:
+                raise
+            level = None
+        if want is not None and level != want:
+            bus.set_status_return_level(servo_id, want)
 
     # --- Plant ----------------------------------------------------------------------------------
     @property

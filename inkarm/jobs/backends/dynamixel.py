@@ -144,10 +144,11 @@ class TwinJoints:
 
 
 def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: int | None = None,
-                  byte_timing: bool = True) -> DynamixelEmulator:
+                  byte_timing: bool = True, status_return_level: int = 2) -> DynamixelEmulator:
     """An emulator of the scenario's robot whose servos move its MuJoCo twin (module
-    docstring); the servos boot holding the home pose with the profile's EEPROM settings.
-    ``emulator.canvas`` is the twin's ink."""
+    docstring); the servos boot holding the home pose with the profile's EEPROM settings and
+    Status Return Level ``status_return_level`` (2: every instruction answered; 1: PING and
+    reads only). ``emulator.canvas`` is the twin's ink."""
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
     cell = Cell(scenario.cell, scenario.robot)
@@ -163,6 +164,7 @@ def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: i
         memory.set("operating_mode", cfg.mode_number)
         memory.set("return_delay_time", cfg.return_delay_us // 2)
         memory.set("torque_enable", 1)
+        memory.set("status_return_level", status_return_level)
         emulator.bank.on_write(servo, ["torque_enable"])
     emulator.canvas = canvas
     emulator.twin = twin
@@ -170,11 +172,12 @@ def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: i
 
 
 def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
-            progress=None, **backend) -> Run:
+            progress=None, boot_status_return_level: int = 2, **backend) -> Run:
     """A whole hardware-in-the-loop run on this machine: the twin emulator in a child process
     on a pty, the ``dynamixel`` backend through dynamixel-sdk, the twin's canvas brought back
     and the run judged on its ink. ``trace_path``: where the bus trace goes on a fault. ``backend`` overrides keys of the profile's
-    ``[backends.dynamixel]`` (``latency_ms``, ``watchdog_ms``: a loaded machine answers late)."""
+    ``[backends.dynamixel]`` (``latency_ms``, ``watchdog_ms``: a loaded machine answers late).
+    ``boot_status_return_level``: the servos' Status Return Level (68) at power-on."""
     import functools
     import operator
 
@@ -182,7 +185,8 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
 
     if backend:
         scenario = dataclasses.replace(scenario, robot=with_dynamixel(scenario.robot, **backend))
-    emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults)),
+    emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults),
+                                                 status_return_level=boot_status_return_level),
                                operator.attrgetter("canvas"))  # the twin's ink comes back
     port = emulator.start()
     try:

@@ -34,6 +34,7 @@ def test_the_wx250s_table_reads(wx250s):
     ({"on_fault": "drop"}, "backends.dynamixel.on_fault: unknown value 'drop'"),
     ({"operating_mode": "pwm"}, "backends.dynamixel.operating_mode: unknown value"),
     ({"max_step_deg": 0}, "backends.dynamixel.max_step_deg: expected a number > 0"),
+    ({"status_return_level": 0}, r"status_return_level: expected an integer in 1..2"),
     ({"idz": [1]}, r"backends.dynamixel.idz: unknown key \(did you mean 'ids'"),
 ])
 def test_bad_values_name_the_key(change, message):

@@ -143,7 +143,7 @@ def test_each_error_code_where_a_servo_returns_it(sdk_port, emulator):
     assert ph.write4ByteTxRx(port, 1, 132, 7) == (OK, p.ACCESS_ERROR)      # read-only
     assert ph.write1ByteTxRx(port, 1, 64, 1) == (OK, 0)
     assert ph.write1ByteTxRx(port, 1, 11, 4) == (OK, p.ACCESS_ERROR)       # EEPROM, torque on
-    assert ph.readTxRx(port, 1, 200, 4)[2] == p.ACCESS_ERROR               # past the table
+    assert ph.readTxRx(port, 1, 660, 4)[2] == p.ACCESS_ERROR               # past the table
     assert ph.read4ByteTxRx(port, 1, 132)[1:] == (OK, 0)
 
 

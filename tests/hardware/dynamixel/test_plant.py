@@ -153,3 +153,87 @@ def test_current_mode_needs_current_sensing_and_a_release_on_faults(wx250s):
     with pytest.raises(InputError, match="cannot lift the pen or hold by itself"):
         DynamixelConfig.of(with_dynamixel(wx250s, operating_mode="current",
                                         models=["XM430-W350"] * 6))
+    with pytest.raises(InputError, match=r"a XL430-W250 \(models\[5\]\) has no "
+                                         r"current_based_position mode"):
+        DynamixelConfig.of(with_dynamixel(wx250s, operating_mode="current_based_position"))
+
+
+def _at_level(emu, level):
+    for s in emu.bus.servos:
+        s.memory.set("status_return_level", level)
+
+
+def test_servos_at_status_return_level_1_start_draw_and_stop(wx250s, arm_emulator,
+                                                            monkeypatch):
+    """Level 1 answers PING and reads only: the plant's writes go without waiting
+    (``writeTxOnly``, never the SDK's ``writeTxRx``) and are read back."""
+    from dynamixel_sdk.protocol2_packet_handler import Protocol2PacketHandler
+
+    acknowledged = []
+    tx_rx = Protocol2PacketHandler.writeTxRx
+    monkeypatch.setattr(Protocol2PacketHandler, "writeTxRx",
+                        lambda self, port, i, *a: acknowledged.append(i) or tx_rx(self, port, i,
+                                                                                  *a))
+    arm = with_dynamixel(wx250s, on_close="torque_off")
+    with arm_emulator(arm) as emu:
+        _at_level(emu, 1)
+        for s in emu.bus.servos:
+            s.memory.set("return_delay_time", 250)         # stale: written at start
+        plant = DynamixelPlant(emu.port, arm)
+        assert plant.bus.levels == {i: 1 for i in plant.config.all_ids}
+        assert acknowledged == []
+        assert all(s.memory.get("torque_enable") == 1 and s.memory.get("return_delay_time") == 0
+                   for s in emu.bus.servos)
+        q = plant.read().q
+        goal = q + np.radians([2.0, 0, 0, 0, 0, 0])
+        for _ in range(5):
+            plant.read()
+            plant.command(PositionCommand(goal))
+            plant.step()
+        assert eventually(lambda: abs(plant.read().q[0] - goal[0]) < np.radians(0.3))
+        plant.close()
+        assert eventually(lambda: all(s.memory.get("torque_enable") == 0
+                                      for s in emu.bus.servos))
+        assert plant.fault is None and acknowledged == []
+
+
+def test_status_return_level_0_is_refused_naming_the_register_or_set_by_the_profile(
+        wx250s, arm_emulator):
+    fast = with_dynamixel(wx250s, latency_ms=8, on_close="torque_off")  # level 0: no reads
+    with arm_emulator(wx250s) as emu:
+        _at_level(emu, 0)
+        with pytest.raises(DynamixelFault, match=r"servo 1 \(waist\): answers PING but not READ: "
+                                                 r"its Status Return Level \(68\) is 0 \(PING "
+                                                 r"only\); set it to 2 \(or 1\), e\.g\. with "
+                                                 r"status_return_level = 2 in "
+                                                 r"\[backends.dynamixel\]"):
+            DynamixelPlant(emu.port, fast)
+        for level in (2, 1):
+            _at_level(emu, 0)
+            arm = with_dynamixel(fast, status_return_level=level)
+            plant = DynamixelPlant(emu.port, arm)
+            assert [s.memory.get("status_return_level") for s in emu.bus.servos] == [level] * 8
+            plant.read()
+            plant.close()
+
+
+def test_a_write_a_level_1_servo_refuses_is_named_from_its_read_back(emulator):
+    from inkarm.hardware.dynamixel.bus import DynamixelBus
+
+    _at_level(emulator, 1)
+    with DynamixelBus(emulator.port, names={2: "wrist"}) as bus:
+        bus.write(2, "led", 1)          # unanswered: the level is learnt, the write read back
+        assert bus.levels == {2: 1} and bus.stats["retries"] >= 2  # the write's, unanswered
+        assert emulator.servo(2).memory.get("led") == 1
+        with pytest.raises(DynamixelFault, match=r"servo 2 \(wrist\): write operating_mode = 0 "
+                                                 r"not applied \(reads back 3\); at Status Return "
+                                                 r"Level \(68\) 1 the servo does not answer"):
+            bus.write(2, "operating_mode", 0)   # an XL430 has no current mode
+        bus.set_status_return_level(2, 2)
+        assert bus.levels[2] == 2 and emulator.servo(2).memory.get("status_return_level") == 2
+        bus.write(2, "led", 0)
+    emulator.servo(3).memory.set("status_return_level", 0)
+    silent_write = r"servo 3 \(elbow\): answers PING but not READ: its Status Return Level \(68\)"
+    with DynamixelBus(emulator.port, names={3: "elbow"}) as bus, \
+            pytest.raises(DynamixelFault, match=silent_write + r" is 0"):
+        bus.write(3, "torque_enable", 0)
