@@ -48,5 +48,7 @@ def scalar_int(arrays: dict[str, np.ndarray], key: str, path: str | Path) -> int
     except (TypeError, ValueError):
         number = math.nan
     if not (math.isfinite(number) and number == int(number)):
-        raise InputError(f"expected an integer, got {value!r}", file=str(path), key=key)
+        got = (repr(value.item()) if value.shape == () else
+               f"an array of shape {value.shape} ({value.dtype})")
+        raise InputError(f"expected an integer, got {got}", file=str(path), key=key)
     return int(number)

@@ -18,11 +18,14 @@ from __future__ import annotations
 import json
 import math
 import platform
+import struct
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.npz import read_npz
 from inkarm.errors import InputError
 from inkarm.ink.canvas import png_pixels
 from inkarm.io.outputs import staged
@@ -110,12 +113,17 @@ def read_baseline(folder: str | Path, known_metrics=()) -> Baseline:
         metrics = json.loads((folder / "metrics.json").read_text())
         with Image.open(folder / "canvas.png") as image:
             grey = np.asarray(image.convert("L"))
-        with np.load(folder / "path.npz", allow_pickle=False) as path:
-            tip, pen_down = path["tip_mm"].astype(float), path["pen_down"].astype(bool)
+        path = read_npz(folder / "path.npz", "a baseline's path")
+        tip, pen_down = path["tip_mm"].astype(float), path["pen_down"].astype(bool)
         px_per_mm = float(info["px_per_mm"])
-    except (OSError, ValueError, KeyError) as e:
+    except InputError as e:
         raise InputError(f"damaged baseline in {folder}: {e}; remake it with --update",
                          file=str(folder)) from None
+    # what Pillow and json raise on a truncated or garbled file, beside the usual ones
+    except (OSError, ValueError, KeyError, TypeError, SyntaxError, EOFError, zlib.error,
+            struct.error) as e:
+        raise InputError(f"damaged baseline in {folder}: {type(e).__name__}: {e}; remake it "
+                         "with --update", file=str(folder)) from None
     _check_metrics(metrics, folder / "metrics.json")
     if not (math.isfinite(px_per_mm) and px_per_mm > 0):
         raise InputError(f"damaged baseline in {folder}: px_per_mm {px_per_mm} in {MARKER} is "
