@@ -8,7 +8,7 @@ import sys
 import time
 from collections.abc import Callable
 
-from inkarm.io.outputs import check_out_file
+from inkarm.io.outputs import atomic_file, check_out_file
 
 
 def _interrupt(signum, frame):
@@ -42,4 +42,6 @@ def serve(emulator, banner: Callable[[str], str], out: str | None = None) -> Non
         emulator.stop()
         canvas = getattr(emulator, "canvas", None)
         if out is not None and canvas is not None:
-            print(f"canvas: {canvas.to_png(out)}", file=sys.stderr)
+            with atomic_file(out) as partial:  # a link planted at --out is replaced, not followed
+                canvas.to_png(partial)
+            print(f"canvas: {out}", file=sys.stderr)

@@ -40,7 +40,12 @@ def figure_of(ax) -> Figure:
 
 def save_figure(fig: Figure, path: str | Path, dpi: float = 150) -> Path:
     """Write ``fig`` to ``path`` (the format from the suffix: .png, .svg, .pdf, ...) at ``dpi``
-    dots per inch; returns the path. The figure is left as it is (still usable)."""
+    dots per inch; returns the path. The figure is left as it is (still usable). Written
+    whole under a hidden name and renamed: a link planted at ``path`` is replaced, never
+    followed, and a failure leaves ``path`` as it was."""
+    from inkarm.io.outputs import atomic_file
+
     path = Path(path)
-    fig.savefig(path, dpi=dpi)
+    with atomic_file(path) as partial:
+        fig.savefig(partial, dpi=dpi, format=path.suffix.lstrip(".").lower() or None)
     return path
