@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--examples must be >= 1")
     env = os.environ | {"INKARM_FUZZ_EXAMPLES": str(args.examples)}
     command = [sys.executable, "-m", "pytest", "tests/fuzz", "-p", "no:cacheprovider",
-               "--hypothesis-show-statistics", "-q", "-m", "fuzz"]
+               "--hypothesis-show-statistics", "-m", "fuzz"]
     command += ["-k", args.select] if args.select else []
     command += [f"--hypothesis-seed={args.seed}"] if args.seed is not None else []
     start = time.monotonic()

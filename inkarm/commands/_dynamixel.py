@@ -34,8 +34,13 @@ def add_emulate_parser(sub) -> None:
     p.add_argument("--no-byte-timing", action="store_true",
                    help="answer at once (no wire or return-delay time)")
     p.add_argument("--fault", action="append", default=[], metavar="KIND:ID:SECONDS",
-                   help="inject a fault SECONDS after the first torque-on: silent, crc, late, "
-                   "overload, overheat, watchdog, disconnect (e.g. overload:4:2.5); repeatable")
+                   help="inject a fault SECONDS after the driver first turns a servo's torque "
+                   "on (not from boot): silent, crc, late, overload, overheat, watchdog, "
+                   "disconnect (e.g. overload:4:2.5); repeatable")
+    p.add_argument("--status-return-level", type=int, choices=(0, 1, 2), default=None,
+                   help="the servos boot at this Status Return Level (68): 2 answers every "
+                   "instruction (the factory setting, default), 1 only PING and reads (writes "
+                   "go unanswered), 0 only PING; try a bus set up that way")
     p.add_argument("--out", metavar="FILE.png", default=None,
                    help="write the twin's ink canvas here on exit")
     p.set_defaults(_emulate=run_emulate)
@@ -65,14 +70,18 @@ def run_emulate(args: argparse.Namespace) -> int:
         robot = str(Path(robot).resolve()) if key == "robot.file" else robot
         scenario = scenario.with_overrides({"robot": {}, key: robot})
     profile = scenario.robot
+    level = args.status_return_level
     if args.simple:
         cfg = DynamixelConfig.of(profile)
         emulator = simple_emulator(specs_for_profile(cfg, profile.n), profile.home_q, faults,
                                    args.baudrate or cfg.baudrate,
                                    byte_timing=not args.no_byte_timing)
+        for servo in emulator.bus.servos if level is not None else ():
+            servo.memory.set("status_return_level", level)
     else:
         emulator = twin_emulator(scenario, faults, args.baudrate,
-                                 byte_timing=not args.no_byte_timing)
+                                 byte_timing=not args.no_byte_timing,
+                                 status_return_level=2 if level is None else level)
         cell = Cell(scenario.cell, profile)
         (w, h), (x, y) = cell.paper_size_mm, cell.paper_centre_mm
         print(f"twin's sheet: {w:g} x {h:g} mm centred at ({x:g}, {y:g}) mm", file=sys.stderr)

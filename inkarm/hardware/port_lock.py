@@ -74,7 +74,8 @@ def describe_holder(pid: int | None) -> str:
         return "another process (no lock file names it)"
     try:
         raw = Path(f"/proc/{pid}/cmdline").read_bytes()
-        command = raw.replace(b"\0", b" ").decode("utf-8", "replace").strip()
+        command = " ".join(raw.replace(b"\0", b" ").decode("utf-8", "replace").split())
+        command = "".join(c if c.isprintable() else "?" for c in command)  # one line, always
     except OSError:
         command = ""
     return f"process {pid}" + (f" ({command[:120]})" if command else "")

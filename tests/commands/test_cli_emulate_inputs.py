@@ -15,8 +15,8 @@ from inkarm.cli import main
     (["grbl", "--out", "{tmp}/c.jpg"], "expected a PNG file name (.png)"),
     (["grbl", "--out", "/dev/null.png/x.png"], "is not a writable folder"),
     (["dynamixel", "--simple", "--out", "/proc/x.png"], "cannot write /proc/x.png"),
-    (["dynamixel", "--simple", "--baudrate", "0"], "--baudrate: expected one of the X series' "
-                                                   "rates"),
+    (["dynamixel", "--simple", "--baudrate", "0"], ("--baudrate: expected one of the X series' "
+                                                   "rates")),
     (["dynamixel", "--simple", "--baudrate", "1000001"], "got 1000001"),
 ])
 def test_emulate_refuses_bad_options_in_one_line(tmp_path, capsys, args, message):

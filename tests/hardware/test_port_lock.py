@@ -95,3 +95,17 @@ def test_an_unwritable_lock_folder_leaves_the_flock(port, monkeypatch, tmp_path)
     monkeypatch.setattr(pl, "LOCK_DIRS", (tmp_path / "missing",))
     with pl.port_lock(port), pytest.raises(pl.PortBusyError, match="another process"):
         _take(port)
+
+
+def test_the_holder_is_named_on_one_line_whatever_its_command_line():
+    code = "import time\nimport sys\ntime.sleep(30)  # \x1b[31m"
+    other = subprocess.Popen([sys.executable, "-c", code])
+    try:
+        while b"time.sleep" not in Path(f"/proc/{other.pid}/cmdline").read_bytes():
+            pass
+        text = pl.describe_holder(other.pid)
+        assert text.startswith(f"process {other.pid} (") and "\n" not in text
+        assert all(c.isprintable() for c in text)
+    finally:
+        other.kill()
+        other.wait()

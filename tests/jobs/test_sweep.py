@@ -209,7 +209,7 @@ def test_a_new_sweep_that_keeps_no_row_leaves_no_trace(tmp_path, monkeypatch):
     and the new folder is gone, not left holding a sweep.json that says a sweep is there."""
     import errno
 
-    import inkarm.jobs.sweep as sweep
+    from inkarm.jobs import sweep
 
     def full_disk(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")

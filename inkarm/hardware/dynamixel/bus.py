@@ -12,13 +12,19 @@
 * Every transaction is tried ``1 + retries`` times; before each try the input buffer is
   cleared (a late reply from the last try must not pass for this one) and the SDK's
   ``is_using`` flag released (an interrupted call leaves it set: "port in use" forever).
-* The port is closed on every exit path (:meth:`close` is idempotent; use ``with``).
+* One driver per port: the advisory lock of :mod:`inkarm.hardware.port_lock` is taken
+  before the SDK opens the port and held until :meth:`close` (a second driver is refused at
+  once with :class:`~inkarm.hardware.port_lock.PortBusyError` naming the holder, instead of
+  both drivers' packets colliding and the second blaming the servos).
+* The port is closed and the lock released on every exit path (:meth:`close` is idempotent;
+  use ``with``).
 
 Failures raise :class:`DynamixelFault`, naming the servo and the fault.
 """
 
 from __future__ import annotations
 
+import contextlib
 import select
 import struct
 import termios
@@ -31,6 +37,7 @@ import serial
 from inkarm.errors import InputError, SimulationError
 from inkarm.hardware.dynamixel import protocol as p
 from inkarm.hardware.dynamixel.tables import COMMON, decode, to_unsigned
+from inkarm.hardware.port_lock import PortBusyError, port_lock
 
 STATE_ADDRESS, STATE_SIZE = 126, 10  # present current (2), velocity (4), position (4)
 _REG = {r.name: r for r in COMMON}
@@ -117,24 +124,46 @@ class DynamixelBus:
         self.last_failed = None     # the servo whose reply failed the last retried sync read
         self.last_waits: dict[int, float] = {}  # per servo: wait for its reply [s], last read
         self.levels: dict[int, int] = {}  # Status Return Level per servo, where known
+        self._lock = contextlib.ExitStack()
         try:
-            ok = self.port.openPort() and self.port.setBaudRate(self.baudrate)
-        except (serial.SerialException, OSError, ValueError) as e:
-            raise InputError(f"cannot open {port}: {e}", key="--port", value=port) from None
-        if not ok:
-            raise InputError(f"cannot open {port} at {baudrate} bit/s", key="--port", value=port)
+            self._lock.enter_context(port_lock(port))
+        except PortBusyError as busy:  # the command line's --port, not the scenario's
+            busy.key = "--port"
+            busy.args = (str(busy),)
+            raise busy from None
+        except OSError as e:
+            raise InputError(f"cannot lock {port}: {e}", key="--port", value=port) from None
+        try:
+            try:
+                ok = self.port.openPort() and self.port.setBaudRate(self.baudrate)
+            except (serial.SerialException, OSError, ValueError) as e:
+                raise InputError(f"cannot open {port}: {e}", key="--port", value=port) from None
+            if not ok:
+                raise InputError(f"cannot open {port} at {baudrate} bit/s", key="--port",
+                                 value=port)
+        except BaseException:
+            self._close_port()
+            self._lock.close()
+            raise
         self._open = True
         self._reader = _SyncRead(self.port, self.packet, STATE_ADDRESS, STATE_SIZE)
         self._last_reader = self._reader
 
     def close(self) -> None:
-        """Close the port. Idempotent."""
+        """Close the port, then release its lock. Idempotent."""
         if self._open:
             self._open = False
             try:
+                self._close_port()
+            finally:
+                self._lock.close()
+
+    def _close_port(self) -> None:
+        try:
+            if getattr(self.port, "ser", None) is not None:
                 self.port.closePort()
-            except (serial.SerialException, OSError):
-                pass
+        except (serial.SerialException, OSError):
+            pass
 
     def __enter__(self) -> Self:
         return self

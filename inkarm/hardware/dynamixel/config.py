@@ -20,9 +20,12 @@
     max_step_deg = 3.0                       # largest goal change per control period [deg]
     limit_margin_deg = 2.0                   # software limits inside the joint ranges [deg]
     pen_lift_deg = [0, -6, 4, 0, 0, 0]       # joint move that lifts the pen [deg]
-    park_deg = [...]                         # where close() parks (default: home)
+    park_deg = [...]                         # a rest pose where close() parks and lets go
+                                             #   (default: home, where it holds: released
+                                             #   over the sheet the arm falls on it)
     on_fault = "hold"                        # after pen up: "hold" or "torque_off"
-    on_close = "park"                        # "park" (then torque off), "hold", "torque_off"
+    on_close = "park"                        # "park" (then torque off at park_deg, holding
+                                             #   at home), "hold", "torque_off"
     retries = 2                              # extra tries of a failed bus transaction
     latency_ms = 16                          # USB latency timer in the reply timeout [ms]
 

@@ -10,7 +10,9 @@ and its access rules), :mod:`.instructions` (what each instruction does and who 
 * Simulated time is locked to wall time: between packets, at least every period, the
   physics is advanced to now (at most :data:`MAX_CATCH_UP_S` at once; the rest is dropped
   and counted); a packet is answered from the latest state.
-* Faults on command (:class:`Fault`, from when the first servo's torque went on):
+* Faults on command (:class:`Fault`, timed from the host's first torque-on: the first
+  write of Torque Enable = 1, so servos that boot holding, as the twin's do, start no clock
+  before a driver connects):
   ``silent`` (no replies), ``crc`` (corrupt CRC), ``late`` (each reply 100 ms late, sent
   while the bus goes on),
   ``overload`` and ``overheat`` (hardware errors: torque off, alert bit), ``watchdog`` (the
@@ -43,7 +45,8 @@ LATE_S = 0.1
 
 @dataclass(frozen=True)
 class Fault:
-    """Inject ``kind`` into servo ``servo_id`` ``at_s`` seconds after the first torque-on."""
+    """Inject ``kind`` into servo ``servo_id`` ``at_s`` seconds after the host's first
+    torque-on (module docstring)."""
 
     kind: str
     servo_id: int = 1
@@ -125,7 +128,7 @@ class DynamixelEmulator:
         self.physics = physics or SimpleJoints.at(np.zeros(n_joints))
         self.bus = EmulatedBus(servos)
         self.bank = ServoBank(servos, [s.mount for s in specs], self.physics)
-        self.bus.on_write = self.bank.on_write
+        self.bus.on_write = self._on_write
         self.faults = sorted(faults, key=lambda f: f.at_s)
         self.stats = EmulatorStats()
         self.lock = threading.RLock()
@@ -202,10 +205,21 @@ class DynamixelEmulator:
             elif kind == "watchdog":
                 self.bank.fire_watchdog(s)
 
+    def _on_write(self, servo: EmulatedServo, names: list[str]) -> None:
+        """A host's write: to the servo firmware; the first Torque Enable = 1 starts the
+        fault clock."""
+        self.bank.on_write(servo, names)
+        if self._torque_on_at is None and "torque_enable" in names \
+                and servo.memory.get("torque_enable"):
+            self._torque_on_at = self.now()
+
+    @property
+    def torque_on_at(self) -> float | None:
+        """When the host first switched a servo's torque on [s since start], or None."""
+        return self._torque_on_at
+
     def _due_faults(self) -> None:
         if self._torque_on_at is None:
-            if any(s.memory.get("torque_enable") for s in self.bus.servos):
-                self._torque_on_at = self.now()
             return
         while self.faults and self.now() - self._torque_on_at >= self.faults[0].at_s:
             fault = self.faults.pop(0)

@@ -18,6 +18,7 @@ run (:func:`hil_run`) leaves ink and is judged on it like a simulated one.
 from __future__ import annotations
 
 import dataclasses
+import time
 from pathlib import Path
 
 import numpy as np
@@ -172,12 +173,16 @@ def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: i
 
 
 def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
-            progress=None, boot_status_return_level: int = 2, **backend) -> Run:
+            progress=None, boot_status_return_level: int = 2, linger_s: float = 1.0,
+            **backend) -> Run:
     """A whole hardware-in-the-loop run on this machine: the twin emulator in a child process
     on a pty, the ``dynamixel`` backend through dynamixel-sdk, the twin's canvas brought back
     and the run judged on its ink. ``trace_path``: where the bus trace goes on a fault. ``backend`` overrides keys of the profile's
     ``[backends.dynamixel]`` (``latency_ms``, ``watchdog_ms``: a loaded machine answers late).
-    ``boot_status_return_level``: the servos' Status Return Level (68) at power-on."""
+    ``boot_status_return_level``: the servos' Status Return Level (68) at power-on.
+    ``linger_s``: how long [s] the twin goes on after the driver closed the port before its ink
+    is taken, as a user's emulator (or arm) goes on: ink that an arm left by the driver makes
+    (falling on the sheet) shows."""
     import functools
     import operator
 
@@ -192,6 +197,7 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     try:
         result = run_backend("dynamixel", scenario,
                              BackendOptions(port=port, trace_path=trace_path), progress=progress)
+        time.sleep(linger_s)
     finally:
         canvas = emulator.stop()
     if canvas is None:

@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from inkarm.hardware.dynamixel.bus import DynamixelBus
@@ -39,6 +40,20 @@ def test_hil_letter_inks_like_the_pure_simulation_of_the_same_arm():
     # the pure simulation's 0.07; 0.09 mm with few late).
     pure_chamfer = pure.metrics["ink_chamfer_mm"]
     assert hil.metrics["ink_chamfer_mm"] <= max(1.5 * pure_chamfer, pure_chamfer + 0.2)
+    assert_no_ink_outside_the_log(hil)
+
+
+def assert_no_ink_outside_the_log(run, within_mm: float = 1.5) -> None:
+    """Every inked pixel of the twin lies within ``within_mm`` of the logged tip while the
+    pen was down: nothing inks before the log starts or after it ends (hil_run lets the twin
+    go on for a second after the driver closed: an arm released over the sheet falls on it
+    and drew a 12 mm line there, issue 21)."""
+    down = run.log.tip[run.log.tip[:, 2] < 0.5, :2]
+    ink = run.canvas.ink_points_mm()
+    far = np.array([np.min(np.linalg.norm(down - p, axis=1)) for p in ink])
+    assert far.max() <= within_mm, (f"{(far > within_mm).sum()} inked pixels farther than "
+                                    f"{within_mm} mm from the logged pen-down path, e.g. at "
+                                    f"{ink[np.argmax(far)]} mm")
 
 
 @pytest.mark.slow
@@ -53,6 +68,7 @@ def test_hil_letter_with_servos_at_status_return_level_1_ends_ok():
     print(f"\nHIL at status return level 1: ink chamfer {hil.metrics['ink_chamfer_mm']:.3f} mm, "
           f"tracking RMS {hil.metrics['tracking_rms_mm']:.2f} mm")
     assert hil.metrics["ink_chamfer_mm"] <= 0.3
+    assert_no_ink_outside_the_log(hil)
 
 
 def test_emulate_dynamixel_prints_a_port_that_answers(tmp_path):
