@@ -43,6 +43,7 @@ the paper and pen, which are millimetres like every page quantity.
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,6 +57,7 @@ from inkarm.robots.gains import PIDGains
 
 TOP_KEYS = ("name", "description", "control_period_s", "model", "pen", "paper", "joints",
             "gains", "drive", "backends")
+JOINT_NAME = re.compile(r"[A-Za-z0-9_.\-]{1,64}")
 JOINT_KEYS = ("name", "range_deg", "speed_deg_s", "torque_nm", "home_rad")
 GAIN_KEYS = ("kp", "ki", "kd", "torque_limit", "integral_limit")
 MODEL_KEYS = ("builder", "menagerie", "flange_site", "armature", "damping")
@@ -212,8 +214,12 @@ def _joint(rd: TomlReader, raw, i: int, menagerie: bool) -> Joint:
     if joint_range is not None and not joint_range[0] <= home <= joint_range[1]:
         raise rd.error(f"{key}.home_rad", f"{home} rad is outside range_deg "
                        f"{np.rad2deg(joint_range).round(3).tolist()}", value=home)
+    name = rd.text(table["name"], f"{key}.name")
+    if not JOINT_NAME.fullmatch(name):  # MuJoCo finds joints by name: an empty one is none
+        raise rd.error(f"{key}.name", f"expected a name of letters, digits, '_', '-' or '.', "
+                       f"got {name!r}", value=name)
     return Joint(
-        name=rd.text(table["name"], f"{key}.name"),
+        name=name,
         # the floors are where a profile stops describing an arm that can draw (a joint slower
         # than 0.1 deg/s, a motor weaker than 1 mN m): smaller values are typos, and break the
         # time scaling and MuJoCo's actuator limits downstream

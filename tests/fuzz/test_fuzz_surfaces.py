@@ -204,7 +204,8 @@ def test_pencil_scans(run_cli, tmp_path, kind, shape, fill):
     if fill == "line" and rows > 2:
         grey[rows // 2 - 1: rows // 2 + 1] = 60
     if rows and cols:
-        Image.fromarray(grey.astype(np.uint8)).convert(kind).save(tmp_path / "scan.png")
+        image = Image.fromarray(grey.astype(np.uint8)).convert(kind)
+        image.save(tmp_path / "scan.png", format="PNG" if kind != "F" else "TIFF")
     else:
         (tmp_path / "scan.png").write_bytes(b"\x89PNG\r\n\x1a\n")
     check(run_cli(["pencil", "extract", "scan.png", "--out", "p.npz"]))

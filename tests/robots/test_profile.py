@@ -157,6 +157,12 @@ BAD_PROFILES = [
         r"expected numbers in \[0, 1e\+07\]",
     ),
     (
+        "an empty joint name",
+        lambda t: t.replace('name = "joint4"', 'name = ""'),
+        "joints[3].name",
+        r"expected a name of letters, digits",
+    ),
+    (
         "a joint too slow to draw",
         lambda t: re.sub(r"speed_deg_s = [0-9.]+", "speed_deg_s = 1e-300", t, count=1),
         "joints[0].speed_deg_s",
