@@ -85,6 +85,8 @@ def read_scan(path: str | Path) -> np.ndarray:
     elif mode == "F":
         raise InputError("a floating-point image: expected an 8- or 16-bit grey scan",
                          file=str(path))
+    if array.ndim == 3 and array.shape[-1] == 2:  # grey and alpha (LA): the grey is the scan
+        array = array[..., 0]
     if array.ndim == 3:
         channels = array[..., :3].astype(np.int32)
         if mode in ("P", "PA") or not (np.array_equal(channels[..., 0], channels[..., 1])

@@ -161,3 +161,10 @@ def test_the_command_refuses_it_in_one_line(tmp_path, capsys):
     assert main(["pencil", "extract", str(scan), "--out", str(tmp_path / "p.npz")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "900000000 pixels" in err[0] and "50,000,000" in err[0]
+
+
+def test_a_grey_scan_with_alpha_is_read_as_its_grey(tmp_path):
+    grey = np.full((20, 30), 200, dtype=np.uint8)
+    grey[9:11] = 40
+    Image.fromarray(grey).convert("LA").save(tmp_path / "la.png")
+    assert np.array_equal(read_scan(tmp_path / "la.png"), grey)
