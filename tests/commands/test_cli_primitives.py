@@ -80,7 +80,7 @@ def test_scribble_writes_drawing_and_figures_and_is_seeded(small_model, tmp_path
     (["learn", "letter:a", "--styles", "cursiv", "--out", "{tmp}/m.npz"],
      "--styles: unknown handstyle 'cursiv' \\(did you mean 'cursive'\\?\\)"),
     (["learn", "letter:a", "--seed", "-1", "--out", "{tmp}/m.npz"], "--seed: expected"),
-    (["scribble", "{tmp}/none.npz", "--out", "{tmp}/s"], "none.npz: no such file"),
+    (["scribble", "{tmp}/none.npz", "--out", "{tmp}/s"], "none.npz: no such primitives model file"),
     (["scribble", "{tmp}/bad.npz", "--out", "{tmp}/s"], "bad.npz: not a primitives model"),
     (["scribble", "{model}", "--duration", "-1", "--out", "{tmp}/s"],
      "--duration: expected a positive duration"),

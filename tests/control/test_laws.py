@@ -85,7 +85,8 @@ def test_the_built_ins_are_registered_with_what_they_send():
     ("tests.control.test_laws:NotALaw", {}, (r"declares commands \['velocity'\]; expected a "
      r"non-empty subset of \['position', 'torque'\]"), "controller.law"),
     ("position", {"friction": 1.0}, (r"^controller.position.friction: law 'position' has no "
-     r"setting 'friction'; its settings: friction_adaptation$"), "controller.position.friction"),
+     r"setting 'friction' \(did you mean 'friction_adaptation'\?\); its settings: "
+     r"friction_adaptation$"), "controller.position.friction"),
     ("position", {"friction_adaptaton": 1.0}, (r"no setting 'friction_adaptaton' \(did you "
      r"mean 'friction_adaptation'\?\)"), "controller.position.friction_adaptaton"),
     ("position", {"friction_adaptation": -1.0}, (r"friction_adaptation: expected a rate in "
