@@ -46,6 +46,26 @@ def test_a_damaged_baseline_is_refused_naming_the_file_and_metric(suite, capsys,
     assert re.search(message, err), err
 
 
+@pytest.mark.parametrize(("name", "edit", "message"), [
+    ("baseline.json", lambda d: d | {"versions": 0}, "versions (a table of texts)"),
+    ("baseline.json", lambda d: d | {"status": [1]}, "must hold a status (text)"),
+    ("path.npz", None, "path.npz: not a baseline's path (.npz)"),
+    ("canvas.png", None, "damaged baseline in"),
+])
+def test_a_damaged_baseline_file_is_refused_naming_it(suite, capsys, name, edit, message):
+    """Reproducers of the fuzz campaign: a marker whose versions are not a table, an empty
+    path.npz and an empty canvas.png were tracebacks."""
+    scenario, baseline = suite
+    path = baseline / name
+    if edit is None:
+        path.write_bytes(b"")
+    else:
+        path.write_text(json.dumps(edit(json.loads(path.read_text()))))
+    assert main(["regress", str(scenario)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+
+
 def test_junit_never_replaces_an_input_a_device_or_a_link_loop(suite, tmp_path, capsys):
     scenario, baseline = suite
     before = scenario.read_text()

@@ -128,8 +128,14 @@ def read_baseline(folder: str | Path, known_metrics=()) -> Baseline:
     if not (math.isfinite(px_per_mm) and px_per_mm > 0):
         raise InputError(f"damaged baseline in {folder}: px_per_mm {px_per_mm} in {MARKER} is "
                          f"not a positive number; remake it with --update", file=str(folder))
-    return Baseline(folder, str(info.get("status", "ok")), metrics, grey, px_per_mm, tip,
-                    pen_down, dict(info.get("versions", {})),
+    versions = info.get("versions", {})
+    status = info.get("status", "ok")
+    if not (isinstance(versions, dict) and all(isinstance(v, str) for v in versions.values())) \
+            or not isinstance(status, str):
+        raise InputError(f"damaged baseline in {folder}: {MARKER} must hold a status (text) and "
+                         "versions (a table of texts); remake it with --update",
+                         file=str(folder))
+    return Baseline(folder, status, metrics, grey, px_per_mm, tip, pen_down, dict(versions),
                     read_tolerances(folder / TOLERANCES_FILE, known_metrics))
 
 
