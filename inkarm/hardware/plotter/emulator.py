@@ -4,9 +4,10 @@ sender) to the slave path it prints.
 Two threads share the machine (:class:`inkarm.hardware.plotter.machine.GrblMachine`):
 
 * the *receiver* reads the port as GRBL's serial interrupt does: real-time bytes (``?``
-  status, ``!`` feed hold, ``~`` resume, 0x18 soft reset, and 0x80-0xFF, GRBL's overrides, of
-  which 0x9E, the spindle stop in a hold, lifts a servo pen and the rest are ignored) are acted
-  on at once and never buffered; every other byte goes into a 128-byte receive buffer, and a byte
+  status, ``!`` feed hold, ``~`` resume, 0x18 soft reset, and 0x80-0xFF: 0x85 jog cancel,
+  0x90-0x9D the feed, rapid and spindle overrides, 0x9E the spindle stop in a hold, which
+  lifts a servo pen, 0xA0 the flood toggle; the rest are dropped) are acted on at once and
+  never buffered; every other byte goes into a 128-byte receive buffer, and a byte
   that finds it full is lost without a word (:attr:`EmulatorStats.bytes_dropped` counts them);
 * the *protocol loop* takes characters out of the buffer into its line only when the machine
   can take a line (``\n`` and ``\r`` each end one, and an empty line is answered ``ok``, as
@@ -41,6 +42,8 @@ MAX_REPLIES_KEPT = 10_000
 IDLE_TICK_S = 0.02
 REALTIME = {ord("?"), ord("!"), ord("~"), 0x18}
 SPINDLE_STOP = 0x9E  # GRBL 1.1's spindle-stop override (extended real-time byte)
+JOG_CANCEL = 0x85
+OVERRIDES = frozenset({*range(0x90, 0x98), *range(0x99, 0x9E), 0xA0})
 FAULT_KINDS = ("error", "alarm", "disconnect")
 DEFAULT_CODES = {"error": 20, "alarm": 1, "disconnect": 0}
 
@@ -137,6 +140,7 @@ class GrblEmulator:
         self._master = self._slave = -1
         self._threads: list[threading.Thread] = []
         self.port = ""
+        self.error: Exception | None = None
 
     # -- life cycle ----------------------------------------------------------------------------
 
@@ -155,7 +159,8 @@ class GrblEmulator:
         return not self._stop.is_set()
 
     def stop(self) -> None:
-        """Stop both threads and close the port (idempotent); the pen is lifted."""
+        """Stop both threads and close the port (idempotent); the pen is lifted. Raises the
+        error that stopped the protocol loop, if one did (a bug in the machine)."""
         self._stop.set()
         self._wake.set()
         for t in self._threads:
@@ -166,6 +171,9 @@ class GrblEmulator:
                 self.canvas.lift()
         close_quietly(self._master, self._slave)
         self._master = self._slave = -1
+        if self.error is not None:
+            error, self.error = self.error, None
+            raise RuntimeError(f"the GRBL emulator's protocol loop failed: {error!r}") from error
 
     def __enter__(self) -> Self:
         self.start()
@@ -220,8 +228,14 @@ class GrblEmulator:
             busy = not machine.idle or self._rx or self._line
             self._wake.wait(self.config.tick_s if busy else IDLE_TICK_S)
             self._wake.clear()
-            with self._lock:
-                out = self._tick(machine)
+            try:
+                with self._lock:
+                    out = self._tick(machine)
+            except Exception as error:  # noqa: BLE001 - a machine bug: stop, re-raised by stop()
+                self.error = error
+                self._stop.set()
+                close_quietly(self._master)
+                return
             if out and not self._write(out):
                 return
 
@@ -229,13 +243,19 @@ class GrblEmulator:
         out: list[str] = []
         for byte in self._realtime:
             if byte == ord("?"):
-                out.append(machine.status_report())
+                report = machine.status_report(RX_BUFFER - len(self._rx))
+                if report is not None:
+                    out.append(report)
             elif byte == ord("!"):
                 machine.feed_hold()
             elif byte == ord("~"):
                 machine.cycle_start()
             elif byte == SPINDLE_STOP:
                 machine.toggle_spindle_stop()
+            elif byte == JOG_CANCEL:
+                machine.jog_cancel_byte()
+            elif byte in OVERRIDES:
+                machine.override(byte)
             elif byte == 0x18:
                 machine.soft_reset()
                 self._rx.clear()
@@ -244,6 +264,7 @@ class GrblEmulator:
         was_idle = machine.idle
         self._take_lines(machine, out)
         now = self._machine_now()
+        machine.streaming = bool(self._rx)
         if now > machine.time:
             machine.advance(now - machine.time)
         machine.pump()

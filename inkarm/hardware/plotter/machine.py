@@ -1,21 +1,26 @@
-"""The emulated GRBL 1.1 machine: settings, parser state, the planner, the pen and the clock.
+"""The emulated GRBL 1.1h machine: settings, parser state, the planner, the pen and the clock.
 
 No port here: :class:`GrblMachine` takes lines and real-time bytes and produces replies, and
 advances in machine time when told (:meth:`GrblMachine.advance`). The pseudo-terminal server
 (:mod:`inkarm.hardware.plotter.emulator`) drives it against the wall clock; the time estimate
 (:mod:`inkarm.hardware.plotter.timing`) drives it event by event, so both share one planner.
 
-What GRBL does and this machine does too: a line's modal state is applied when it is parsed,
-its motion is queued in the planner (the line waits while the planner is full); M3/M4/M5 and G4
-wait until the planner is empty (GRBL synchronises the buffer for the spindle and dwells), G4
-then waits P seconds before ``ok``; a target outside ``[0, $130..$132]`` with soft limits on
-(``$20=1``) holds the motion to a stop and raises ALARM:2; an alarm locks out G-code
-(``error:9``) until ``$X`` or ``$H``. The machine's space is positive, its origin at the page's
-lower-left corner (GRBL's ``HOMING_FORCE_SET_ORIGIN``).
+What GRBL 1.1h does and this machine does too (``protocol.c``, ``gcode.c``, ``system.c``,
+``limits.c``, ``report.c``): a line is filtered (:mod:`.gcode_parser`), ``$`` lines go to the
+system commands (:mod:`.dollar`), G-code is checked and run by :mod:`.interpreter`; motion
+waits in the 15-block planner, a spindle or coolant change, G4, G10, G28.1/G30.1 and M0/M2/M30
+wait for it to empty; during G4 the state is Idle. Alarms lock G-code out (``error:9``) until
+``$X`` or ``$H``; a soft-limit alarm (a target outside ``[-travel, 0]`` with ``$20=1``, see
+:mod:`.homing`) stops the motion, prints ``ALARM:2`` and ``[MSG:Reset to continue]`` and
+freezes the main loop (no line, no status report) until a soft reset. With homing on
+(``$22=1``) the machine powers up in alarm. A soft reset keeps the position, clears G92, the
+modal state and the planner, and runs the ``$N`` start-up lines unless in alarm.
 
-The pen is an RC servo on the spindle PWM: ``M3 S>=pen_contact_s`` puts it down, ``M5`` (or a
-lower S) lifts it; the servo needs ``pen_settle_s`` to get there, and the pen touches the page
-only once down. With a Z-axis pen, the pen touches at ``Z <= pen_contact_z_mm``.
+The pen is an RC servo on the spindle PWM: the spindle on with ``S >= pen_contact_s`` (as the
+PWM gets it: clamped to ``$30``/``$31``, 0 when off) puts it down, ``M5`` or a lower S lifts
+it; the servo needs ``pen_settle_s``. With a Z-axis pen, the pen touches at physical
+``Z <= pen_contact_z_mm``. The ink canvas gets the physical position (from the corner where
+the carriage powered up; after homing, machine ``-travel``).
 """
 
 from __future__ import annotations
@@ -27,32 +32,34 @@ from dataclasses import dataclass
 import numpy as np
 
 from inkarm.errors import InputError
-from inkarm.hardware.plotter.gcode_parser import MAX_LINE, GcodeError, normalise, parse_block
+from inkarm.hardware.plotter import dollar, homing, stepper
+from inkarm.hardware.plotter.gcode_parser import GcodeError, filter_line, parse_block
+from inkarm.hardware.plotter.homing import HomingMixin
+from inkarm.hardware.plotter.interpreter import ParserState, execute_block
 from inkarm.hardware.plotter.planner import BLOCK_BUFFER, Planner
+from inkarm.hardware.plotter.realtime import RealtimeCommands
+from inkarm.hardware.plotter.reports import (
+    BANNER,
+    ReportCounters,
+    StatusInputs,
+    status_report,
+)
+from inkarm.hardware.plotter.settings import (
+    DEFAULT_SETTINGS,
+    GRBL_DEFAULTS,
+    PLOTTER_SETTINGS,
+    checked_settings,
+)
 
 VERSION = "1.1h"
-BANNER = f"Grbl {VERSION} ['$' for help]"
-DEFAULT_SETTINGS = {
-    0: 10, 1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 1, 11: 0.010, 12: 0.002, 13: 0,
-    20: 1, 21: 0, 22: 0, 23: 0, 24: 25.0, 25: 3000.0, 26: 250, 27: 1.0, 30: 1000, 31: 0,
-    32: 0, 100: 80.0, 101: 80.0, 102: 400.0, 110: 12000.0, 111: 12000.0, 112: 3000.0,
-    120: 1500.0, 121: 1500.0, 122: 500.0, 130: 300.0, 131: 300.0, 132: 40.0,
-}
-ALARM_HARD_LIMIT, ALARM_SOFT_LIMIT, ALARM_ABORT_CYCLE = 1, 2, 3
-POSITIVE_SETTINGS = (11, 12, 110, 111, 112, 120, 121, 122)  # rates, accelerations, tolerances
-
-
-def setting_error(key: int, value: float) -> str:
-    """Why ``$key=value`` is refused (GRBL's error:3 unknown, error:4 negative; a rate,
-    acceleration or tolerance of 0 is refused too, as it would stall the planner); empty when
-    it is fine."""
-    if key not in DEFAULT_SETTINGS:
-        return "error:3"
-    if not math.isfinite(value) or value < 0 or (key in POSITIVE_SETTINGS and value == 0):
-        return "error:4"
-    return ""
+ALARM_HARD_LIMIT, ALARM_SOFT_LIMIT, ALARM_ABORT_CYCLE, ALARM_HOMING_RESET = 1, 2, 3, 6
+MSG_LOCK = "[MSG:'$H'|'$X' to unlock]"
 MAX_SUBSTEP_S = 0.004
-Z_PEN_START_MM = 5.0  # machine time between pen samples on the canvas
+RESET_S = 0.03  # a soft reset to its banner (grbl-sim: 29-71 ms)
+ALARM_DELAY_S = 0.5  # GRBL report.c report_alarm_message: delay_ms(500) after ALARM:N
+DWELL_STEP_S = 0.05  # GRBL config.h DWELL_TIME_STEP [ms] / 1000
+Z_PEN_START_MM = 5.0  # a Z pen powers up this far above the page
+__all__ = ["DEFAULT_SETTINGS", "GRBL_DEFAULTS", "PLOTTER_SETTINGS", "GrblMachine", "PenConfig"]
 
 
 @dataclass(frozen=True)
@@ -67,376 +74,330 @@ class PenConfig:
     force_n: float = 1.0
 
 
-class GrblMachine:
-    """A GRBL 1.1 controller with a pen (see the module docstring).
+class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
+    """A GRBL 1.1h controller with a pen (see the module docstring).
 
     Args:
-        settings: ``$`` settings overriding :data:`DEFAULT_SETTINGS`.
+        settings: ``$`` settings over :data:`DEFAULT_SETTINGS` (what ``$RST=$`` restores).
         pen: The pen servo.
-        canvas: An ink canvas (``touch``/``lift``) under the pen, page [mm] = machine [mm].
+        canvas: An ink canvas (``touch``/``lift``) under the pen, in physical [mm].
+        trace: A list to append (time, x, y, z, touching) samples to (physical [mm]).
+        home_distance_mm: Where the limit switches are, from the power-up point [mm] (None:
+            the + switches at the far end of the travel, ``$130..$132``).
     """
 
     def __init__(self, settings: dict[int, float] | None = None, pen: PenConfig | None = None,
-                 canvas=None, trace: list | None = None):
-        self.settings = dict(DEFAULT_SETTINGS)
-        for key, value in (settings or {}).items():
-            if setting_error(key, value):
-                raise InputError(f"${key}={value}: expected a GRBL 1.1 setting with a value "
-                                 ">= 0 (> 0 for rates, accelerations and tolerances)",
-                                 key="settings", value=(key, value))
-            self.settings[key] = value
+                 canvas=None, trace: list | None = None, home_distance_mm: float | None = None):
+        self.settings, why = checked_settings(settings)
+        if why:
+            raise InputError(why, key="settings", value=settings)
+        self.factory = dict(self.settings)
         self.pen = pen or PenConfig()
         self.canvas = canvas
-        self.trace = trace  # (time, x, y, z, touching) per sample, when a list is given
+        self.trace = trace
         self.outbox: list[str] = []
         self.time = 0.0
         self.position = np.zeros(3)  # machine position now [mm]
-        self.planned = np.zeros(3)  # where the queued motion ends (GRBL's gc_state.position)
-        self.offset = np.zeros(3)  # G92 offset [mm]
-        self.lines_done = 0
-        if self.pen.contact_z_mm is not None:  # a Z pen powers up lifted above the page
+        if self.pen.contact_z_mm is not None:
             self.position[2] = self.pen.contact_z_mm + Z_PEN_START_MM
-        self._build_planner()
-        self._power_up()
+        self.params = np.zeros((8, 3))  # G54-G59, G28, G30 (GRBL keeps them in EEPROM)
+        self.startup_lines = ["", ""]
+        self.build_info = ""
+        self.lines_done = 0
+        self.streaming = False  # more lines wait in the receive buffer (set by the driver)
+        self.sys_state = "Alarm" if self.settings[22] else "Idle"  # HOMING_INIT_LOCK
+        self.pen_down_target = False
+        self.pen_change_at = -math.inf
+        self.build_planner()
+        self._init_switches(home_distance_mm)
+        self._reinit()
 
     # -- state -------------------------------------------------------------------------------
 
-    def _build_planner(self) -> None:
+    def build_planner(self) -> None:
         s = self.settings
-        self.planner = Planner(
-            accel=[s[120], s[121], s[122]],
-            max_rate=[s[110] / 60.0, s[111] / 60.0, s[112] / 60.0],
-            deviation_mm=s[11])
+        self.planner = Planner(accel=[s[120], s[121], s[122]],
+                               max_rate=[s[110] / 60.0, s[111] / 60.0, s[112] / 60.0],
+                               deviation_mm=s[11])
+        feed, rapid, _ = getattr(self, "overrides", (100, 100, 100))
+        self.planner.set_overrides(feed, rapid)
 
-    def _power_up(self) -> None:
+    def _reinit(self) -> None:
+        """GRBL's main() loop after power-up or an abort: everything but the position, the
+        stored data and an alarm is reset; banner; start-up lines unless in alarm."""
         self.planner.clear()
         self.work: deque[tuple] = deque()
-        self.modal = {"motion": 0, "units": 21, "distance": 90, "plane": 17, "feed mode": 94,
-                      "coordinate system": 54, "spindle": 5}
-        self.feed = 0.0  # [mm/s]; 0 until an F word
-        self.spindle_s = 0.0
-        self.spindle_on = False
-        self.dwell_until = -math.inf
-        self.hold = False
-        self.alarm = 0 if not self.settings[22] else -1  # -1: locked until $H or $X
+        self.gc = ParserState(coord_system=self.params[0].copy(),
+                              position=self._quantised())
+        self.counters = ReportCounters()
+        self.overrides = [100, 100, 100]
+        self.planner.set_overrides(100, 100)
+        self.spindle_mode, self.spindle_rpm, self.flood = 5, 0.0, False
+        self.programmed: tuple[int, float] = (5, 0.0)  # the spindle as last programmed
+        self._pen_command(False)
+        self.dwell_until = self.cycle_stop_at = self.hold_from = -math.inf
+        self.motion_t0 = 0.0  # when the current cycle started [s]
+        self.hold = self.jog_cancel = self.frozen = self.ok_after_reset = False
         self.pending_alarm = 0
-        self.spindle_stopped = False  # by the spindle-stop override, in a hold
+        self.spindle_stopped = False
         self._pen_before_stop = False
-        self.resume_at: float | None = None  # when a resumed hold starts moving [s]
-        self.homing = False
-        self.pen_down_target = False
-        self.pen_change_at = -math.inf
-        self.planned = self.position.copy()
-        self.outbox.append("")
-        self.outbox.append(BANNER)
-        if self.alarm:
-            self.outbox.append("[MSG:'$H'|'$X' to unlock]")
+        self.outbox += ["", BANNER]
+        if self.settings[21] and any(self.switches()):  # GRBL's CHECK_LIMITS_AT_INIT
+            self.sys_state = "Alarm"
+            self.outbox.append("[MSG:Check Limits]")
+        if self.sys_state in ("Alarm", "Sleep"):
+            self.sys_state = "Alarm"
+            self.outbox.append(MSG_LOCK)
+        else:
+            self.sys_state = "Idle"
+            self.run_startup_lines()
+
+    def run_startup_lines(self) -> None:
+        """Run the stored ``$N`` lines, each answered ``>line:ok`` (or its error)."""
+        for line in self.startup_lines:
+            if line:
+                self.run_gcode(line, f">{line}:")
+
+    @property
+    def alarm(self) -> int:
+        """Non-zero while G-code is locked out (GRBL's alarm state)."""
+        return 1 if self.sys_state == "Alarm" else 0
+
+    @property
+    def homing(self) -> bool:
+        return self.sys_state == "Home"
 
     @property
     def state(self) -> str:
         """GRBL's state name as in a status report."""
-        if self.alarm:
-            return "Alarm"
-        if self.homing:
-            return "Home"
+        if self.sys_state in ("Alarm", "Check", "Sleep", "Home"):
+            return self.sys_state
+        if self.sys_state == "Jog":
+            return "Jog"
         if self.hold:
-            return "Hold:0" if self.planner.speed <= 0 else "Hold:1"
-        if not self.planner.empty or self.time < self.dwell_until:
-            return "Run"
-        return "Idle"
+            return "Hold:0" if self.cycle_done else "Hold:1"
+        return "Idle" if self.cycle_done else "Run"
 
     @property
     def idle(self) -> bool:
-        return self.state == "Idle" and not self.work
+        return self.state in ("Idle", "Check", "Alarm") and not self.work and \
+            self.time >= self.dwell_until and self.cycle_done
 
     @property
     def pen_touching(self) -> bool:
         """Whether the pen is on the page now (servo settled down, or Z at the page)."""
         if self.pen.contact_z_mm is not None:
-            return bool(self.position[2] <= self.pen.contact_z_mm + 1e-9)
+            return bool(self.physical()[2] <= self.pen.contact_z_mm + 1e-9)
         return self.pen_down_target and self.time >= self.pen_change_at + self.pen.settle_s
 
     def accepts_line(self) -> bool:
         """Whether the protocol loop may take the next line from the receive buffer."""
-        return not self.work
+        return not self.work and not self.frozen and self.sys_state != "Sleep"
 
-    # -- real-time commands -------------------------------------------------------------------
-
-    def feed_hold(self) -> None:
-        if not self.alarm and (not self.planner.empty or self.homing):
-            self.hold = True
-
-    def cycle_start(self) -> None:
-        """``~``: resume from a hold; a pen lifted by the spindle-stop override goes back
-        down first and the motion waits for the servo to settle."""
-        if not self.hold:
-            return
-        if self.spindle_stopped:
-            self.spindle_stopped = False
-            self._pen_command(self._pen_before_stop)
-            self.resume_at = self.time + self.pen.settle_s
-            return
-        self.hold = False  # (released while braking: re-plan from the current speed)
-        self.planner.recalculate()
-
-    def toggle_spindle_stop(self) -> None:
-        """0x9E, GRBL 1.1's spindle-stop override: only in a finished hold (Hold:0), it stops
-        the spindle, which lifts a servo pen; ``~`` restores it before the motion resumes."""
-        if not (self.hold and self.planner.speed <= 0 and self.resume_at is None):
-            return
-        if not self.spindle_stopped:
-            self._pen_before_stop = self.pen_down_target
-            self.spindle_stopped = True
-            self._pen_command(False)
-        else:
-            self.spindle_stopped = False
-            self._pen_command(self._pen_before_stop)
+    # -- resets and alarms ------------------------------------------------------------------
 
     def soft_reset(self) -> None:
-        """0x18: kill motion (ALARM:3 when it was moving), spindle off, flush (the power-up
-        state clears the planner, the work queue, a hold and homing), banner."""
-        moving = not self.planner.empty and self.planner.speed > 0
-        self._pen_command(False)
-        if moving:
+        """0x18: stop at once (ALARM:3 when motion was under way, ALARM:6 when homing; GRBL
+        then waits 0.5 s), spindle off; after :data:`RESET_S` the banner; position kept."""
+        delay = RESET_S
+        if self.frozen and self.ok_after_reset:
+            self.outbox.append("ok")
+        if self.sys_state == "Home":
+            self.outbox.append(f"ALARM:{ALARM_HOMING_RESET}")
+            self.sys_state, delay = "Alarm", RESET_S + ALARM_DELAY_S
+        elif not self.frozen and (self.state in ("Run", "Jog") or
+                                  (self.hold and not self.planner.empty)):
             self.outbox.append(f"ALARM:{ALARM_ABORT_CYCLE}")
-        self._power_up()
-        if moving:
-            self.alarm = ALARM_ABORT_CYCLE
+            self.sys_state, delay = "Alarm", RESET_S + ALARM_DELAY_S
+        elif self.sys_state == "Check":
+            self.sys_state = "Idle"
+        self.planner.clear()
+        self.hold = self.frozen = self.ok_after_reset = False
+        self.pending_alarm = 0
+        self._spindle_output(5, 0.0)
+        self.flood = False
+        self.work = deque([("delay", delay), ("reinit",)])
+        self.pump()
 
     def raise_alarm(self, code: int) -> None:
-        """Stop at once (a hard limit, or a fault on command), pen up, lock out G-code."""
+        """Stop at once (a hard limit, or a fault on command), pen up, lock out G-code; a
+        limit alarm freezes everything but a soft reset (``[MSG:Reset to continue]`` after
+        GRBL's 0.5 s alarm delay)."""
         self.planner.clear()
         self.work.clear()
         self.hold = False
-        self.homing = False
-        self._pen_command(False)
-        self.alarm = code
-        self.planned = self.position.copy()
+        self._spindle_output(5, 0.0)
+        self.sys_state = "Alarm"
         self.outbox.append(f"ALARM:{code}")
+        if code in (ALARM_HARD_LIMIT, ALARM_SOFT_LIMIT):
+            self.work.extend([("delay", ALARM_DELAY_S), ("msg", "[MSG:Reset to continue]")])
+            self.frozen = True
 
-    def status_report(self) -> str:
-        mask = int(self.settings[10])
-        x, y, z = self.position / (25.4 if self.settings[13] else 1.0)  # $13: report inches
-        fields = [self.state, f"MPos:{x:.3f},{y:.3f},{z:.3f}"]
-        if mask & 2:
-            fields.append(f"Bf:{BLOCK_BUFFER - len(self.planner.blocks)},128")
-        fields.append(f"FS:{self.planner.speed * 60:.0f},{self.spindle_s:.0f}")
-        if np.any(self.offset):
-            fields.append("WCO:" + ",".join(f"{v:.3f}" for v in self.offset))
-        if self.spindle_on:
-            fields.append("A:S")
-        return "<" + "|".join(fields) + ">"
+    def status_report(self, rx_free: int = 128) -> str | None:
+        """The answer to ``?`` (None while frozen after a limit alarm or while a reset is
+        under way: GRBL answers nothing then)."""
+        if self.frozen or any(item[0] == "reinit" for item in self.work):
+            return None  # (a reset under way: GRBL clears the request when it restarts)
+        busy = self.state.split(":")[0] in ("Run", "Hold", "Jog", "Home")
+        spindle = "" if self.spindle_rpm <= 0 or self.spindle_mode == 5 else \
+            ("S" if self.spindle_mode == 3 else "C")
+        inputs = StatusInputs(
+            state=self.state, mpos=self._quantised(), wco=self.gc.wco(),
+            blocks_free=BLOCK_BUFFER - self._blocks_used(), rx_free=rx_free,
+            rate_mm_min=self._prep_speed() * 60.0 if busy else 0.0,
+            spindle_rpm=self.spindle_rpm, overrides=tuple(self.overrides), spindle=spindle,
+            flood=self.flood, pins=self.pins())
+        return status_report(inputs, int(self.settings[10]), bool(self.settings[13]),
+                             self.counters)
 
     # -- lines -------------------------------------------------------------------------------
 
     def take_line(self, raw: str) -> None:
-        """Parse one received line and queue its work (ending with its reply)."""
+        """Filter and run one received line; its reply comes when its work is done."""
         self.lines_done += 1
-        if len(raw) > MAX_LINE:
+        line, overflow = filter_line(raw)
+        if overflow:
             self.outbox.append("error:11")
-            return
-        line = normalise(raw)
-        if not line:
+        elif not line:
             self.outbox.append("ok")
-            return
-        if line.startswith("$"):
-            self._system(line)
-            return
-        if self.alarm:
+        elif line[0] == "$":
+            dollar.system_command(self, line)
+        elif self.sys_state in ("Alarm", "Jog"):
             self.outbox.append("error:9")
-            return
-        try:
-            self._gcode(parse_block(line))
-        except GcodeError as e:
-            self.outbox.append(f"error:{e.code}")
-
-    def _system(self, line: str) -> None:
-        if line == "$$":
-            self.outbox.extend(f"${k}={_fmt(k, v)}" for k, v in sorted(self.settings.items()))
-        elif line == "$I":
-            self.outbox.extend([f"[VER:{VERSION}.20190825:]", "[OPT:V,15,128]"])
-        elif line == "$G":
-            m = self.modal
-            self.outbox.append(f"[GC:G{m['motion']} G{m['coordinate system']} G{m['plane']} "
-                               f"G{m['units']} G{m['distance']} G{m['feed mode']} "
-                               f"M{m['spindle']} M9 T0 F{self.feed * 60:.0f} "
-                               f"S{self.spindle_s:.0f}]")
-        elif line == "$X":
-            if self.alarm:
-                self.outbox.append("[MSG:Caution: Unlocked]")
-            self.alarm = 0
-        elif line == "$H":
-            if not self.settings[22]:
-                self.outbox.append("error:5")
-                return
-            self.alarm = 0
-            self.work.extend([("sync",), ("home",), ("reply", "ok")])
-            return
-        elif "=" in line and line[1:].split("=")[0].isdigit():
-            key, _, value = line[1:].partition("=")
-            try:
-                number = float(value)
-            except ValueError:
-                self.outbox.append("error:2")
-                return
-            error = setting_error(int(key), number)
-            if error:
-                self.outbox.append(error)
-                return
-            if not self.planner.empty:
-                self.outbox.append("error:8")  # GRBL: $ commands only when idle
-                return
-            self.settings[int(key)] = number
-            self._build_planner()
         else:
-            self.outbox.append("error:3")
-            return
-        self.outbox.append("ok")
+            self.run_gcode(line, "")
 
-    def _gcode(self, block) -> None:
-        modal, values = self.modal, block.values
-        motion = block.g.get("motion")
-        non_modal = block.g.get("non-modal")
-        axes = block.axes
-        if motion is None and axes and non_modal is None:
-            motion = modal["motion"]
-        if motion is not None and not axes and motion in (0, 1):
-            raise GcodeError(26, "no axis words")
-        if motion in (2, 3) and not ({"I", "J"} & set(values)):
-            raise GcodeError(26, "an arc needs I or J (R is not supported)")
-        if "F" in values and values["F"] <= 0 and motion != 0:
-            raise GcodeError(22, "feed rate must be > 0")
-        units = block.g.get("units", modal["units"])
-        scale = 25.4 if units == 20 else 1.0
-        if motion in (1, 2, 3) and "F" not in values and self.feed <= 0:
-            raise GcodeError(22, "undefined feed rate")
-        if non_modal == 4 and "P" not in values:
-            raise GcodeError(26, "G4 needs P")
-        # The block is valid: apply it in GRBL's order of execution.
-        for group in ("units", "distance", "plane", "feed mode", "coordinate system"):
-            if group in block.g:
-                modal[group] = block.g[group]
-        if "F" in values:
-            self.feed = values["F"] * scale / 60.0
-        if "S" in values:
-            self.spindle_s = values["S"]
-        if "spindle" in block.m or ("S" in values and self.spindle_on):
-            on = block.m.get("spindle", modal["spindle"]) in (3, 4)
-            modal["spindle"] = block.m.get("spindle", modal["spindle"])
-            self.work.extend([("sync",), ("spindle", on, self.spindle_s)])
-        if non_modal == 4:
-            self.work.extend([("sync",), ("dwell", max(values["P"], 0.0))])
-        if non_modal == 92:
-            for i, a in enumerate("XYZ"):
-                if a in axes:
-                    self.offset[i] = self.planned[i] - axes[a] * scale
-            axes = {}
-            motion = None
-        if motion is not None:
-            modal["motion"] = motion
-        if motion is not None and axes:
-            target = self.planned.copy()
-            for i, a in enumerate("XYZ"):
-                if a in axes:
-                    value = axes[a] * scale
-                    target[i] = (target[i] + value if modal["distance"] == 91
-                                 else value + self.offset[i])
-            if motion in (0, 1):
-                self._queue_line(target, motion)
-            else:
-                self._queue_arc(target, values, scale, clockwise=motion == 2)
-        if block.m.get("stopping") in (2, 30):
-            self.work.extend([("sync",), ("spindle", False, self.spindle_s)])
-            modal["spindle"] = 5
-        self.work.append(("reply", "ok"))
-
-    def _queue_line(self, target: np.ndarray, motion: int) -> None:
-        if self.settings[20]:
-            travel = np.array([self.settings[130], self.settings[131], self.settings[132]])
-            if np.any(target < -1e-6) or np.any(target > travel + 1e-6):
-                self.work.append(("soft limit",))
-                return
-        feed = math.inf if motion == 0 else self.feed
-        self.work.append(("move", target.copy(), feed))
-        self.planned = target
-
-    def _queue_arc(self, target: np.ndarray, values: dict, scale: float,
-                   clockwise: bool) -> None:
-        """GRBL's arc: chords within ``$12`` of the circle (mc_arc's segment count)."""
-        start = self.planned.copy()
-        centre = start[:2] + np.array([values.get("I", 0.0), values.get("J", 0.0)]) * scale
-        r0, r1 = start[:2] - centre, target[:2] - centre
-        radius = float(np.hypot(*r0))
-        if abs(radius - np.hypot(*r1)) > max(0.005, 0.001 * radius) or radius <= 0:
-            raise GcodeError(33, "the arc's end is not on its circle")
-        angle = math.atan2(r0[0] * r1[1] - r0[1] * r1[0], float(np.dot(r0, r1)))
-        if clockwise and angle >= -1e-9:
-            angle -= 2 * math.pi
-        elif not clockwise and angle <= 1e-9:
-            angle += 2 * math.pi
-        tol = self.settings[12]
-        n = max(1, int(abs(0.5 * angle * radius) / math.sqrt(tol * (2 * radius - tol))))
-        for k in range(1, n + 1):
-            if k == n:
-                point = target.copy()
-            else:
-                a = angle * k / n
-                c, s = math.cos(a), math.sin(a)
-                point = start.copy()
-                point[:2] = centre + np.array([c * r0[0] - s * r0[1], s * r0[0] + c * r0[1]])
-                point[2] = start[2] + (target[2] - start[2]) * k / n
-            self._queue_line(point, 1)
+    def run_gcode(self, line: str, prefix: str, jog: bool = False) -> int:
+        """Check and queue one G-code line (``$J=`` when ``jog``); its reply is ``prefix``
+        and ``ok`` or ``error:N`` once its work is done. Returns the status code."""
+        try:
+            actions = execute_block(self.gc, parse_block(line, 3 if jog else 0), self.params,
+                                    jog=jog, arc_tolerance=self.settings[12])
+        except GcodeError as e:
+            self.outbox.append(f"{prefix}error:{e.code}")
+            return e.code
+        if jog:
+            target, feed = actions[0][1], actions[0][2]
+            if self.settings[20] and homing.outside_space(self.settings, target):
+                self.outbox.append(f"{prefix}error:15")
+                return 15
+            self.gc.position = target.copy()
+            self.work.append(("jog", target, feed / 60.0))
+        else:
+            self.work.extend(actions)
+        self.work.append(("reply", prefix + "ok"))
+        return 0
 
     # -- executing ---------------------------------------------------------------------------
 
     def pump(self) -> None:
         """Do the queued work as far as it can go now."""
-        while self.work and not self.alarm:
+        while self.work and (not self.frozen or self.work[0][0] in ("delay", "msg")):
             item = self.work[0]
             kind = item[0]
-            if kind == "move":
-                if self.planner.full:
+            if kind == "reinit":
+                if self.time < self.dwell_until:
                     return
-                start = self.planner.blocks[-1].target if self.planner.blocks else self.position
-                self.planner.add(start, item[1], item[2], self.lines_done)
+                self.work.popleft()
+                self._reinit()
+                continue
+            check = self.sys_state == "Check"
+            if kind == "line":
+                if self.settings[20] and homing.outside_space(self.settings, item[1]):
+                    self._soft_limit()
+                    return
+                if not check:
+                    if self._blocks_used() >= BLOCK_BUFFER:
+                        return
+                    rapid = item[2] is None
+                    rate = math.inf if rapid else item[2] / 60.0
+                    self.planner.add(self._planned_end(), item[1], rate, self.lines_done,
+                                     rapid=rapid)
+            elif kind == "jog":
+                if self._blocks_used() >= BLOCK_BUFFER:
+                    return
+                if self.planner.add(self._planned_end(), item[1], item[2], self.lines_done,
+                                    override=False):
+                    self.sys_state = "Jog"
             elif kind == "sync":
-                if not self.planner.empty or self.hold:
+                if not check and not (self.planner.empty and self.cycle_done):
                     return
             elif kind == "dwell":
-                self.dwell_until = self.time + item[1]
+                if not check:  # GRBL's delay_sec: whole 50 ms steps, rounded up
+                    steps = math.ceil(np.float32(20.0) * np.float32(item[1]))
+                    self.dwell_until = self.time + DWELL_STEP_S * steps
+            elif kind == "delay":  # (homing's debounce counts from the end of its move)
+                base = self.cycle_stop_at if self.sys_state == "Home" else self.time
+                self.dwell_until = min(max(base, self.time - item[1]), self.time) + item[1]
             elif kind == "spindle":
-                self.spindle_on = item[1]
-                self._pen_command(item[1] and item[2] >= self.pen.contact_s)
-            elif kind == "home":
-                self.homing = True
-                self.planner.add(self.position, np.zeros(3), self.settings[25] / 60.0)
-                self.planned = np.zeros(3)
-            elif kind == "reply":
-                if self.time < self.dwell_until or (self.homing and not self.planner.empty):
+                if not check:
+                    self.programmed = (item[1], item[2])
+                    self._set_spindle(item[1], item[2])
+            elif kind == "coolant":
+                if not check:
+                    self.flood = item[1] == 8
+                    self.counters.ovr = 0
+            elif kind == "wco":
+                self.counters.wco = 0
+            elif kind == "pause":  # M0: a feed hold; the line's ok comes after the resume
+                if not check:
+                    self._start_hold()
+                    self.work[0] = ("paused",)
                     return
-                self.homing = False
+            elif kind == "paused":
+                if self.hold:
+                    return
+            elif kind == "end":
+                self._program_end(check)
+            elif kind == "home phase":
+                if not self._home_phase(item):
+                    return
+                if self.sys_state == "Alarm":
+                    continue  # (the failed cycle replaced the work)
+            elif kind == "homed":
+                if not self.planner.empty or self.time < self.dwell_until:
+                    return
+                self.work.popleft()
+                self._homed()
+                continue
+            elif kind in ("reply", "msg"):
+                if self.time < self.dwell_until:
+                    return
                 self.outbox.append(item[1])
-            elif kind == "soft limit":
-                self.work.clear()
-                self.pending_alarm = ALARM_SOFT_LIMIT
-                self.feed_hold()
-                if self.planner.empty:
-                    self.raise_alarm(ALARM_SOFT_LIMIT)
-                return
             self.work.popleft()
 
-    def _pen_command(self, down: bool) -> None:
-        if down != self.pen_down_target:
-            self.pen_down_target = down
-            self.pen_change_at = self.time
+    def _planned_end(self) -> np.ndarray:
+        return self.planner.blocks[-1].target if self.planner.blocks else self.position
+
+    def _soft_limit(self) -> None:
+        """GRBL's limits_soft_check: hold to a stop, then ALARM:2 and freeze."""
+        self.work.clear()
+        self.ok_after_reset = True
+        if self.planner.empty or self.planner.speed <= 0:
+            self.raise_alarm(ALARM_SOFT_LIMIT)
+        else:
+            self.pending_alarm = ALARM_SOFT_LIMIT
+            self._start_hold()
 
     def next_event_s(self) -> float:
         """Machine time [s] until the next change the protocol waits for: the executing block
-        ends or the dwell ends (inf when nothing is under way)."""
-        t = self.planner.time_to_finish_block() if not self.hold else math.inf
-        if self.time < self.dwell_until:
-            t = min(t, self.dwell_until - self.time)
+        ends, a hold takes effect or stops, the cycle ends, the dwell ends (inf: none)."""
+        holding = self.hold and self.time >= self.hold_from
+        t = self.planner.time_to_finish_block() if not holding else math.inf
+        if holding and self.planner.speed > 0:
+            t = self.planner.speed / max(self.planner.blocks[0].accel, 1e-9)
+        if self.phase is not None and self.phase["approach"]:
+            t = min(t, homing.HOMING_STEP_S)  # (a switch may close any moment)
+        for when in (self.dwell_until, self.cycle_stop_at, self.hold_from if self.hold
+                     else math.inf):
+            if self.time < when < math.inf:
+                t = min(t, when - self.time)
         return t
+
+    def _idle_lock_s(self) -> float:
+        """GRBL's st_go_idle waits ``$1`` ms (unless 255, or homing) before the cycle ends."""
+        lock = self.settings[1]
+        return 0.0 if lock == 255 or self.sys_state == "Home" else lock / 1000.0
 
     def advance(self, dt: float) -> None:
         """Let ``dt`` [s] of machine time pass: move along the plan, ink the canvas."""
@@ -444,34 +405,69 @@ class GrblMachine:
         sampled = self.canvas is not None or self.trace is not None
         while self.time < end - 1e-12:
             step = min(MAX_SUBSTEP_S, end - self.time) if sampled else end - self.time
-            if not self.planner.empty and not self.alarm:
-                self.planner.advance(step, hold=self.hold)
+            if self.hold and self.time < self.hold_from:
+                step = min(step, self.hold_from - self.time)
+            if (self.phase is not None and self.phase["approach"]) or self.settings[21]:
+                step = min(step, homing.HOMING_STEP_S)  # (watching the switches)
+            holding = self.hold and self.time >= self.hold_from - 1e-12
+            if not self.planner.empty and not self.frozen and \
+                    not (holding and self.planner.speed <= 0):
+                if self.cycle_stop_at < math.inf:  # a cycle starts: the first step comes
+                    delay = 0.0 if self.streaming else stepper.START_S  # (see .stepper)
+                    self.motion_t0 = self.time + delay
+                self.cycle_stop_at = math.inf
+                if self.time < self.motion_t0:
+                    step = min(step, self.motion_t0 - self.time)
+                    self.time += step
+                    continue
+                moved, _ = self.planner.advance(step, hold=holding)
                 pos = self.planner.position()
                 self.position = pos if pos is not None else self.planner.last_target.copy()
+                self._lock_switches()
+                if self.settings[21] and self.sys_state != "Home" and any(self.switches()):
+                    self.raise_alarm(ALARM_HARD_LIMIT)  # a switch closed while moving
+                if self.planner.empty or (holding and self.planner.speed <= 0):
+                    self.cycle_stop_at = self.time + moved + self._idle_lock_s()
             self.time += step
-            if self.resume_at is not None and self.time >= self.resume_at:
-                self.resume_at = None
-                self.hold = False
-                self.planner.recalculate()
             self._ink()
-            if self.hold and self.planner.speed <= 0 and self.pending_alarm:
-                code, self.pending_alarm = self.pending_alarm, 0
-                self.raise_alarm(code)
-            if self.planner.empty and self.time >= self.dwell_until and not self.work:
+            self._after_motion()
+            if self.planner.empty and self.time >= max(self.dwell_until, self.cycle_stop_at) \
+                    and not self.work:
                 self.time = end  # nothing moves: jump to the end (no samples to take)
                 self._ink()
 
+    @property
+    def cycle_done(self) -> bool:
+        """Whether the motion has stopped and GRBL's cycle has ended (after ``$1``)."""
+        stopped = self.planner.empty or (self.hold and self.planner.speed <= 0
+                                         and self.time >= self.hold_from)
+        return stopped and self.time >= self.cycle_stop_at
+
+    def _after_motion(self) -> None:
+        """A hold that has stopped: raise a pending soft-limit alarm, end a cancelled jog;
+        a jog whose motion is done: back to Idle."""
+        if not self.cycle_done:
+            return
+        if self.hold and self.pending_alarm:
+            code, self.pending_alarm = self.pending_alarm, 0
+            self.raise_alarm(code)
+        elif self.jog_cancel:  # GRBL flushes the jog and syncs to the step counters
+            self.position = self._quantised()
+            self.planner.clear()
+            self.work.clear()
+            self.hold = self.jog_cancel = False
+            self.sys_state = "Idle"
+            self.gc.position = self.position.copy()
+        elif self.sys_state == "Jog" and self.planner.empty and not self.hold:
+            self.sys_state = "Idle"
+
     def _ink(self) -> None:
+        where = self.physical()
         if self.trace is not None:
-            self.trace.append((self.time, *self.position, self.pen_touching))
+            self.trace.append((self.time, *where, self.pen_touching))
         if self.canvas is None:
             return
         if self.pen_touching:
-            self.canvas.touch(self.position[:2], self.pen.force_n, self.time)
+            self.canvas.touch(where[:2], self.pen.force_n, self.time)
         elif self.canvas.in_contact:
             self.canvas.lift()
-
-
-def _fmt(key: int, value: float) -> str:
-    """A setting as ``$$`` prints it: whole-number settings as integers, others to 3 places."""
-    return str(int(value)) if isinstance(DEFAULT_SETTINGS.get(key), int) else f"{value:.3f}"

@@ -25,7 +25,6 @@ The facts (from GRBL's ``planner.c`` and its documentation; no code copied):
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 BLOCK_BUFFER = 15  # GRBL's BLOCK_BUFFER_SIZE (16) less the slot its ring buffer keeps empty
+MINIMUM_FEED_MM_S = 1.0 / 60.0  # GRBL config.h MINIMUM_FEED_RATE (1 mm/min)
 STRAIGHT_COS = 0.999999  # GRBL's thresholds on cos(theta) for reversals and straight lines
 
 
@@ -78,6 +78,13 @@ class Block:
         max_entry_sqr: Largest entry speed squared allowed by the junction and both nominals.
         entry_sqr: Planned entry speed squared.
         line: The G-code line number (1-based, as received) that made this block.
+        start: Where the block starts [mm].
+        total: Its whole length [mm].
+        programmed: The programmed speed [mm/s] (the axes' limit for a rapid).
+        limit: The axes' speed limit along the move [mm/s].
+        rapid: A G0 (the rapid override applies, not the feed override).
+        override: Whether the feed override applies (not to jogs and homing).
+        junction_sqr: The junction-deviation limit at its start [mm^2/s^2].
     """
 
     target: np.ndarray
@@ -88,6 +95,13 @@ class Block:
     max_entry_sqr: float
     entry_sqr: float = 0.0
     line: int = 0
+    start: np.ndarray | None = None
+    total: float = 0.0
+    programmed: float = 0.0
+    limit: float = math.inf
+    rapid: bool = False
+    override: bool = True
+    junction_sqr: float = 0.0
 
 
 class Planner:
@@ -107,6 +121,8 @@ class Planner:
         self.speed = 0.0  # along the executing block [mm/s]
         self._last_unit: np.ndarray | None = None  # direction of the newest block
         self._last_nominal = 0.0
+        self.overrides = (100, 100)  # feed, rapid [%]
+        self.prepared = 0  # leading blocks whose speeds are final (set by the machine)
         self.last_target = np.zeros(3)  # end of the last block executed [mm]
 
     # -- filling -----------------------------------------------------------------------------
@@ -119,10 +135,12 @@ class Planner:
     def empty(self) -> bool:
         return not self.blocks
 
-    def add(self, start: np.ndarray, target: np.ndarray, feed: float, line: int = 0) -> bool:
-        """Queue the move from ``start`` to ``target`` [mm] at ``feed`` [mm/s] and re-plan;
-        False (nothing queued) for a move shorter than a micrometre, as GRBL drops moves of no
-        steps."""
+    def add(self, start: np.ndarray, target: np.ndarray, feed: float, line: int = 0,
+            rapid: bool = False, override: bool = True) -> bool:
+        """Queue the move from ``start`` to ``target`` [mm] at ``feed`` [mm/s] (programmed;
+        ``rapid``: the axes' limit) and re-plan; False (nothing queued) for a move shorter
+        than a micrometre, as GRBL drops moves of no steps. ``override``: the feed override
+        applies (not to jogs and homing)."""
         target = np.asarray(target, dtype=float)
         delta = (target - np.asarray(start, dtype=float)).tolist()
         length = math.sqrt(delta[0] ** 2 + delta[1] ** 2 + delta[2] ** 2)
@@ -130,36 +148,69 @@ class Planner:
             return False
         unit = np.array(delta) / length
         accel = limit_by_axes(self.accel, unit)
-        nominal = min(float(feed), limit_by_axes(self.max_rate, unit))
+        limit = limit_by_axes(self.max_rate, unit)
+        block = Block(target, unit, length, accel, 0.0, 0.0, 0.0, line,
+                      np.asarray(start, dtype=float), length, min(float(feed), limit), limit,
+                      rapid, override)
         if not self.blocks or self._last_unit is None:
-            max_entry_sqr = 0.0  # starting from rest
+            block.junction_sqr = 0.0  # starting from rest
         else:
-            v_j = junction_speed_sqr(self._last_unit, unit, self.accel, self.deviation_mm)
-            max_entry_sqr = min(v_j, nominal**2, self._last_nominal**2)
-        self.blocks.append(Block(target, unit, length, accel, nominal, max_entry_sqr, 0.0, line))
-        self._last_unit, self._last_nominal = unit, nominal
+            block.junction_sqr = junction_speed_sqr(self._last_unit, unit, self.accel,
+                                                    self.deviation_mm)
+        block.nominal = self._nominal(block)
+        block.max_entry_sqr = min(block.junction_sqr, block.nominal**2, self._last_nominal**2)
+        self.blocks.append(block)
+        self._last_unit, self._last_nominal = unit, block.nominal
         self.recalculate()
         return True
 
+    def _nominal(self, block: Block) -> float:
+        """GRBL's plan_compute_profile_nominal_speed: the programmed speed times the rapid or
+        feed override, within the axes' limit, at least MINIMUM_FEED_RATE (1 mm/min)."""
+        if block.rapid:
+            speed = block.programmed * self.overrides[1] / 100.0
+        else:
+            speed = block.programmed * (self.overrides[0] / 100.0 if block.override else 1.0)
+            speed = min(speed, block.limit)
+        return max(speed, MINIMUM_FEED_MM_S)
+
+    def set_overrides(self, feed_pct: int, rapid_pct: int) -> None:
+        """New feed and rapid overrides [%]: every queued block's nominal speed and entry
+        limit recomputed, then re-planned (GRBL's plan_update_velocity_profile_parameters)."""
+        self.overrides = (feed_pct, rapid_pct)
+        previous = math.inf
+        for block in self.blocks:
+            block.nominal = self._nominal(block)
+            block.max_entry_sqr = min(block.junction_sqr, block.nominal**2, previous**2)
+            previous = block.nominal
+        if self.blocks:
+            self._last_nominal = previous
+        self.recalculate()
+
     def recalculate(self) -> None:
-        """GRBL's reverse and forward passes over the buffer (see the module docstring)."""
+        """GRBL's reverse and forward passes over the buffer (see the module docstring); the
+        first :attr:`prepared` blocks (the stepper has them ready: their speeds are final)
+        and the entry of the next stay as they are."""
         blocks = self.blocks
         if not blocks:
             return
-        blocks[0].entry_sqr = self.speed**2  # the executing block enters at its current speed
+        anchor = min(self.prepared, len(blocks) - 1)
+        if anchor == 0:
+            blocks[0].entry_sqr = self.speed**2  # the executing block enters at its speed
         exit_sqr = 0.0
-        for block in reversed(blocks):
-            if block is blocks[0]:
-                break
+        for idx in range(len(blocks) - 1, anchor, -1):
+            block = blocks[idx]
             block.entry_sqr = min(block.max_entry_sqr, exit_sqr + 2 * block.accel * block.length)
             exit_sqr = block.entry_sqr
-        for prev, nxt in itertools.pairwise(blocks):
+        for idx in range(anchor, len(blocks) - 1):
+            prev, nxt = blocks[idx], blocks[idx + 1]
             reachable = prev.entry_sqr + 2 * prev.accel * prev.length
             nxt.entry_sqr = min(nxt.entry_sqr, reachable)
 
     def clear(self) -> None:
         """Forget every block and stop (soft reset, alarm)."""
         self.blocks.clear()
+        self.prepared = 0
         self.speed = 0.0
         self._last_unit = None
 
@@ -223,6 +274,7 @@ class Planner:
 
     def _pop(self) -> int:
         block = self.blocks.popleft()
+        self.prepared = max(self.prepared - 1, 0)
         self.last_target = block.target
         if self.blocks:
             self.recalculate()
@@ -234,19 +286,36 @@ def _peak(v0: float, d: float, vn: float, ve: float, a: float) -> float:
     return min(vn, math.sqrt(max(0.5 * (2 * a * d + v0 * v0 + ve * ve), 0.0)))
 
 
+def _phases(v0: float, d: float, vn: float, ve: float, a: float):
+    """The trapezoid's phases (acceleration, duration, distance); None when it must brake
+    uniformly (entering faster than it can slow down to ``ve`` at ``a``)."""
+    vp = _peak(v0, d, vn, ve, a)
+    if v0 <= vp + 1e-9:
+        d1 = (vp * vp - v0 * v0) / (2 * a)
+        d3 = max((vp * vp - ve * ve) / (2 * a), 0.0)
+        d2 = max(d - d1 - d3, 0.0)
+        return ((a, max(vp - v0, 0.0) / a, d1), (0.0, d2 / vp if vp > 0 else 0.0, d2),
+                (-a, max(vp - ve, 0.0) / a, d3))
+    # Entering above the nominal (an override lowered it): slow to it at a, cruise, stop.
+    ve = min(ve, vn)
+    d1 = (v0 * v0 - vn * vn) / (2 * a)
+    d3 = max((vn * vn - ve * ve) / (2 * a), 0.0)
+    if v0 > vn > 0 and d1 + d3 <= d:
+        d2 = d - d1 - d3
+        return ((-a, (v0 - vn) / a, d1), (0.0, d2 / vn, d2), (-a, (vn - ve) / a, d3))
+    return None
+
+
 def profile_time(v0: float, d: float, vn: float, ve: float, a: float) -> float:
     """Duration in [s] of the trapezoid from speed v0 to ve [mm/s] over d [mm], cruising at
     most at vn, accelerating at a [mm/s^2]."""
     if d <= 0:
         return 0.0
-    vp = _peak(v0, d, vn, ve, a)
-    if v0 > vp:  # entering too fast (a hold released, a plan tightened): brake to ve
-        ve = min(ve, v0)
+    phases = _phases(v0, d, vn, ve, a)
+    if phases is None:  # entering too fast (a hold released, a plan tightened): brake to ve
+        ve = min(ve, v0, vn)
         return 2 * d / (v0 + ve) if v0 + ve > 0 else math.inf
-    d1 = (vp * vp - v0 * v0) / (2 * a)
-    d3 = max((vp * vp - ve * ve) / (2 * a), 0.0)
-    d2 = max(d - d1 - d3, 0.0)
-    return (vp - v0) / a + (d2 / vp if vp > 0 else 0.0) + max(vp - ve, 0.0) / a
+    return sum(duration for _, duration, _ in phases)
 
 
 def profile_step(v0: float, d: float, vn: float, ve: float, a: float,
@@ -255,21 +324,16 @@ def profile_step(v0: float, d: float, vn: float, ve: float, a: float,
     moved [mm], the speed reached [mm/s], the time used [s] and whether the block ended."""
     if d <= 1e-12:  # (rounding left nothing of the block)
         return max(d, 0.0), min(v0, ve) if ve > 0 else 0.0, 0.0, True
-    vp = _peak(v0, d, vn, ve, a)
-    if v0 > vp + 1e-9:
+    phases = _phases(v0, d, vn, ve, a)
+    if phases is None:
         # Brake uniformly so that the block ends at ve (or at its peak when ve > v0).
-        ve = min(ve, vp)
+        ve = min(ve, _peak(v0, d, vn, ve, a))
         decel = max((v0 * v0 - ve * ve) / (2 * d), 1e-9)
         t_all = (v0 - ve) / decel
         if dt >= t_all:
             return d, ve, t_all, True
         return v0 * dt - 0.5 * decel * dt * dt, v0 - decel * dt, dt, False
     moved, t, v = 0.0, 0.0, v0
-    d1 = (vp * vp - v0 * v0) / (2 * a)
-    d3 = max((vp * vp - ve * ve) / (2 * a), 0.0)
-    d2 = max(d - d1 - d3, 0.0)
-    phases = ((a, (vp - v0) / a, d1), (0.0, d2 / vp if vp > 0 else 0.0, d2),
-              (-a, max(vp - ve, 0.0) / a, d3))
     for acc, duration, distance in phases:
         if duration <= 0:
             continue

@@ -11,6 +11,20 @@ sent, in device seconds (wall seconds times ``time_scale``: 1 on real hardware, 
 an emulator). :meth:`schedule` runs the same lines on the planner model
 (:mod:`inkarm.hardware.plotter.timing`) with the device's own ``$`` settings: where the
 firmware should be when, the plotter's reference.
+
+At connect the plant sets the machine up as a real plotter is
+(:func:`inkarm.hardware.plotter.workspace.set_up`): ``$$``, homing when ``$22=1``, the page
+origin as G54's work offset; the G-code is in work (page) coordinates, and so are the
+readings (``MPos`` less the work offset, which a report only sometimes carries).
+
+The pen state is never read off a report's ``A:`` field: GRBL 1.1h writes ``A:`` only with
+``Ov:``, every 20th report while busy (report.c). It follows from what was sent and what is
+done: GRBL executes a spindle or coolant line (``M3``/``M5``...) and a dwell only after every
+motion before it has ended and answers ``ok`` only then (gcode.c ``spindle_sync``,
+``mc_dwell``: both ``protocol_buffer_synchronize``), so a report that arrives after the
+``ok`` of the pen-down group's last line (its dwell: the servo has landed) sees the pen down,
+and one after the ``ok`` of the pen-up group's first line sees it lifting. A pen moved by an
+axis (a Z pen) is where the report puts that axis: down at work Z <= 0.
 """
 
 from __future__ import annotations
@@ -26,6 +40,15 @@ from inkarm.errors import InputError
 from inkarm.hardware.plotter.profiles import PenProfile
 from inkarm.hardware.plotter.stream import GrblError, GrblStreamer, StatusReport
 from inkarm.hardware.plotter.timing import Schedule, simulate
+from inkarm.hardware.plotter.workspace import leave_check_mode, set_up
+
+AXES = set("XYZABC")
+PLANNER_BLOCKS = 15  # GRBL 1.1h's planner blocks on an ATmega328p ($I: [OPT:V,15,128])
+WAITED_S = 0.02  # a motion line answered this long [s] after it was sent waited for a block
+# The segment prep frees a block when it has prepared the block's last segment, while the
+# segment buffer still holds about four more to run (stepper.c: SEGMENT_BUFFER_SIZE 6 of
+# DT_SEGMENT = 1/(100 * 60) min = 10 ms each) [s]
+PREP_LEAD_S = 0.04
 
 SAFE_STOP_S = 3.0  # longest wait of each step of a safe stop (reset, unlock, pen up) [s]
 
@@ -41,10 +64,18 @@ class GrblPlant:
         time_scale: Device seconds per wall-clock second.
         lookahead_lines: Lines queued beyond the device's buffer before :meth:`step` waits.
         pen_force_n: Nominal force [N] logged while the pen is down (a plotter senses none).
+        page_mm: The page's size [mm] (for a page origin at a corner of the travel).
+        extent_mm: The lowest and highest page points [mm] the job visits: refused before
+            anything moves when they leave the machine's travel; None: not checked.
+        check_mode: Validate the job on the device without moving (GRBL's ``$C``): every
+            line parsed and checked, soft limits included; the readings stand still.
     """
 
     def __init__(self, streamer: GrblStreamer, profile: PenProfile, *, dt: float = 0.01,
-                 time_scale: float = 1.0, lookahead_lines: int = 200, pen_force_n: float = 1.0):
+                 time_scale: float = 1.0, lookahead_lines: int = 200, pen_force_n: float = 1.0,
+                 page_mm: tuple[float, float] = (210.0, 297.0),
+                 extent_mm: tuple[np.ndarray, np.ndarray] | None = None,
+                 check_mode: bool = False):
         if not 1.0 / profile.max_line_rate_hz <= dt <= 1.0:
             raise InputError(f"expected a period in [1/{profile.max_line_rate_hz:g}, 1] s, got "
                              f"{dt}", key="dt", value=dt)
@@ -54,14 +85,19 @@ class GrblPlant:
         self.time_scale = float(time_scale)
         self.lookahead_lines = lookahead_lines
         self.pen_force_n = pen_force_n
-        self.settings = read_settings(streamer)
+        self.check_mode = check_mode
+        self.workspace = set_up(streamer, profile.placement, page_mm, extent_mm, check_mode)
+        self.settings = self.workspace.settings
         self.lines: list[str] = []
         self.command_line: list[int] = []  # index of the last line of each command
         self.clipped = 0  # moves asked faster than the profile's max_draw_speed_mm_s
         self._t0: float | None = None
         self._closed = False
         self._queue(profile.start_lines())
-        self._z_pen = any("Z" in line.upper() for line in profile.pen_down)
+        self._z_pen = any(_moves(line) for line in profile.pen_down)
+        self.pen_marks: list[tuple[int, bool]] = []  # (line number, pen down once it is done)
+        here = streamer.status()
+        self._start_mm = here.wpos if here.wpos is not None else here.mpos  # work [mm]
 
     # -- the Plant protocol --------------------------------------------------------------------
 
@@ -79,7 +115,11 @@ class GrblPlant:
 
     def command(self, command: Command) -> None:
         if isinstance(command, PenCommand):
-            self._queue(self.profile.pen_lines(command.down))
+            lines = self.profile.pen_lines(command.down)
+            self._queue(lines)
+            # down once the whole group (its dwell) is done, up from its first line on
+            self.pen_marks.append((len(self.lines) - (0 if command.down else len(lines) - 1),
+                                   command.down))
         elif isinstance(command, PositionCommand):
             xy = self.profile.xy(*(float(v) * 1000.0 for v in command.q[:2]))
             if command.qd is None:
@@ -147,6 +187,9 @@ class GrblPlant:
                 progress(0.5 + 0.5 * self.streamer.state.acked / total, "plot")
         if not self.failure:
             self.streamer.wait_idle(max(end - time.monotonic(), 1.0))
+        if self.check_mode and not self.failure:
+            self.check_mode = False
+            leave_check_mode(self.streamer)
         return not self.failure
 
     def readings(self) -> list[PlantState]:
@@ -160,36 +203,59 @@ class GrblPlant:
         model's run of the whole job (``samples``: where the pen should be when), on the
         device's clock.
 
-        The model assumes a device that is never kept waiting; a real link sometimes does,
-        and the delays would add up over a job. So the model is re-anchored at every dwell
-        (``G4``, after each pen change): GRBL answers it when the dwell ends, a moment the
-        model knows exactly, and from each such ``ok`` on, model times are shifted by its
-        measured lateness."""
-        plan = simulate(self.lines, self.settings, samples=True)
-        warp = self._clock_warp(plan.line_end_s)
-        line_end = warp(plan.line_end_s)
-        samples = plan.samples.copy()
-        samples[:, 0] = warp(samples[:, 0])
+        The model starts where the machine stood when the job began (after homing: not at
+        the page origin), in work (page) coordinates, without the homed space's soft limits.
+        It assumes a device that is never kept waiting and whose clock is the host's; a real
+        link sometimes keeps it waiting (the delays add up over a job), and a simulated GRBL
+        (grbl-sim) runs its machine clock at 0.5-1x the wall clock, as its host's load lets
+        it. So the model is anchored at every line GRBL runs only once the planner is empty
+        (``G4``, ``M3``/``M4``/``M5``, ``M7``-``M9``: each pen change and its dwell): GRBL
+        answers it when it is done, a moment the model knows exactly. Model time maps to
+        device time linearly between consecutive anchors (a stroke between its pen-down dwell
+        and its pen-up line keeps the model's shape, stretched to the time the device took),
+        shifted by the first or last anchor's lateness outside them. Within a stroke, the
+        ``ok`` of a motion line that had to wait for a free planner block anchors the end of
+        the block 15 before it (:func:`planner_anchors`)."""
+        start = self._start_mm
+        pre = [f"G21 G90 G0 X{start[0]:.3f} Y{start[1]:.3f} Z{start[2]:.3f}"]
+        plan = simulate(pre + self.lines, {**self.settings, 20: 0, 21: 0, 22: 0},
+                        samples=True)
+        begin = float(plan.line_end_s[0])  # the model's move to the start, cut off
+        warp = self._clock_warp(plan.line_end_s[1:] - begin)
+        line_end = warp(plan.line_end_s[1:] - begin)
+        samples = plan.samples[plan.samples[:, 0] >= begin].copy()
+        samples[:, 0] = warp(samples[:, 0] - begin)
         forward = np.concatenate(([True], samples[1:, 0] > np.maximum.accumulate(
             samples[:-1, 0])))
         return (line_end[np.asarray(self.command_line, dtype=int)],
-                Schedule(plan.seconds, line_end, samples[forward]))
+                Schedule(plan.seconds - begin, line_end, samples[forward]))
 
     def _clock_warp(self, line_end_s: np.ndarray):
-        """Model time -> device time, shifted at each answered dwell (see :meth:`schedule`)."""
-        acks = self.streamer.state.ack_times
-        anchors = [(line_end_s[i], (acks[i + 1] - self._t0) * self.time_scale)
+        """Model time -> device time through the anchors of :meth:`schedule` and
+        :func:`planner_anchors`."""
+        if self._t0 is None:
+            return lambda t: np.asarray(t, dtype=float)
+        state = self.streamer.state
+        anchors = [(line_end_s[i], (state.ack_times[i + 1] - self._t0) * self.time_scale)
                    for i, line in enumerate(self.lines)
-                   if line.startswith("G4") and (i + 1) in acks and self._t0 is not None]
+                   if _synchronous(line) and (i + 1) in state.ack_times]
+        anchors += [(line_end_s[i] - PREP_LEAD_S,
+                     (state.ack_times[n] - self._t0) * self.time_scale)
+                    for i, n in planner_anchors(self.lines, self.settings, state,
+                                                self.time_scale, self.profile.unit_mm,
+                                                self._start_mm)]
+        anchors.sort()
         if not anchors:
             return lambda t: np.asarray(t, dtype=float)
-        model = np.array([a[0] for a in anchors])
-        shift = np.array([a[1] - a[0] for a in anchors])
+        model, device = (np.array(v, dtype=float) for v in zip(*anchors, strict=True))
+        keep = np.concatenate((model[1:] > model[:-1] + 1e-9, [True]))  # last of equal times
+        model, device = model[keep], np.maximum.accumulate(device[keep])
+        first, last = device[0] - model[0], device[-1] - model[-1]
 
         def warp(t):
             t = np.asarray(t, dtype=float)
-            k = np.searchsorted(model, t, side="right") - 1
-            return t + np.where(k >= 0, shift[np.maximum(k, 0)], 0.0)
+            inside = np.interp(t, model, device)
+            return np.where(t < model[0], t + first, np.where(t > model[-1], t + last, inside))
 
         return warp
 
@@ -203,33 +269,108 @@ class GrblPlant:
         if self._t0 is None and self.streamer.state.sent > sent:
             self._t0 = self.streamer.clock()
 
+    def pen_down_at(self, s: StatusReport) -> bool:
+        """Whether the pen touches at report ``s`` (see the module docstring)."""
+        if self._z_pen:
+            return s.wpos is not None and s.wpos[2] <= 1e-3
+        down = False
+        for line, state in self.pen_marks:
+            if line > s.acked:
+                break
+            down = state
+        return down and not s.state.startswith("Check")
+
     def _state(self, s: StatusReport) -> PlantState:
         t = (s.time - (self._t0 if self._t0 is not None else s.time)) * self.time_scale
-        mpos = np.array(s.mpos, dtype=float) * (25.4 if self.settings.get(13) else 1.0)
-        down = s.spindle_on if not self._z_pen else mpos[2] <= 1e-3
+        wpos = np.array(s.wpos if s.wpos is not None else s.mpos, dtype=float)
+        down = self.pen_down_at(s)
         return PlantState(
-            time=t, q=mpos[:2] / 1000.0, qd=np.zeros(2),
+            time=t, q=wpos[:2] / 1000.0, qd=np.zeros(2),
             force=self.pen_force_n if down else 0.0,
-            tip_mm=np.array([mpos[0], mpos[1], 0.0 if down else math.nan]),
+            tip_mm=np.array([wpos[0], wpos[1], 0.0 if down else math.nan]),
             errors=(self.failure,) if self.failure else ())
 
 
-def read_settings(streamer: GrblStreamer) -> dict[int, float]:
-    """The device's ``$`` settings (``$$``), by number."""
-    settings = {}
-    for line in streamer.command("$$"):
-        key, _, value = line.partition("=")
-        if key.startswith("$") and key[1:].isdigit():
+def planner_anchors(lines: list[str], settings: dict[int, float], state, time_scale: float,
+                    unit_mm: float = 1.0,
+                    start_mm=(0.0, 0.0, 0.0)) -> list[tuple[int, int]]:
+    """(i, n): the motion line at index i ended when line number n was answered ``ok``.
+
+    GRBL 1.1h's planner holds ``PLANNER_BLOCKS`` blocks (planner.h BLOCK_BUFFER_SIZE 16, one
+    slot kept free; ``$I`` prints ``[OPT:V,15,128]``). A motion line is parsed only once a
+    block is free (motion_control.c ``mc_line`` waits while ``plan_check_full_buffer``), and
+    its ``ok`` follows; a block is freed when the block it holds is done (its last segment
+    prepared, ``PREP_LEAD_S`` before its last step). So while the planner is full, the
+    ``ok`` of the k-th motion block since the planner was last drained (by a synchronous
+    line) comes that long before block k - 15 ends. Lines GRBL drops (fewer than one step: no block, planner.c
+    ``plan_buffer_line``) are not counted. An ``ok`` counts only when the line waited
+    (``WAITED_S`` of device time between sending and ``ok``): else the planner was not full.
+    ``unit_mm``: millimetres per G-code unit; ``start_mm``: where the machine starts.
+    """
+    steps = np.array([settings.get(100, 250.0), settings.get(101, 250.0),
+                      settings.get(102, 250.0)])
+    here = np.round(np.asarray(start_mm, dtype=float) * steps).astype(np.int64)
+    blocks: list[int] = []
+    out = []
+    for i, line in enumerate(lines):
+        if _synchronous(line):
+            blocks = []
+            continue
+        target = _target(line)
+        if target is None:
+            continue
+        new = here.copy()
+        for axis, value in target.items():
+            new[axis] = round(value * unit_mm * steps[axis])
+        if np.all(new == here):
+            continue
+        here = new
+        blocks.append(i)
+        n = i + 1
+        if len(blocks) > PLANNER_BLOCKS and n in state.ack_times and n in state.send_times \
+                and (state.ack_times[n] - state.send_times[n]) * time_scale >= WAITED_S:
+            out.append((blocks[-1 - PLANNER_BLOCKS], n))
+    return out
+
+
+def _target(line: str) -> dict[int, float] | None:
+    """The axis words of a ``G0``/``G1`` line in millimetres (absolute, G21), by axis; None
+    for any other line."""
+    words = line.upper().split(";")[0].split("(")[0].split()
+    if not words or words[0] not in ("G0", "G1", "G00", "G01"):
+        return None
+    out = {}
+    for w in words[1:]:
+        if w[0] in "XYZ":
             try:
-                settings[int(key[1:])] = float(value.split()[0])
-            except (ValueError, IndexError):
-                continue
-    return settings
+                out["XYZ".index(w[0])] = float(w[1:])
+            except ValueError:
+                return None
+    return out or None
+
+
+def _synchronous(line: str) -> bool:
+    """Whether GRBL runs ``line`` only after every motion before it has ended and answers
+    ``ok`` when it is done (gcode.c: a dwell, spindle and coolant changes call
+    ``protocol_buffer_synchronize``): a dwell or an ``M3``-``M5``/``M7``-``M9`` line without
+    axis words."""
+    words = line.upper().split(";")[0].split("(")[0].split()
+    return not _moves(line) and any(
+        w in ("G4", "G04", "M3", "M03", "M4", "M04", "M5", "M05", "M7", "M07", "M8", "M08",
+              "M9", "M09") for w in words)
+
+
+def _moves(line: str) -> bool:
+    """Whether a G-code line has axis words (a motion the planner queues; its ``ok`` comes
+    when it is queued, not done)."""
+    code = line.upper().split(";")[0].split("(")[0]
+    return any(c in AXES for c in code)
 
 
 def safe_stop(streamer: GrblStreamer, profile: PenProfile, failed: bool) -> None:
     """Leave the plotter with its pen up: after a failure a soft reset (which also stops a
-    servo pen's PWM), ``$X`` and the profile's pen-up lines; otherwise the pen-up lines."""
+    servo pen's PWM), ``$X`` and the profile's pen-up lines; otherwise the pen-up lines.
+    (After a soft-limit alarm GRBL 1.1h takes ``$X`` only after that reset.)"""
     if streamer.state.failure.startswith("the device disconnected"):
         return  # nothing to talk to; GRBL itself stops the spindle on a reset
     with contextlib.suppress(GrblError):  # best effort on the way out: the failure is reported

@@ -16,22 +16,27 @@ file by its path), in the spirit of vpype-gcode's profiles::
     min_draw_speed_mm_s = 2.0
     max_line_rate_hz = 400.0     # lines per second the firmware executes at most
     precision = 3                # decimals of the coordinates
+    page_origin = "auto"         # where the page's lower-left corner goes in machine space:
+                                 # "auto", "lower-left", ..., "machine-zero", "current", [x, y]
+    homing = "auto"              # "auto": $H when $22=1; "skip": $X (no switches to home on)
 
-Travel (pen up) is ``G0``, at the machine's rapid rate.
+Travel (pen up) is ``G0``, at the machine's rapid rate. The page placement and homing are
+:mod:`inkarm.hardware.plotter.workspace`'s (its docstring has the choices and GRBL's facts).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from inkarm.errors import unknown_name
+from inkarm.hardware.plotter.workspace import HOMINGS, ORIGINS, Placement
 from inkarm.io.toml import TomlReader, load_toml
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 KEYS = ("description", "units", "header", "footer", "pen_down", "pen_up", "pen_down_dwell_s",
         "pen_up_dwell_s", "draw_speed_mm_s", "max_draw_speed_mm_s", "min_draw_speed_mm_s",
-        "max_line_rate_hz", "precision")
+        "max_line_rate_hz", "precision", "page_origin", "homing")
 DEFAULT_PROFILE = "servo"
 
 
@@ -53,6 +58,7 @@ class PenProfile:
     min_draw_speed_mm_s: float = 2.0
     max_line_rate_hz: float = 400.0
     precision: int = 3
+    placement: Placement = field(default_factory=Placement)
 
     @property
     def unit_mm(self) -> float:
@@ -128,9 +134,33 @@ def parse_profile(data: dict, source: str, name: str) -> PenProfile:
                                            maximum=10000.0)
     if "precision" in data:
         kw["precision"] = rd.integer(data["precision"], "precision", 0, 6)
+    if "page_origin" in data or "homing" in data:
+        kw["placement"] = parse_placement(rd, data, "")
     profile = PenProfile(name=name, **kw)
     if profile.min_draw_speed_mm_s > profile.max_draw_speed_mm_s:
         raise rd.error("min_draw_speed_mm_s", f"expected at most max_draw_speed_mm_s "
                        f"({profile.max_draw_speed_mm_s:g}), got {profile.min_draw_speed_mm_s:g}",
                        value=profile.min_draw_speed_mm_s)
     return profile
+
+
+def parse_placement(rd: TomlReader, data: dict, prefix: str,
+                    base: Placement | None = None) -> Placement:
+    """The ``page_origin`` and ``homing`` keys of a table (a pen profile, a scenario's
+    ``[plotter]``) over ``base``; errors name ``prefix`` + the key."""
+    base = base or Placement()
+    origin, homing = base.origin, base.homing
+    if "page_origin" in data:
+        value = data["page_origin"]
+        if isinstance(value, str):
+            origin = rd.choice(value, f"{prefix}page_origin", ORIGINS)
+        elif isinstance(value, list) and len(value) == 2:
+            origin = (rd.number(value[0], f"{prefix}page_origin[0]", -10000.0, maximum=10000.0),
+                      rd.number(value[1], f"{prefix}page_origin[1]", -10000.0, maximum=10000.0))
+        else:
+            raise rd.error(f"{prefix}page_origin", "expected one of " + ", ".join(ORIGINS)
+                           + " or the page's lower-left corner [x, y] in machine "
+                           "coordinates [mm]", value=value)
+    if "homing" in data:
+        homing = rd.choice(data["homing"], f"{prefix}homing", HOMINGS)
+    return Placement(origin, homing)

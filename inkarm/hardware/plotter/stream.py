@@ -17,7 +17,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import serial
 
@@ -25,6 +25,8 @@ from inkarm.errors import InkarmError
 
 RX_BUFFER = 128
 STATUS_PERIOD_S = 0.2  # at most 5 status reports a second
+POLL_LOST_S = 1.0  # a "?" unanswered this long [s, wall] is taken as lost
+STATUS_RETRY_S = 0.25  # :meth:`GrblStreamer.status` asks again after this long [s, wall]
 
 
 class GrblError(InkarmError):
@@ -33,14 +35,31 @@ class GrblError(InkarmError):
 
 @dataclass(frozen=True)
 class StatusReport:
-    """One ``<...>`` status report.
+    """One ``<...>`` status report, as GRBL 1.1h's ``report_realtime_status`` (report.c) writes
+    it: the state, one position (``MPos:`` or, with ``$10`` bit 0 clear, ``WPos:``), then
+    optional fields. Which fields a report has depends on the firmware's cadence, not on the
+    machine: ``Bf:`` only with ``$10`` bit 1; ``Ln:`` only for lines sent with ``N``;
+    ``WCO:`` every 30th report while busy (10th idle); ``Ov:`` every 20th busy (10th idle) and on
+    the report after a ``WCO:``, and ``A:`` *only with* ``Ov:`` (absent there when the spindle
+    and coolant are off). A field a report lacks is None here, never "off".
 
     Attributes:
-        time: When it arrived, on the streamer's clock [s].
-        state: Idle, Run, Hold:0, Alarm, Home, ...
-        mpos: Machine position (x, y, z) [mm].
-        feed: Current feed [mm/min]; spindle: S value; spindle_on: the ``A:S`` flag.
-        planner_free: Free planner blocks (``Bf:``), when reported.
+        time: When the device made it, on the streamer's clock [s] (see
+            :meth:`GrblStreamer.pump`).
+        state: Idle, Run, Hold:0, Alarm, Home, Check, ...
+        mpos: Machine position (x, y, z) [mm or inch, per ``$13``]: as reported (``MPos:``), or
+            ``WPos:`` plus the last work offset the streamer knows.
+        feed: Current feed [mm/min]; spindle: the S value of ``FS:``.
+        spindle_on: The ``A:S``/``A:C`` flag, False where the report has no ``A:``; trust it
+            only where ``accessories`` is not None.
+        planner_free: Free planner blocks (``Bf:``), when reported; rx_free: free bytes of the
+            serial receive buffer (``Bf:``'s second number).
+        wpos: Work position [mm]: as reported (``WPos:``) or ``mpos`` less the work offset.
+        wco: The work coordinate offset this report carries (``WCO:``), else None.
+        overrides: (feed, rapid, spindle) overrides [%] (``Ov:``), else None.
+        accessories: The ``A:`` letters where the report has ``Ov:`` ("" = all off), else None.
+        line: The line number of the block being executed (``Ln:``), else None.
+        acked: Lines of the job answered ``ok`` before this report arrived.
     """
 
     time: float
@@ -50,34 +69,65 @@ class StatusReport:
     spindle: float = 0.0
     spindle_on: bool = False
     planner_free: int | None = None
+    rx_free: int | None = None
+    wpos: tuple[float, float, float] | None = None
+    wco: tuple[float, float, float] | None = None
+    overrides: tuple[int, int, int] | None = None
+    accessories: str | None = None
+    line: int | None = None
+    acked: int = 0
+    work: bool = False  # the report gave WPos, not MPos
 
 
-def parse_status(text: str, t: float) -> StatusReport | None:
+def parse_status(text: str, t: float,
+                 wco: tuple[float, float, float] | None = None) -> StatusReport | None:
     """A :class:`StatusReport` from ``<Idle|MPos:1.000,2.000,0.000|FS:0,0>``; None if the
-    text is not one."""
+    text is not one. ``wco`` is the last work offset known (for the position the report does
+    not give); the report's own ``WCO:`` takes its place."""
     if not (text.startswith("<") and text.endswith(">")):
         return None
     fields = text[1:-1].split("|")
     values: dict = {"state": fields[0]}
-    for f in fields[1:]:
-        key, _, value = f.partition(":")
-        numbers = value.split(",")
-        try:
+    try:
+        for f in fields[1:]:
+            key, _, value = f.partition(":")
+            numbers = value.split(",")
             if key in ("MPos", "WPos"):
-                values["mpos"] = tuple(float(v) for v in numbers[:3])
+                values["mpos" if key == "MPos" else "wpos"] = _xyz(numbers)
+                values["work"] = key == "WPos"
             elif key == "FS":
                 values["feed"], values["spindle"] = float(numbers[0]), float(numbers[1])
             elif key == "F":
                 values["feed"] = float(numbers[0])
             elif key == "Bf":
-                values["planner_free"] = int(numbers[0])
+                values["planner_free"], values["rx_free"] = int(numbers[0]), int(numbers[1])
+            elif key == "WCO":
+                values["wco"] = _xyz(numbers)
+            elif key == "Ov":
+                values["overrides"] = tuple(int(v) for v in numbers[:3])
+                values.setdefault("accessories", "")
             elif key == "A":
+                values["accessories"] = value
                 values["spindle_on"] = "S" in value or "C" in value
-        except (ValueError, IndexError):
-            return None
-    if "mpos" not in values:
+            elif key == "Ln":
+                values["line"] = int(numbers[0])
+    except (ValueError, IndexError):
         return None
+    if "mpos" not in values and "wpos" not in values:
+        return None
+    offset = values.get("wco") or wco or (0.0, 0.0, 0.0)
+    if "mpos" in values:
+        values["wpos"] = tuple(m - o for m, o in zip(values["mpos"], offset, strict=True))
+    else:
+        values["mpos"] = tuple(w + o for w, o in zip(values["wpos"], offset, strict=True))
     return StatusReport(time=t, **values)
+
+
+def _xyz(numbers: list[str]) -> tuple[float, float, float]:
+    v = [float(n) for n in numbers[:3]]
+    if not v:
+        raise ValueError("no coordinates")
+    return (*v, *([0.0] * (3 - len(v))))[:3]
 
 
 @dataclass
@@ -87,20 +137,28 @@ class StreamState:
     Attributes:
         sent: Lines written so far; acked: lines answered ``ok``.
         ack_times: When each line's ``ok`` arrived, by line number [s, streamer clock].
+        send_times: When each line was written, by line number [s, streamer clock].
         failure: Why the stream stopped early (``error:N`` / ``ALARM:N`` at line L, or a
             disconnect), empty while it is healthy.
         failed_line: The 1-based line the failure is about (0 when none).
         statuses: Status reports received, in order.
         messages: Other lines the device sent (``[MSG:...]``, banners).
+        lost_polls: Status polls never answered (GRBL answers several ``?`` that arrive
+            before its main loop looks with one report, and none during a reset).
+        rx_overcounts: Reports whose ``Bf:`` showed more bytes in GRBL's receive buffer than
+            this sender has unanswered (another sender on the port, or a miscount).
     """
 
     sent: int = 0
     acked: int = 0
     ack_times: dict[int, float] = field(default_factory=dict)
+    send_times: dict[int, float] = field(default_factory=dict)
     failure: str = ""
     failed_line: int = 0
     statuses: list[StatusReport] = field(default_factory=list)
     messages: list[str] = field(default_factory=list)
+    lost_polls: int = 0
+    rx_overcounts: int = 0
 
 
 class GrblStreamer:
@@ -133,8 +191,10 @@ class GrblStreamer:
         self._bytes = 0
         self._rx = b""
         self._last_poll = -1e9
-        self._polls: deque[float] = deque()  # when each unanswered "?" was sent
+        self._poll_at: float | None = None  # when the unanswered "?" was sent
         self.last_status: StatusReport | None = None
+        self.wco: tuple[float, float, float] | None = None  # the last work offset known
+        self._planner_blocks = 0  # the most free planner blocks seen (``Bf:``)
 
     # -- connection ----------------------------------------------------------------------------
 
@@ -148,7 +208,7 @@ class GrblStreamer:
         while self.clock() < end:  # a [MSG:...] may follow the banner
             lines += self._read_lines()
         self._in_flight.clear()
-        self._polls.clear()
+        self._poll_at = None
         self._bytes = 0
         return lines
 
@@ -171,11 +231,46 @@ class GrblStreamer:
         self.command("$H", timeout_s)
 
     def realtime(self, byte: bytes) -> None:
-        """Send a real-time command: ``b"?"`` status, ``b"!"`` feed hold, ``b"~"`` resume,
-        ``b"\\x18"`` soft reset."""
+        """Send a real-time command: ``b"?"`` status (see :meth:`poll`), ``b"!"`` feed hold,
+        ``b"~"`` resume, ``b"\\x18"`` soft reset."""
         if byte == b"?":
-            self._polls.append(self.clock())
+            self.poll(force=True)
+            return
         self._write(byte)
+
+    def poll(self, force: bool = False) -> bool:
+        """Ask for a status report (``?``) unless one is still on its way; True if asked.
+
+        One poll at a time, so each report is stamped by the poll that asked for it: GRBL
+        1.1h only raises a flag on ``?`` (serial.c) and its main loop writes one report per
+        flag (protocol.c), so two ``?`` sent close together can get one answer, and a
+        sender that pairs reports with polls in order then stamps every later report one
+        poll early. A poll unanswered after ``POLL_LOST_S`` [s, wall] counts as lost.
+        ``force``: ask now all the same (the next report is stamped by this poll)."""
+        now = self.clock()
+        if self._poll_at is not None and not force:
+            if now - self._poll_at < POLL_LOST_S:
+                return False
+            self.state.lost_polls += 1
+        self._poll_at = now
+        self._write(b"?")
+        return True
+
+    def status(self, timeout_s: float = 3.0) -> StatusReport:
+        """Poll and wait for the next status report."""
+        end = self.clock() + timeout_s
+        count = len(self.state.statuses)
+        while self.clock() < end and not self.state.failure.startswith("the device disc"):
+            if self._poll_at is not None and self.clock() - self._poll_at > STATUS_RETRY_S:
+                self._poll_at = None  # (a "?" during a reset is dropped with its flag)
+                self.state.lost_polls += 1
+            self.poll()
+            for line in self._read_lines():
+                self._answer(line)
+            if len(self.state.statuses) > count:
+                return self.state.statuses[-1]
+        raise GrblError(f"no status report from {self.port} within {timeout_s:g} s",
+                        key="--port", value=self.port)
 
     def feed_hold(self) -> None:
         self.realtime(b"!")
@@ -191,7 +286,7 @@ class GrblStreamer:
         self.feed_hold()
         end = self.clock() + timeout_s
         while not self.state.failure and self.clock() < end:
-            self.realtime(b"?")
+            self.poll()
             for line in self._read_lines():
                 self._answer(line)
             s = self.last_status
@@ -240,11 +335,11 @@ class GrblStreamer:
             text = self._pending.popleft()
             self._write(f"{text}\n".encode("ascii"))
             self.state.sent += 1
+            self.state.send_times[self.state.sent] = self.clock()
             self._in_flight.append((self.state.sent, len(text) + 1))
             self._bytes += len(text) + 1
-        if poll and self.clock() - self._last_poll >= self.status_period_s:
+        if poll and self.clock() - self._last_poll >= self.status_period_s and self.poll():
             self._last_poll = self.clock()
-            self.realtime(b"?")
         for line in self._read_lines():
             self._answer(line)
 
@@ -260,19 +355,19 @@ class GrblStreamer:
         return self.state
 
     def wait_idle(self, timeout_s: float = 600.0) -> StatusReport | None:
-        """Poll until the device reports Idle (or the stream failed); the last report."""
+        """Poll until the device reports Idle after the last line was answered, its planner
+        drained where the report says (``Bf:``), or the stream failed; the last report."""
         end = self.clock() + timeout_s
         while not self.state.failure:
             self.pump()
             s = self.last_status
-            if s is not None and s.state == "Idle" and s.time > self._last_ok_time \
-                    and not self._in_flight:
+            if s is not None and s.state in ("Idle", "Check") and not self._in_flight \
+                    and s.acked >= self.state.acked and (
+                        s.planner_free is None or s.planner_free >= self._planner_blocks):
                 return s
             if self.clock() > end:
                 self._fail(f"not idle within {timeout_s:g} s", self._oldest())
         return self.last_status
-
-    _last_ok_time = -1e9
 
     # -- internals -----------------------------------------------------------------------------
 
@@ -281,13 +376,11 @@ class GrblStreamer:
             # The report describes the device between the poll and its arrival: stamp it
             # half-way (the round trip's middle), not at arrival.
             now = self.clock()
-            asked = self._polls.popleft() if self._polls else now
-            status = parse_status(line, 0.5 * (asked + now))
+            asked = self._poll_at if self._poll_at is not None else now
+            self._poll_at = None
+            status = parse_status(line, 0.5 * (asked + now), self.wco)
             if status is not None:
-                self.last_status = status
-                self.state.statuses.append(status)
-                if self.on_status is not None:
-                    self.on_status(status)
+                self._note(replace(status, acked=self.state.acked))
             return
         if line == "ok":
             if self._in_flight:
@@ -295,13 +388,25 @@ class GrblStreamer:
                 self._bytes -= n
                 self.state.acked += 1
                 self.state.ack_times[number] = self.clock()
-                self._last_ok_time = self.clock()
             return
         if line.startswith(("error:", "ALARM:")):
             self._fail(f"{line} at G-code line {self._oldest()}", self._oldest())
             return
         if line:
             self.state.messages.append(line)
+
+    def _note(self, status: StatusReport) -> None:
+        """Keep a report: its work offset, and the receive-buffer check (``Bf:``)."""
+        if status.wco is not None:
+            self.wco = status.wco
+        if status.planner_free is not None:
+            self._planner_blocks = max(self._planner_blocks, status.planner_free)
+        if status.rx_free is not None and RX_BUFFER - status.rx_free > self._bytes:
+            self.state.rx_overcounts += 1
+        self.last_status = status
+        self.state.statuses.append(status)
+        if self.on_status is not None:
+            self.on_status(status)
 
     def _oldest(self) -> int:
         return self._in_flight[0][0] if self._in_flight else self.state.sent

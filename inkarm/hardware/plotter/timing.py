@@ -14,6 +14,7 @@ import numpy as np
 
 from inkarm.hardware.plotter.machine import GrblMachine, PenConfig
 from inkarm.hardware.plotter.planner import BLOCK_BUFFER
+from inkarm.hardware.plotter.stepper import SEGMENT_S
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,8 +36,10 @@ def simulate(lines: Iterable[str], settings: dict[int, float] | None = None,
              pen: PenConfig | None = None, samples: bool = False) -> Schedule:
     """Run ``lines`` on an emulated machine with an always-full receive buffer."""
     trace: list | None = [] if samples else None
-    machine = GrblMachine({**(settings or {}), 22: 0}, pen, trace=trace)
+    # No homing lock and no soft limits: the estimate runs the lines wherever they go.
+    machine = GrblMachine({**(settings or {}), 20: 0, 22: 0}, pen, trace=trace)
     machine.outbox.clear()
+    machine.streaming = True  # (an always-full receive buffer)
     pending = list(lines)
     n = len(pending)
     line_end = np.full(n, np.nan)
@@ -56,6 +59,8 @@ def simulate(lines: Iterable[str], settings: dict[int, float] | None = None,
         dt = machine.next_event_s()
         if not math.isfinite(dt):
             dt = 1e-3
+        if machine.planner.blocks:  # (blocks leave the planner as the stepper prepares them)
+            dt = min(dt, SEGMENT_S)
         machine.advance(max(dt, 1e-9))
     _record(machine, line_end, taken, marked)
     # Lines that only set state end when the line before them did.
@@ -68,6 +73,7 @@ def _record(machine: GrblMachine, line_end: np.ndarray, taken: int, marked: int)
     """Mark the lines whose work is behind the machine now: every line before the oldest
     block still in the planner (and before the line being worked on). The first ``marked``
     lines are marked already; returns how many are now."""
+    machine.held_blocks()  # (the planner learns which blocks the stepper has prepared)
     blocks = machine.planner.blocks
     oldest = blocks[0].line if blocks else taken + 1
     if machine.work or machine.time < machine.dwell_until:

@@ -1,9 +1,14 @@
 """A scenario drawn on a GRBL pen plotter: the plotter backend of :mod:`inkarm.jobs.backends`.
 
-The scenario's drawing is placed on its page (page frame = the plotter's machine frame,
-origin at the sheet's lower-left corner), the pen path sequenced as for the arms and streamed
+The scenario's drawing is placed on its page (page frame = the plotter's work frame: G54's
+offset puts the sheet's lower-left corner where the pen profile's ``page_origin`` says, see
+:mod:`inkarm.hardware.plotter.workspace`), the pen path sequenced as for the arms and streamed
 through a :class:`~inkarm.hardware.plotter.plant.GrblPlant`; the result is the same
-:class:`~inkarm.jobs.run.Run` as a simulated run, with the same metrics.
+:class:`~inkarm.jobs.run.Run` as a simulated run, with the same metrics. A job that leaves the
+machine's travel is refused before anything moves, naming the ``$13x`` setting.
+
+``check`` with a port validates the job on the device in GRBL's check mode (``$C``): every line
+parsed and soft-limit checked, nothing moved.
 
 The ink: a real plotter's is on paper. The Run's canvas is the one given (an in-process
 emulator's, or a scan); without one, the measured tip positions while the pen was down are
@@ -48,13 +53,13 @@ def page_size_mm(scenario: Scenario) -> tuple[float, float]:
 
 def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
     """The scenario's drawing placed on the sheet; refused when any of it lies off the sheet
-    (the machine's space starts at the sheet's lower-left corner)."""
+    (the page frame starts at the sheet's lower-left corner)."""
     drawing = place(source_drawing(scenario), scenario.placement, size)
     lo, hi = drawing.bounds()
     if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
         raise InputError(f"the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
                          f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet "
-                         "(the plotter's origin is the sheet's lower-left corner)",
+                         "(the page's origin is the sheet's lower-left corner)",
                          key="placement")
     return drawing
 
@@ -88,9 +93,12 @@ class PlotterSession:
         streamer = GrblStreamer(options.port, options.baudrate, time_scale=options.time_scale)
         try:
             streamer.wake()
-            streamer.unlock()  # GRBL starts locked when homing is on; $X is harmless otherwise
             self.plant = GrblPlant(streamer, self.pen, dt=dt, time_scale=options.time_scale,
-                                   pen_force_n=scenario.controller.force_n)
+                                   pen_force_n=scenario.controller.force_n, page_mm=size,
+                                   extent_mm=self.drawing.bounds())
+        except InkarmError as e:
+            streamer.close()
+            raise e.within(file=scenario.path) from None
         except BaseException:
             streamer.close()
             raise
@@ -103,8 +111,12 @@ class PlotterSession:
             plant.streamer.state.failure = plant.streamer.state.failure or \
                 "interrupted by the user"
             raise
+        ws = plant.workspace
         self.notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile "
-                      f"{self.pen.name!r}, {len(log)} status reports (the log's rows)"),)
+                      f"{self.pen.name!r}, {len(log)} status reports (the log's rows)"),
+                      (f"plotter: page origin at machine ({ws.origin_mm[0]:g}, "
+                       f"{ws.origin_mm[1]:g}) mm (G54), "
+                       + ("homed ($22=1)" if ws.homed else "not homed ($22=0)")),)
         s = self.scenario
         if s.law.name != "position" or s.law.settings or s.watchdogs:
             self.notes += ((f"plotter: the firmware's planner moves the pen; the scenario's law "
@@ -126,11 +138,9 @@ class PlotterSession:
             ink_measured(self.canvas, log)
         if not finished or log is None:
             return Metrics()
-        travel = [self.plant.settings.get(130, 300.0), self.plant.settings.get(131, 300.0)]
         metrics = compute_metrics(
             times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
-            drawing=log.drawing, q=log.q,
-            joint_range=np.array([[0.0, travel[0] / 1000.0], [0.0, travel[1] / 1000.0]]),
+            drawing=log.drawing, q=log.q, joint_range=page_range(self.plant) / 1000.0,
             wall_time_s=max(log.wall_s, 1e-9), canvas=self.canvas,
             plan_strokes=[s.pos[:, :2] for s in self.drawing.strokes],
             contact_threshold_n=self.scenario.controller.contact_threshold_n)
@@ -149,7 +159,10 @@ class PlotterBackend:
     needs_port = True
 
     def check(self, scenario: Scenario, options: BackendOptions) -> str:
-        return check_plotter_scenario(scenario, options.profile or scenario.plotter_profile)
+        profile = options.profile or scenario.plotter_profile
+        if options.port:
+            return check_on_device(scenario, options, profile)
+        return check_plotter_scenario(scenario, profile)
 
     def open(self, scenario: Scenario, options: BackendOptions) -> PlotterSession:
         return PlotterSession(scenario, options)
@@ -179,6 +192,48 @@ def check_plotter_scenario(scenario: Scenario, profile: str | None = None) -> st
             f"{len(job.lines)} G-code lines for pen profile {pen.name!r}, about "
             f"{estimate_seconds(job.lines):.1f} s on GRBL's planner (default settings); "
             "nothing sent")
+
+
+def page_range(plant: GrblPlant) -> np.ndarray:
+    """Per axis (x, y), the page coordinates [mm] the machine reaches: its homed travel
+    [-$13x, 0] less the page origin, or [0, $13x] on a machine that does not home."""
+    ws = plant.workspace
+    travel = np.array([ws.settings.get(130, 200.0), ws.settings.get(131, 200.0)])
+    if not ws.homed:
+        return np.column_stack([np.zeros(2), travel])
+    origin = np.asarray(ws.origin_mm)
+    return np.column_stack([-travel - origin, -origin])
+
+
+def check_on_device(scenario: Scenario, options: BackendOptions, profile: str | None) -> str:
+    """The job's G-code (as ``inkarm gcode`` writes it) validated by the device in check mode
+    (``$C``): set up as for drawing (page origin, travel check; ``$X`` instead of homing),
+    streamed, every line answered ``ok``; nothing moves. A refused line raises an error naming
+    it and the device's answer."""
+    from inkarm.hardware.plotter.gcode import drawing_to_gcode
+    from inkarm.hardware.plotter.workspace import leave_check_mode, set_up
+
+    pen, size, drawing = prepared(scenario, profile)
+    job = drawing_to_gcode(drawing, pen)
+    streamer = GrblStreamer(options.port, options.baudrate, time_scale=options.time_scale)
+    try:
+        streamer.wake()
+        try:
+            ws = set_up(streamer, pen.placement, size, drawing.bounds(), check_mode=True)
+        except InkarmError as e:
+            raise e.within(file=scenario.path) from None
+        state = streamer.stream(job.lines)
+        if state.failure:
+            line = job.lines[state.failed_line - 1] if state.failed_line else ""
+            streamer.wake()  # out of check mode (or an alarm's lock: home before drawing)
+            raise InputError(f"the device refused the job in check mode: {state.failure} "
+                             f"({line!r})", key="--port", value=options.port)
+        leave_check_mode(streamer)
+    finally:
+        streamer.close()
+    return (f"ok: {scenario.title!r}, {len(job.lines)} G-code lines for pen profile "
+            f"{pen.name!r} accepted by the device in check mode ($C), page origin at machine "
+            f"({ws.origin_mm[0]:g}, {ws.origin_mm[1]:g}) mm; nothing moved")
 
 
 def ink_measured(canvas: Canvas, log: DrawLog) -> None:

@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from inkarm.cli import main
@@ -135,3 +136,40 @@ def test_gcode_refuses_a_scenario_drawn_off_its_sheet(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "off.toml" in err and "placement" in err and "beyond the 210 x 297 mm sheet" in err
     assert not out.exists()
+
+
+@pytest.mark.hardware_emulated
+def test_draw_on_a_homed_plotter_with_soft_limits():
+    """GRBL as a real plotter is set up: homing and soft limits on ($22=1, $20=1), the machine
+    space [-$13x, 0]: the plant homes, puts the page origin in G54 and draws in work
+    coordinates; the pen state comes from the oks (the emulator writes A: only with Ov:)."""
+    from inkarm.jobs.backends.plotter import page_size_mm, run_plotter_scenario
+    from inkarm.jobs.scenario import load_scenario
+
+    scenario = load_scenario("inkarm/data/default.toml")
+    canvas = scenario.ink.canvas(page_size_mm(scenario))
+    config = EmulatorConfig(speedup=4, settings=((22, 1.0), (20, 1.0)))
+    with GrblEmulator(config, canvas=canvas) as emu:
+        run = run_plotter_scenario(scenario, emu.port, time_scale=4, canvas=canvas)
+        travel = emu.machine.settings[130], emu.machine.settings[131]
+        position = np.asarray(emu.machine.position[:2])
+    assert run.status == "ok" or all(r.startswith(("tracking RMS", "tracking max"))
+                                     for r in run.reason.split("; ")), run.reason
+    assert run.metrics.gap_mm == 0.0 and run.metrics.ink_chamfer_mm <= 0.2
+    assert np.all(position <= 0.0) and np.all(position >= -np.asarray(travel))
+    assert f"page origin at machine ({-travel[0]:g}, {-travel[1]:g}) mm (G54), homed ($22=1)" \
+        in " ".join(run.notes)
+
+
+@pytest.mark.hardware_emulated
+def test_check_mode_on_the_device_moves_nothing():
+    from inkarm.jobs.backends import BackendOptions, check_backend
+    from inkarm.jobs.scenario import load_scenario
+
+    config = EmulatorConfig(speedup=10, settings=((22, 1.0), (20, 1.0)))
+    with GrblEmulator(config) as emu:
+        summary = check_backend("plotter", load_scenario("inkarm/data/default.toml"),
+                                BackendOptions(port=emu.port, time_scale=10))
+        position = np.asarray(emu.machine.position[:2])
+    assert "accepted by the device in check mode ($C)" in summary and "nothing moved" in summary
+    assert position == pytest.approx([0.0, 0.0])  # never homed, never moved

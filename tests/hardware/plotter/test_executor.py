@@ -80,3 +80,60 @@ def test_side_by_side_figure():
     assert "ink chamfer 0.100 mm" in titles[0] and titles[1] == "line: plotter: failed"
     with pytest.raises(InputError, match="at least one job"):
         backends_figure([])
+
+
+def test_the_schedule_starts_where_the_machine_stands_and_follows_the_pen_oks():
+    """The planner model starts at the machine's work position (after homing, not the page
+    origin), and its clock is anchored at every line GRBL answers only when done (M3/M5, G4):
+    a device whose clock ran 10 % slow over a stroke gets the stroke stretched between the
+    pen-down dwell's ok and the pen-up line's, not shifted at the dwell alone."""
+    from types import SimpleNamespace
+
+    from inkarm.hardware.plotter.plant import _synchronous
+    from inkarm.hardware.plotter.timing import simulate
+
+    plant = GrblPlant.__new__(GrblPlant)
+    plant.lines = ["G21", "G90", "M5", "G0 X10 Y10", "M3 S1000", "G4 P0.150",
+                   "G1 X60 Y10 F600", "M5", "G4 P0.150"]
+    plant.command_line = list(range(len(plant.lines)))
+    plant.settings, plant.time_scale, plant._t0 = {110: 500.0, 111: 500.0}, 1.0, 100.0
+    plant._start_mm = (199.0, 199.0, 0.0)
+    model = simulate(["G21 G90 G0 X199 Y199"] + plant.lines, plant.settings)
+    ends = model.line_end_s[1:] - model.line_end_s[0]
+    stroke = ends[6] - ends[5]
+    assert ends[3] > 10.0 and 5.0 < stroke < 7.0  # 50 mm at 10 mm/s, and the ramps
+    slow = {i + 1: 100.0 + e + (1.1 - 1) * max(0.0, e - ends[5]) for i, e in enumerate(ends)}
+    plant.profile = load_profile("servo")
+    plant.streamer = SimpleNamespace(state=SimpleNamespace(ack_times=slow, send_times={}))
+    line_end, plan = plant.schedule()
+    assert line_end[7] - line_end[5] == pytest.approx(1.1 * (ends[7] - ends[5]), rel=1e-6)
+    middle = line_end[5] + 0.55 * stroke  # half-way through the stretched stroke
+    assert np.interp(middle, plan.samples[:, 0], plan.samples[:, 1]) == pytest.approx(35.0,
+                                                                                    abs=0.3)
+    assert [_synchronous(x) for x in ("M3 S1000", "G4 P0.1", "G1 X1 M5", "G0 X1", "G21")] == \
+        [True, True, False, False, False]
+
+
+def test_planner_anchors_pair_each_waiting_ok_with_the_block_15_before():
+    """GRBL answers a motion line once a planner block is free: with 15 blocks, the ok of
+    the 16th block since the last pen change marks the end of the 1st. Lines of less than a
+    step make no block; an ok that did not wait says nothing; a pen change drains the
+    planner and starts the count again."""
+    from types import SimpleNamespace
+
+    from inkarm.hardware.plotter.plant import PLANNER_BLOCKS, planner_anchors
+
+    lines = ["M3 S1000", "G4 P0.1"] + [f"G1 X{k:.3f} Y0 F600" for k in range(1, 21)]
+    lines.insert(5, "G1 X3.001 Y0")  # 0.25 steps at 250 steps/mm: no block
+    lines += ["M5"] + [f"G1 X{k:.3f} Y1" for k in range(30, 50)]
+    n = len(lines)
+    state = SimpleNamespace(send_times={i: 0.0 for i in range(1, n + 1)},
+                            ack_times={i: 1.0 for i in range(1, n + 1)})
+    state.ack_times[n] = 0.001  # answered at once: the planner was not full
+    pairs = planner_anchors(lines, {100: 250.0, 101: 250.0}, state, 1.0)
+    first_block = lines.index("G1 X1.000 Y0 F600")
+    assert pairs[0] == (first_block, lines.index("G1 X16.000 Y0 F600") + 1)
+    assert len(pairs) == (20 - PLANNER_BLOCKS) + (20 - PLANNER_BLOCKS - 1)
+    assert all(lines[i].startswith("G1") for i, _ in pairs)
+    m5 = lines.index("M5")
+    assert next(p for p in pairs if p[1] > m5) == (m5 + 1, m5 + 17)

@@ -126,8 +126,8 @@ def test_gcode_refuses_3d_and_empty_drawings():
         drawing_to_gcode(Drawing([], page_size=(210, 297)), load_profile("servo"))
 
 
-@pytest.mark.parametrize("line, code", [("G1 X1 G0", 21), ("M7", 20), ("G1.5 X1", 20),
-                                        ("X1 X2", 25), ("@", 1), ("GX", 2), ("T1", 20)])
+@pytest.mark.parametrize("line, code", [("G1 X1 G0", 24), ("M7", 20), ("G1.5 X1", 23),
+                                        ("X1 X2", 25), ("@", 1), ("GX", 2), ("T256", 38)])
 def test_parser_errors(line, code):
     with pytest.raises(GcodeError) as e:
         parse_block(normalise(line))

@@ -116,7 +116,8 @@ def test_machine_accepts_no_line_while_a_dwell_runs_and_reports_state():
     m = GrblMachine()
     m.take_line("G4 P0.5")
     m.pump()
-    assert not m.accepts_line() and m.state == "Run"
+    # GRBL 1.1h mc_dwell: the planner is empty, so the state is Idle while it waits.
+    assert not m.accepts_line() and m.state == "Idle" and m.outbox[-1] != "ok"
     m.advance(0.6)
     m.pump()
     assert m.accepts_line() and m.state == "Idle" and m.outbox[-1] == "ok"
