@@ -14,17 +14,10 @@ from inkarm.hardware.dynamixel.bus import DynamixelBus, DynamixelFault
 from inkarm.hardware.dynamixel.config import with_dynamixel
 from inkarm.hardware.dynamixel.emulator import Fault
 from inkarm.hardware.dynamixel.plant import DynamixelPlant
+from tests.hardware.waiting import eventually
 
 pytestmark = pytest.mark.hardware_emulated
 
-
-def _eventually(check, timeout=3.0) -> bool:
-    end = time.monotonic() + timeout
-    while not check():
-        if time.monotonic() > end:
-            return False
-        time.sleep(0.01)
-    return True
 
 
 def test_a_fault_is_timed_from_the_drivers_torque_on_not_from_boot(wx250s, arm_emulator):
@@ -41,7 +34,7 @@ def test_a_fault_is_timed_from_the_drivers_torque_on_not_from_boot(wx250s, arm_e
         # hardware error yet (the slack of the HIL tests for a loaded machine)
         try:
             assert emu.torque_on_at is not None and emu.torque_on_at >= 1.0
-            assert _eventually(lambda: emu.stats.faults)
+            assert eventually(lambda: emu.stats.faults)
             kind, at = emu.stats.faults[0].split("@")
             assert kind == "overload:4"
             assert float(at) - emu.torque_on_at == pytest.approx(0.5, abs=0.25)

@@ -13,18 +13,10 @@ from inkarm.hardware.dynamixel.bus import DynamixelFault
 from inkarm.hardware.dynamixel.config import with_dynamixel
 from inkarm.hardware.dynamixel.emulator import FAULT_KINDS
 from inkarm.hardware.dynamixel.plant import DynamixelPlant
+from tests.hardware.waiting import eventually
 
 pytestmark = pytest.mark.hardware_emulated
 
-
-def eventually(check, timeout=2.0):
-    """``check()`` becomes true within ``timeout`` [s] (writes without replies land later)."""
-    end = time.monotonic() + timeout
-    while not check():
-        if time.monotonic() > end:
-            return False
-        time.sleep(0.005)
-    return True
 
 
 def test_refuses_a_bus_that_does_not_match_naming_each_difference(wx250s, arm_emulator):

@@ -5,11 +5,10 @@ indirect address block it exposes."""
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
 from inkarm.hardware.dynamixel import protocol as p
+from tests.hardware.waiting import eventually
 
 rustypot = pytest.importorskip("rustypot", reason="rustypot is not installed "
                                "(pip install rustypot: the test extras carry it)")
@@ -17,14 +16,6 @@ pytestmark = pytest.mark.hardware_emulated
 
 MODELS = {1: 1020, 2: 1060, 3: 1120}  # the conftest emulator: XM430-W350, XL430-W250, XM540-W270
 
-
-def eventually(check, timeout=3.0):
-    end = time.monotonic() + timeout
-    while not check():
-        if time.monotonic() > end:
-            return False
-        time.sleep(0.01)
-    return True
 
 
 @pytest.fixture
