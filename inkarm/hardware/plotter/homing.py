@@ -100,11 +100,13 @@ class HomingMixin:
     def _steps_per_mm(self) -> np.ndarray:
         return np.array([self.settings[100], self.settings[101], self.settings[102]])
 
-    def switches(self) -> list[bool]:
+    def switches(self, position: np.ndarray | None = None) -> list[bool]:
         """Which axes' limit switches are closed now (the one at each axis's home end, at or
-        past it); none while homing is off (``$22=0``: a plotter without homing has none
-        wired, and grbl-sim's switches exist only then)."""
-        steps = np.round(self.position * self._steps_per_mm()).astype(int) - self.frame_steps
+        past it), at ``position`` [mm] (default: the carriage's); none while homing is off
+        (``$22=0``: a plotter without homing has none wired, and grbl-sim's switches exist
+        only then)."""
+        where = self.position if position is None else position
+        steps = np.round(where * self._steps_per_mm()).astype(int) - self.frame_steps
         mask = int(self.settings[23])
         if not self.settings[22]:
             return [False, False, False]
@@ -112,8 +114,10 @@ class HomingMixin:
                 else bool(steps[i] >= self.switch_plus[i]) for i in range(3)]
 
     def pins(self) -> str:
-        """The ``Pn:`` letters of the closed switches."""
-        return "".join(a for a, closed in zip("XYZ", self.switches(), strict=True) if closed)
+        """The ``Pn:`` letters of the switches closed at the steps taken (grbl-sim's switches
+        follow the step counters)."""
+        closed = self.switches(self._quantised())
+        return "".join(a for a, shut in zip("XYZ", closed, strict=True) if shut)
 
     def physical(self) -> np.ndarray:
         """Where the carriage is [mm from the power-up point]."""

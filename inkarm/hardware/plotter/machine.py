@@ -14,7 +14,9 @@ wait for it to empty; during G4 the state is Idle. Alarms lock G-code out (``err
 :mod:`.homing`) stops the motion, prints ``ALARM:2`` and ``[MSG:Reset to continue]`` and
 freezes the main loop (no line, no status report) until a soft reset. With homing on
 (``$22=1``) the machine powers up in alarm. A soft reset keeps the position, clears G92, the
-modal state and the planner, and runs the ``$N`` start-up lines unless in alarm.
+modal state and the planner, and runs the ``$N`` start-up lines unless in alarm. Blocks run
+between whole-step positions (``plan_buffer_line``); what the stepper does with them is
+:mod:`.stepper`.
 
 The pen is an RC servo on the spindle PWM: the spindle on with ``S >= pen_contact_s`` (as the
 PWM gets it: clamped to ``$30``/``$31``, 0 when off) puts it down, ``M5`` or a lower S lifts
@@ -132,6 +134,7 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
         self.counters = ReportCounters()
         self.overrides = [100, 100, 100]
         self.planner.set_overrides(100, 100)
+        self.pending_override, self.override_at = None, math.inf
         self.spindle_mode, self.spindle_rpm, self.flood = 5, 0.0, False
         self.programmed: tuple[int, float] = (5, 0.0)  # the spindle as last programmed
         self._pen_command(False)
@@ -311,13 +314,13 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
                         return
                     rapid = item[2] is None
                     rate = math.inf if rapid else item[2] / 60.0
-                    self.planner.add(self._planned_end(), item[1], rate, self.lines_done,
-                                     rapid=rapid)
+                    self.planner.add(self._planned_end(), self._in_steps(item[1]), rate,
+                                     self.lines_done, rapid=rapid)
             elif kind == "jog":
                 if self._blocks_used() >= BLOCK_BUFFER:
                     return
-                if self.planner.add(self._planned_end(), item[1], item[2], self.lines_done,
-                                    override=False):
+                if self.planner.add(self._planned_end(), self._in_steps(item[1]), item[2],
+                                    self.lines_done, override=False):
                     self.sys_state = "Jog"
             elif kind == "sync":
                 if not check and not (self.planner.empty and self.cycle_done):
@@ -367,7 +370,16 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
             self.work.popleft()
 
     def _planned_end(self) -> np.ndarray:
-        return self.planner.blocks[-1].target if self.planner.blocks else self.position
+        return self.planner.blocks[-1].target if self.planner.blocks else \
+            self._in_steps(self.position)
+
+    def _in_steps(self, target: np.ndarray) -> np.ndarray:
+        """A target [mm] as GRBL plans it (``plan_buffer_line``): whole steps, ``lround``
+        of the target times ``$100``-``$102``; a block's length and direction are those of
+        its step counts."""
+        spm = self._steps_per_mm()
+        scaled = np.asarray(target, dtype=float) * spm
+        return np.sign(scaled) * np.floor(np.abs(scaled) + 0.5) / spm
 
     def _soft_limit(self) -> None:
         """GRBL's limits_soft_check: hold to a stop, then ALARM:2 and freeze."""
@@ -388,8 +400,8 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
             t = self.planner.speed / max(self.planner.blocks[0].accel, 1e-9)
         if self.phase is not None and self.phase["approach"]:
             t = min(t, homing.HOMING_STEP_S)  # (a switch may close any moment)
-        for when in (self.dwell_until, self.cycle_stop_at, self.hold_from if self.hold
-                     else math.inf):
+        for when in (self.dwell_until, self.cycle_stop_at, self.override_at,
+                     self.hold_from if self.hold else math.inf):
             if self.time < when < math.inf:
                 t = min(t, when - self.time)
         return t
@@ -407,6 +419,8 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
             step = min(MAX_SUBSTEP_S, end - self.time) if sampled else end - self.time
             if self.hold and self.time < self.hold_from:
                 step = min(step, self.hold_from - self.time)
+            self._apply_pending_override()
+            step = min(step, max(self.override_at - self.time, 1e-9))
             if (self.phase is not None and self.phase["approach"]) or self.settings[21]:
                 step = min(step, homing.HOMING_STEP_S)  # (watching the switches)
             holding = self.hold and self.time >= self.hold_from - 1e-12
@@ -428,6 +442,10 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
                     self.raise_alarm(ALARM_HARD_LIMIT)  # a switch closed while moving
                 if self.planner.empty or (holding and self.planner.speed <= 0):
                     self.cycle_stop_at = self.time + moved + self._idle_lock_s()
+                    if holding and not self.planner.empty:  # (the last step comes early)
+                        self.cycle_stop_at -= stepper.hold_tail_s(
+                            self.planner.blocks[0], self._steps_per_mm(), self.hold_from,
+                            self.time + moved)
             self.time += step
             self._ink()
             self._after_motion()

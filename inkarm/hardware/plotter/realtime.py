@@ -15,6 +15,8 @@
 
 from __future__ import annotations
 
+import math
+
 from inkarm.hardware.plotter.stepper import prepared_until
 
 FEED_KEYS = {0x90: None, 0x91: 10, 0x92: -10, 0x93: 1, 0x94: -1}
@@ -73,9 +75,10 @@ class RealtimeCommands:
         the spindle, which lifts a servo pen; ``~`` restores it before the motion resumes."""
         if not (self.hold and self.cycle_done):
             return
-        if not self.spindle_stopped:
+        if not self.spindle_stopped:  # (spindle_set_state: the change is reported next)
             self.spindle_stopped = True
             self._spindle_output(5, 0.0)
+            self.counters.ovr = 0
         else:
             self.spindle_stopped = False
             if self.programmed[0] != 5:
@@ -91,14 +94,31 @@ class RealtimeCommands:
         if byte in SPINDLE_KEYS:
             s = _step(s, SPINDLE_KEYS[byte])
         if [f, r, s] != self.overrides:
+            if (f, r) != tuple(self.overrides[:2]):
+                self._override_motion(f, r)
             self.overrides = [f, r, s]
             self.counters.ovr = 0
-            self.planner.set_overrides(f, r)
             if self.programmed[0] != 5 and not self.spindle_stopped:
                 self._set_spindle(*self.programmed)
         if byte == FLOOD_TOGGLE and self.sys_state in ("Idle", "Jog"):
             self.flood = not self.flood
             self.counters.ovr = 0
+
+    def _override_motion(self, feed: int, rapid: int) -> None:
+        """New feed and rapid overrides for the planner: GRBL re-plans at once
+        (``plan_update_velocity_profile_parameters``, ``plan_cycle_reinitialize``) but the
+        stepper only re-prepares from the end of the segments it has ready, so a moving
+        machine changes speed from :func:`.stepper.prepared_until` on."""
+        if self.planner.empty or self.planner.speed <= 0 or self.hold:
+            self.planner.set_overrides(feed, rapid)
+            return
+        self.pending_override = (feed, rapid)
+        self.override_at = prepared_until(self.time, self.motion_t0)
+
+    def _apply_pending_override(self) -> None:
+        if self.pending_override is not None and self.time >= self.override_at - 1e-12:
+            self.planner.set_overrides(*self.pending_override)
+            self.pending_override, self.override_at = None, math.inf
 
     def _set_spindle(self, mode: int, rpm: float) -> None:
         """GRBL's spindle_set_state: the PWM's speed clamped to ``$30``/``$31``."""
@@ -135,6 +155,7 @@ class RealtimeCommands:
         ``[MSG:Pgm End]``."""
         self.overrides = [100, 100, 100]
         self.planner.set_overrides(100, 100)
+        self.pending_override, self.override_at = None, math.inf
         if not check:
             self.counters.wco = 0
             self.programmed = (5, 0.0)

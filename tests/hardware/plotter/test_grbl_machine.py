@@ -321,3 +321,74 @@ def test_dwell_waits_whole_50_ms_steps_and_the_cycle_ends_after_idle_lock():
     assert m.state == "Run"  # GRBL's st_go_idle waits $1 = 25 ms
     m.advance(0.026)
     assert m.state == "Idle"
+
+
+def test_amass_levels_and_step_counts_rounded_while_moving_floored_at_a_hold():
+    """stepper.c: AMASS levels 3/2/1/0 below 2/4/8 kHz and above; a moving stepper has taken
+    the steps its continuous progress has passed half-way (Bresenham counters at half); a
+    stopped hold has taken whole steps only, a step boundary to float precision not."""
+    from inkarm.hardware.plotter.planner import Planner
+    from inkarm.hardware.plotter.stepper import amass_level, step_position
+
+    assert [amass_level(r) for r in (1999, 2000, 3999, 4000, 7999, 8000)] == [3, 2, 2, 1, 1, 0]
+    spm = np.array([250.0, 250.0, 250.0])
+    planner = Planner(accel=[10.0] * 3, max_rate=[8.0] * 3, deviation_mm=0.01)
+    planner.add(np.zeros(3), np.array([10.0, 0.0, 0.0]), 5.0)
+    block = planner.blocks[0]
+    planner.speed, block.entry_sqr = 5.0, 25.0  # 1250 steps/s: level 3 (entered moving)
+    for done_steps, taken in ((0.4, 0), (0.6, 1), (699.4, 699), (699.6, 700)):
+        block.length = 10.0 - done_steps / 250.0
+        assert step_position(planner, np.zeros(3), spm)[0] == pytest.approx(taken / 250.0)
+    planner.speed, block.entry_sqr = 0.0, 0.0  # a finished hold
+    for done_steps, taken in ((699.9, 699), (700.0, 699), (700.01, 700)):
+        block.length = 10.0 - done_steps / 250.0
+        assert step_position(planner, np.zeros(3), spm)[0] == pytest.approx(taken / 250.0)
+
+
+def test_a_hold_ends_when_its_last_whole_step_is_done():
+    """The braking segments of a hold run whole steps at the rate of their fractional ones:
+    the hold ends up to a segment before the continuous stop, never after it."""
+    from inkarm.hardware.plotter.planner import Planner
+    from inkarm.hardware.plotter.stepper import hold_tail_s
+
+    spm = np.array([250.0, 250.0, 250.0])
+    planner = Planner(accel=[10.0] * 3, max_rate=[8.0] * 3, deviation_mm=0.01)
+    planner.add(np.zeros(3), np.array([20.0, 0.0, 0.0]), 5.0)
+    block = planner.blocks[0]
+    tails = []
+    for stop_mm in np.linspace(2.0, 2.004, 9):  # the stop anywhere within a step
+        block.length = 20.0 - stop_mm
+        tails.append(hold_tail_s(block, spm, 0.0, 0.5))
+    assert all(0.0 <= t <= 0.05 for t in tails) and max(tails) > 0.005
+    assert hold_tail_s(block, spm, 0.5, 0.5) == 0.0
+
+
+def test_an_override_in_motion_acts_after_the_prepared_segments():
+    """protocol.c re-plans at once but stepper.c re-prepares only from the end of the ready
+    segments: the speed holds until then, then rises toward the new feed."""
+    m = fresh()
+    run(m, "G1 X50 F300", settle_motion=False)
+    m.advance(1.0)  # cruising at 5 mm/s
+    assert m.planner.speed == pytest.approx(5.0)
+    m.override(0x91)  # +10 %
+    assert m.pending_override == (110, 100) and m.override_at > m.time
+    m.advance(m.override_at - m.time - 1e-4)
+    assert m.planner.speed == pytest.approx(5.0)
+    m.advance(0.02)
+    assert 5.0 < m.planner.speed <= 5.5 and m.pending_override is None
+
+
+def test_spindle_stop_in_a_hold_reports_the_overrides_next():
+    """spindle_control.c spindle_set_state zeroes the override report counter: after 0x9E the
+    next report carries Ov: and A: without the spindle."""
+    m = fresh()
+    run(m, "M3 S500")
+    run(m, "M8")
+    m.status_report(), m.status_report()  # (WCO, then Ov)
+    m.feed_hold()
+    settle(m)
+    assert m.state == "Hold:0"
+    m.status_report()
+    m.toggle_spindle_stop()
+    report = m.status_report()
+    assert "|Ov:100,100,100|A:F>" in report and "FS:0,0" in report

@@ -17,7 +17,12 @@ What must agree:
   (:data:`SEGMENT_S` at the reported feed) and the feed of ``FS`` within
   :data:`FEED_TOL_MM_MIN`, everything else in the report exactly;
 * job times (first line to the end of the last planner block) within 1 %, and the end of every
-  planner block within 1 % of the job time up to it (:data:`SEGMENT_TOL`).
+  planner block within 1 % of the job time up to it (:data:`SEGMENT_TOL`);
+* where a soft reset stopped a motion, the positions within the travel of
+  :data:`START_JITTER_S` (the stepper's start is not reproducible; the evidence is there);
+* ``[MSG:Reset to continue]`` with the step the firmware sent it after, or with a neighbouring
+  one when it was recorded within :data:`ALARM_MESSAGE_JITTER_S` of that step: grbl-sim's
+  0.5 s alarm delay is not reproducible (the evidence is at the constant).
 
 Tolerances: GRBL's position is whole steps (0.004 mm at the stock 250 steps/mm) executed in
 segments of 1/100 s (``ACCELERATION_TICKS_PER_SECOND``: ``stepper.c`` prepares each segment at
@@ -52,6 +57,27 @@ JOB_TOL = 0.01
 SEGMENT_TOL = 0.01
 MOVING = ("Run", "Jog", "Home", "Hold")
 RX_BUFFER = 128
+ALARM_MESSAGE = "[MSG:Reset to continue]"
+# GRBL 1.1h report.c report_alarm_message waits delay_ms(500) after ALARM:N before this
+# message; grbl-sim's delay loop polls machine time from the firmware's main-loop thread,
+# which the host schedules in wall time, so the wait overshoots by a varying amount. The same
+# soft_limits session gave 0.520, 0.536 and 0.563 s (the committed recording, its three
+# ALARM:2) and 0.647, 0.536, 0.526 s and 0.672, 0.648, 0.526 s when recorded twice more with
+# scripts/record_grbl_transcripts.py (2026-11-28); the committed recording alone needs the
+# message before 0.5196 s once and after 0.5204 s once, which no fixed delay gives. The
+# machine sends it at 0.5 s; it counts as sent with the recorded step when the machine sent
+# it with the step before or after and the recorded time is within this of that step [s].
+ALARM_MESSAGE_JITTER_S = 0.2
+ALARM_ABORT_CYCLE = 3  # ALARM:3, a soft reset while moving
+# A motion started from Idle takes its first step when the stepper timer next reaches its
+# compare value (stepper.c st_wake_up enables the interrupt on a timer left running since the
+# last motion, period at most 65535 cycles of 16 MHz = 4.1 ms), so where a soft reset stops
+# it (mc_reset: st_go_idle at once) moves with that phase. Evidence: "G1 X5 F300" reset
+# 0.52 s in (reset_overrides, "reset in motion") stopped 2 steps behind the emulator in the
+# committed recording and 0 and 3 steps behind in two re-recordings of the same session
+# (2026-11-28). The position reports after a reset in motion, until the next motion, may
+# differ by the travel of this time at the fastest axis rate ($110-$112) [s].
+START_JITTER_S = 65535 / 16e6
 TAIL_S = 2.0  # machine time the replay runs on after the last step [s]
 
 
@@ -145,6 +171,7 @@ def replay(name: str) -> dict[str, list[str]]:
     replay = Replay(settings_of(transcript),
                     transcript.get("provenance", {}).get("home_distance_mm"))
     diffs: dict[str, list[str]] = {group["name"]: [] for group in transcript["groups"]}
+    answered: list[tuple[str, dict, list[str]]] = []
     for i, (group, step) in enumerate(steps):
         if not step.get("power_up"):
             replay.run_until(step["t"])
@@ -158,8 +185,41 @@ def replay(name: str) -> dict[str, list[str]]:
             break
         replies = replay.take_replies()
         if not step.get("job"):
-            diffs[group].extend(compare(step, replies))
+            answered.append((group, step, replies))
+    shift_alarm_messages(answered)
+    settings = settings_of(transcript)
+    jitter_mm = START_JITTER_S * max(settings[110], settings[111], settings[112]) / 60.0
+    stopped_tol = 0.0  # (after a reset in motion, until the next motion)
+    for group, step, replies in answered:
+        if f"ALARM:{ALARM_ABORT_CYCLE}" in step["replies"]:
+            stopped_tol = jitter_mm
+        elif any(r.startswith(("<Run", "<Jog", "<Home")) for r in step["replies"]):
+            stopped_tol = 0.0
+        diffs[group].extend(compare(step, replies, stopped_tol))
     return diffs
+
+
+def shift_alarm_messages(answered: list[tuple[str, dict, list[str]]]) -> None:
+    """Count :data:`ALARM_MESSAGE` as sent with the step the firmware sent it after when the
+    machine sent it with the step before or after, at most :data:`ALARM_MESSAGE_JITTER_S`
+    from the recorded time (see :data:`ALARM_MESSAGE_JITTER_S`)."""
+    for k, (_, step, got) in enumerate(answered):
+        want = step["replies"]
+        if ALARM_MESSAGE not in want or ALARM_MESSAGE in got:
+            continue
+        sent_t = step["reply_t"][want.index(ALARM_MESSAGE)]
+        for j in (k - 1, k + 1):
+            if not 0 <= j < len(answered):
+                continue
+            other_step, other = answered[j][1], answered[j][2]
+            window = (other_step["t"], answered[j + 1][1]["t"] if j + 1 < len(answered)
+                      else math.inf)
+            near = window[0] - ALARM_MESSAGE_JITTER_S <= sent_t <= window[1] + \
+                ALARM_MESSAGE_JITTER_S
+            if near and ALARM_MESSAGE in other and ALARM_MESSAGE not in other_step["replies"]:
+                other.remove(ALARM_MESSAGE)
+                got.insert(min(want.index(ALARM_MESSAGE), len(got)), ALARM_MESSAGE)
+                break
 
 
 def describe(step: dict) -> str:
@@ -186,8 +246,9 @@ def numbers(text: str) -> list[float]:
     return [float(v) for v in text.split(",")]
 
 
-def compare_report(want: str, got: str) -> list[str]:
-    """Field by field; positions and the feed within tolerance while moving."""
+def compare_report(want: str, got: str, stopped_tol_mm: float = 0.0) -> list[str]:
+    """Field by field; positions and the feed within tolerance while moving, positions within
+    ``stopped_tol_mm`` [mm] where a reset stopped the motion (:data:`START_JITTER_S`)."""
     w, g = parse_report(want), parse_report(got)
     if g is None:
         return [f"expected report {want!r}, got {got!r}"]
@@ -205,18 +266,24 @@ def compare_report(want: str, got: str) -> list[str]:
             tol = [travel] * 3 if name != "FS" else [FEED_TOL_MM_MIN, 0.0]
             if len(a) == len(b) and all(abs(x - y) <= t + 1e-9 for x, y, t in zip(a, b, tol)):
                 continue
+        if stopped_tol_mm and name in ("MPos", "WPos"):
+            a, b = numbers(w[name]), numbers(g[name])
+            if len(a) == len(b) and all(abs(x - y) <= stopped_tol_mm + 1e-9
+                                        for x, y in zip(a, b)):
+                continue
         return [f"expected {want!r}, got {got!r} ({name} differs)"]
     return []
 
 
-def compare(step: dict, got: list[str]) -> list[str]:
+def compare(step: dict, got: list[str], stopped_tol_mm: float = 0.0) -> list[str]:
     want = step["replies"]
     out = []
     for k in range(max(len(want), len(got))):
         w = want[k] if k < len(want) else None
         g = got[k] if k < len(got) else None
         if w is not None and g is not None and w.startswith("<"):
-            out += [f"{describe(step)}: reply {k}: {d}" for d in compare_report(w, g)]
+            out += [f"{describe(step)}: reply {k}: {d}"
+                    for d in compare_report(w, g, stopped_tol_mm)]
         elif w != g:
             out.append(f"{describe(step)}: reply {k}: expected {w!r}, got {g!r}")
     return out
@@ -277,21 +344,9 @@ def job_schedule(name: str):
 # -- tests ------------------------------------------------------------------------------------
 
 # Groups the emulator does not yet reproduce line for line, each with why (strict: a group
-# that starts to pass fails here until it is taken off this list). 39 of 1,987 recorded reply
-# lines, all of them timing at the start or end of a motion.
-KNOWN_DIFFERENCES = {
-    "dollar_commands:jog": "positions in the first ms of a jog sent alone",
-    "dollar_commands:jog cancel": "stopping distance after 0x85",
-    "gcode_accepted:arcs": "when an arc's ok arrives (its segments must fit the planner)",
-    "report_cadence:busy cadence $10=2": "Bf: off by one near the end of a slow deceleration",
-    "reset_overrides:overrides in motion": "positions 0.05-0.1 mm off while overrides rescale",
-    "reset_overrides:feed hold and resume": "Hold:0 vs Hold:1 and the spindle-restore message",
-    "reset_overrides:reset in motion": "Run vs Idle at the last report of the motion",
-    "soft_limits:inside the machine space": "Run vs Idle for the $1 lock (25 ms) after motion",
-    "soft_limits:work offset": "Run vs Idle for the $1 lock (25 ms) after motion",
-    "soft_limits:alarm during motion": "when [MSG:Reset to continue] is sent",
-    "soft_limits:jog outside": "positions in the first ms of a jog sent alone",
-}
+# that starts to pass fails here until it is taken off this list). None at present: all
+# 1,987 recorded reply lines agree.
+KNOWN_DIFFERENCES: dict[str, str] = {}
 
 
 def group_cases() -> list:
