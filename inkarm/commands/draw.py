@@ -162,7 +162,9 @@ def run(args: argparse.Namespace) -> int:
     if args.check and args.backend != "sim":
         from inkarm.jobs.backends import BackendOptions, check_backend
 
-        summary = check_backend(args.backend, scenario, BackendOptions(profile=args.profile))
+        # with --port a device's own check (the plotter's GRBL check mode, $C); else offline
+        summary = check_backend(args.backend, scenario, BackendOptions(
+            port=args.port, profile=args.profile, time_scale=args.time_scale))
         if summary is not None:  # (else the arm's own check below)
             print(summary)
             return 0

@@ -74,6 +74,8 @@ same for every backend::
 
     [plotter]
     profile = "servo"              # the pen profile: "servo", "z" or a file
+    page_origin = "lower-left"     # where the sheet goes, and whether to home: replace the
+    homing = "auto"                # pen profile's (inkarm.hardware.plotter.workspace)
 
 The page frame has its origin at the lower-left corner of the sheet, x to the right, y up.
 """
@@ -186,6 +188,7 @@ class Scenario:
     judge: Bounds = field(default_factory=Bounds)
     dynamixel: tuple[tuple[str, Any], ...] = ()
     plotter_profile: str | None = None
+    plotter_placement: tuple[tuple[str, Any], ...] = ()  # [plotter] page_origin, homing
 
     def to_dict(self) -> dict:
         """The TOML tables that parse back to this scenario (file names absolute)."""
@@ -205,7 +208,8 @@ class Scenario:
                     **table_of(self.ink.params)},
             "judge": table_of(self.judge),
             "dynamixel": {k: thawed(v) for k, v in self.dynamixel},
-            "plotter": {} if self.plotter_profile is None else {"profile": self.plotter_profile},
+            "plotter": ({} if self.plotter_profile is None else {"profile": self.plotter_profile})
+            | {k: thawed(v) for k, v in self.plotter_placement},
         }
 
     def with_overrides(self, overrides: dict[str, Any]) -> Scenario:

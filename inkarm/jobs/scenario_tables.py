@@ -24,7 +24,7 @@ from inkarm.robots.profile import RobotProfile
 from inkarm.sim.cell_config import CellConfig
 from inkarm.sim.imperfections import PlantTruth
 
-PLOTTER_KEYS = ("profile",)
+PLOTTER_KEYS = ("profile", "page_origin", "homing")
 # The simulator's tables of 0.2, kept for one release: [cell] is now [sim], [plant] [sim.plant].
 OLD_SIM_TABLES = {"cell": "sim", "plant": "sim.plant"}
 
@@ -146,11 +146,18 @@ def read_backend_tables(rd: TomlReader, data: dict, robot: RobotProfile,
         except InkarmError as e:
             raise ScenarioError(e.message, key="plotter.profile", value=e.value,
                                 choices=e.choices, file=rd.source) from None
+    placement: tuple[tuple[str, Any], ...] = ()
+    if "page_origin" in plotter or "homing" in plotter:
+        from inkarm.hardware.plotter.profiles import parse_placement
+
+        parse_placement(rd, plotter, "plotter.")  # refused here, naming plotter.<key>
+        placement = tuple((k, frozen(plotter[k])) for k in ("page_origin", "homing")
+                          if k in plotter)
     calibration = dynamixel.get("calibration")
     pairs = tuple((k, frozen(v)) for k, v in dynamixel.items() if k != "calibration")
     if calibration is not None:
         pairs += (("calibration", str((base_dir / calibration).resolve())),)
-    return {"dynamixel": pairs, "plotter_profile": profile}
+    return {"dynamixel": pairs, "plotter_profile": profile, "plotter_placement": placement}
 
 
 # The `[controller] command` of 0.2, kept for one release: the law that does what it did.

@@ -181,3 +181,25 @@ def drawing_to_gcode(drawing: Drawing, profile: PenProfile, *, optimise: bool = 
         lines += profile.pen_lines(False)
     lines += list(profile.footer)
     return GcodeJob(lines)
+
+
+def check_travel(drawing: Drawing, travel_mm: tuple[float, float],
+                 key: str = "--travel") -> None:
+    """Refuse a drawing with a point outside the machine's travel, page frame
+    [0, ``travel_mm``] per axis [mm] (``$130``, ``$131``: the job's G-code is in page
+    coordinates, the page's lower-left corner at the travel's): the first such point, its
+    stroke and what to do. GRBL itself raises ALARM:2 there with soft limits on, or drives
+    the pen into the frame without."""
+    for s, stroke in enumerate(drawing.strokes):
+        xy = np.asarray(stroke.pos, dtype=float)[:, :2]
+        for axis, name in enumerate("XY"):
+            limit = float(travel_mm[axis])
+            out = np.flatnonzero((xy[:, axis] < -1e-6) | (xy[:, axis] > limit + 1e-6))
+            if out.size:
+                i = int(out[0])
+                raise InputError(
+                    f"stroke {s + 1} point {i + 1} at ({xy[i, 0]:.2f}, {xy[i, 1]:.2f}) mm lies "
+                    f"outside the machine's travel in {name}: 0 to {limit:g} mm from the page "
+                    f"origin (${130 + axis}, {name} max travel); move or scale the drawing "
+                    f"onto the page, or give the machine's travel with --travel X,Y",
+                    key=key, value=(float(xy[i, 0]), float(xy[i, 1])))

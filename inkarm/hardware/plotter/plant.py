@@ -45,10 +45,11 @@ from inkarm.hardware.plotter.workspace import leave_check_mode, set_up
 AXES = set("XYZABC")
 PLANNER_BLOCKS = 15  # GRBL 1.1h's planner blocks on an ATmega328p ($I: [OPT:V,15,128])
 WAITED_S = 0.02  # a motion line answered this long [s] after it was sent waited for a block
-# The segment prep frees a block when it has prepared the block's last segment, while the
-# segment buffer still holds about four more to run (stepper.c: SEGMENT_BUFFER_SIZE 6 of
-# DT_SEGMENT = 1/(100 * 60) min = 10 ms each) [s]
-PREP_LEAD_S = 0.04
+# The segment prep frees a block when it has prepared the block's last segment: at most the
+# executing segment and four more still to run (stepper.c: SEGMENT_BUFFER_SIZE 6, one slot
+# kept free, of at most DT_SEGMENT = 1/(100 * 60) min = 10 ms each; segments at block ends are
+# shorter). So a block ends at most this long after its slot is freed [s]
+PREP_LEAD_S = 0.05
 
 SAFE_STOP_S = 3.0  # longest wait of each step of a safe stop (reset, unlock, pen up) [s]
 
@@ -114,25 +115,15 @@ class GrblPlant:
         return frozenset({"position", "pen"})
 
     def command(self, command: Command) -> None:
+        lines, clipped = command_lines(self.profile, command)
+        if lines is None:
+            raise InputError(unsupported(self, command))
+        self.clipped += clipped
+        self._queue(lines)
         if isinstance(command, PenCommand):
-            lines = self.profile.pen_lines(command.down)
-            self._queue(lines)
             # down once the whole group (its dwell) is done, up from its first line on
             self.pen_marks.append((len(self.lines) - (0 if command.down else len(lines) - 1),
                                    command.down))
-        elif isinstance(command, PositionCommand):
-            xy = self.profile.xy(*(float(v) * 1000.0 for v in command.q[:2]))
-            if command.qd is None:
-                self._queue([f"G0 {xy}"])
-            else:
-                speed = float(np.linalg.norm(command.qd[:2])) * 1000.0
-                if speed > self.profile.max_draw_speed_mm_s * 1.0001:
-                    self.clipped += 1
-                speed = min(max(speed, self.profile.min_draw_speed_mm_s),
-                            self.profile.max_draw_speed_mm_s)
-                self._queue([f"G1 {xy} {self.profile.feed(speed)}"])
-        else:
-            raise InputError(unsupported(self, command))
         self.command_line.append(len(self.lines) - 1)
 
     def step(self) -> None:
@@ -210,12 +201,13 @@ class GrblPlant:
         (grbl-sim) runs its machine clock at 0.5-1x the wall clock, as its host's load lets
         it. So the model is anchored at every line GRBL runs only once the planner is empty
         (``G4``, ``M3``/``M4``/``M5``, ``M7``-``M9``: each pen change and its dwell): GRBL
-        answers it when it is done, a moment the model knows exactly. Model time maps to
-        device time linearly between consecutive anchors (a stroke between its pen-down dwell
-        and its pen-up line keeps the model's shape, stretched to the time the device took),
-        shifted by the first or last anchor's lateness outside them. Within a stroke, the
-        ``ok`` of a motion line that had to wait for a free planner block anchors the end of
-        the block 15 before it (:func:`planner_anchors`)."""
+        answers it when it is done, a moment the model knows exactly. Within a stroke, the
+        ``ok`` of a motion line that had to wait for a free planner block bounds the end of
+        the block 15 before it (:func:`planner_anchors`); the device's lateness on the model
+        is the tightest of these bounds (:func:`warp_offsets`), which keeps the model's
+        speed: interpolating between the bounds at face value made the reference run up to
+        twice the planned speed between two of them, 0.5-0.8 mm RMS on a 60 mm/s stroke.
+        Outside the anchors, the first or last one's lateness."""
         start = self._start_mm
         pre = [f"G21 G90 G0 X{start[0]:.3f} Y{start[1]:.3f} Z{start[2]:.3f}"]
         plan = simulate(pre + self.lines, {**self.settings, 20: 0, 21: 0, 22: 0},
@@ -231,30 +223,27 @@ class GrblPlant:
                 Schedule(plan.seconds - begin, line_end, samples[forward]))
 
     def _clock_warp(self, line_end_s: np.ndarray):
-        """Model time -> device time through the anchors of :meth:`schedule` and
-        :func:`planner_anchors`."""
+        """Model time -> device time through the anchors of :meth:`schedule`
+        (:func:`warp_offsets`)."""
         if self._t0 is None:
             return lambda t: np.asarray(t, dtype=float)
         state = self.streamer.state
-        anchors = [(line_end_s[i], (state.ack_times[i + 1] - self._t0) * self.time_scale)
-                   for i, line in enumerate(self.lines)
-                   if _synchronous(line) and (i + 1) in state.ack_times]
-        anchors += [(line_end_s[i] - PREP_LEAD_S,
-                     (state.ack_times[n] - self._t0) * self.time_scale)
-                    for i, n in planner_anchors(self.lines, self.settings, state,
-                                                self.time_scale, self.profile.unit_mm,
-                                                self._start_mm)]
-        anchors.sort()
-        if not anchors:
+        exact = [(line_end_s[i], (state.ack_times[i + 1] - self._t0) * self.time_scale)
+                 for i, line in enumerate(self.lines)
+                 if _synchronous(line) and (i + 1) in state.ack_times]
+        bounds = [(line_end_s[i] - PREP_LEAD_S,
+                   (state.ack_times[n] - self._t0) * self.time_scale)
+                  for i, n in planner_anchors(self.lines, self.settings, state,
+                                              self.time_scale, self.profile.unit_mm,
+                                              self._start_mm)]
+        if not exact and not bounds:
             return lambda t: np.asarray(t, dtype=float)
-        model, device = (np.array(v, dtype=float) for v in zip(*anchors, strict=True))
-        keep = np.concatenate((model[1:] > model[:-1] + 1e-9, [True]))  # last of equal times
-        model, device = model[keep], np.maximum.accumulate(device[keep])
-        first, last = device[0] - model[0], device[-1] - model[-1]
+        model, offset = warp_offsets(exact, bounds)
+        first, last = offset[0], offset[-1]
 
         def warp(t):
             t = np.asarray(t, dtype=float)
-            inside = np.interp(t, model, device)
+            inside = t + np.interp(t, model, offset)
             return np.where(t < model[0], t + first, np.where(t > model[-1], t + last, inside))
 
         return warp
@@ -278,7 +267,8 @@ class GrblPlant:
             if line > s.acked:
                 break
             down = state
-        return down and not s.state.startswith("Check")
+        # a hold's spindle-stop override (:meth:`pause`) lifts a servo pen until the resume
+        return down and not s.state.startswith("Check") and not self.streamer.lifted_at(s.time)
 
     def _state(self, s: StatusReport) -> PlantState:
         t = (s.time - (self._t0 if self._t0 is not None else s.time)) * self.time_scale
@@ -291,6 +281,85 @@ class GrblPlant:
             errors=(self.failure,) if self.failure else ())
 
 
+def command_lines(profile: PenProfile, command: Command) -> tuple[list[str] | None, bool]:
+    """The G-code lines :class:`GrblPlant` sends for ``command`` (None: not a plotter's
+    command), and whether its speed was clipped to the profile's ``max_draw_speed_mm_s``: a
+    :class:`PenCommand` is the profile's pen lines with their dwell, a
+    :class:`PositionCommand` (joints in [m]) ``G0`` without qd, else ``G1`` at |qd|."""
+    if isinstance(command, PenCommand):
+        return profile.pen_lines(command.down), False
+    if not isinstance(command, PositionCommand):
+        return None, False
+    xy = profile.xy(*(float(v) * 1000.0 for v in command.q[:2]))
+    if command.qd is None:
+        return [f"G0 {xy}"], False
+    speed = float(np.linalg.norm(command.qd[:2])) * 1000.0
+    clipped = speed > profile.max_draw_speed_mm_s * 1.0001
+    speed = min(max(speed, profile.min_draw_speed_mm_s), profile.max_draw_speed_mm_s)
+    return [f"G1 {xy} {profile.feed(speed)}"], clipped
+
+
+def streamed_lines(profile: PenProfile, commands: list[Command]) -> list[str]:
+    """Every line a :class:`GrblPlant` streams for ``commands``: the profile's start lines
+    and each command's (what a plotter run sends, which ``inkarm gcode``'s file is not: the
+    run sends one line per control period of the pen path)."""
+    lines = profile.start_lines()
+    for command in commands:
+        more, _ = command_lines(profile, command)
+        if more is None:
+            raise InputError(f"a plotter takes position and pen commands, not "
+                             f"{type(command).__name__}")
+        lines += more
+    return lines
+
+
+def warp_offsets(exact: list[tuple[float, float]],
+                 bounds: list[tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """The device's lateness on the model [s] (device time - model time) at model times [s],
+    from anchors (model time, device time).
+
+    ``exact``: the ``ok`` of a line GRBL answers when it is done (a dwell, a pen change): the
+    lateness there, give or take the link's latency. ``bounds``: planner-full ``ok`` s
+    (:func:`planner_anchors`), paired with their block's end less ``PREP_LEAD_S``; as a block
+    ends at most ``PREP_LEAD_S`` after its slot is freed, and the ``ok`` comes after the free,
+    each only bounds the lateness from above (by up to one segment, 10 ms, plus the latency).
+    Between two exact anchors (a stroke) the device is never ahead of the model and only falls
+    further behind when it is kept waiting, so the lateness is nondecreasing there: at each
+    bound it is the least of the bounds at and after it and of the next exact anchor. Taking
+    each bound at its face value, or interpolating between them, makes the model's speed
+    swing with the 10 ms segment phase (up to twice the real speed between two bounds).
+    Within a stroke, the lateness before its first bound is that bound's (the device's delay
+    in starting the stroke)."""
+    model: list[float] = []
+    offset: list[float] = []
+    exact = sorted(exact)
+    bounds = sorted(bounds)
+    k = 0
+    for i, (m, d) in enumerate(exact + [(np.inf, np.inf)]):
+        stretch = []
+        while k < len(bounds) and bounds[k][0] <= m:
+            stretch.append(bounds[k])
+            k += 1
+        if stretch:
+            late = np.array([dv - mv for mv, dv in stretch])
+            if np.isfinite(d):
+                late = np.minimum(late, d - m)
+            late = np.minimum.accumulate(late[::-1])[::-1]
+            if model:  # the stroke starts as late as its first bound says
+                model.append(model[-1] + 1e-6)
+                offset.append(float(late[0]))
+            model.extend(mv for mv, _ in stretch)
+            offset.extend(float(v) for v in late)
+        if np.isfinite(d):
+            model.append(float(m))
+            offset.append(float(d - m))
+    model_a, offset_a = np.array(model), np.array(offset)
+    order = np.argsort(model_a, kind="stable")
+    model_a, offset_a = model_a[order], offset_a[order]
+    keep = np.concatenate((model_a[1:] > model_a[:-1] + 1e-9, [True]))  # last of equal times
+    return model_a[keep], offset_a[keep]
+
+
 def planner_anchors(lines: list[str], settings: dict[int, float], state, time_scale: float,
                     unit_mm: float = 1.0,
                     start_mm=(0.0, 0.0, 0.0)) -> list[tuple[int, int]]:
@@ -300,9 +369,10 @@ def planner_anchors(lines: list[str], settings: dict[int, float], state, time_sc
     slot kept free; ``$I`` prints ``[OPT:V,15,128]``). A motion line is parsed only once a
     block is free (motion_control.c ``mc_line`` waits while ``plan_check_full_buffer``), and
     its ``ok`` follows; a block is freed when the block it holds is done (its last segment
-    prepared, ``PREP_LEAD_S`` before its last step). So while the planner is full, the
-    ``ok`` of the k-th motion block since the planner was last drained (by a synchronous
-    line) comes that long before block k - 15 ends. Lines GRBL drops (fewer than one step: no block, planner.c
+    prepared, at most ``PREP_LEAD_S`` before its last step). So while the planner is full,
+    the ``ok`` of the k-th motion block since the planner was last drained (by a synchronous
+    line) comes at most that long before block k - 15 ends (:func:`warp_offsets` takes it as
+    a bound). Lines GRBL drops (fewer than one step: no block, planner.c
     ``plan_buffer_line``) are not counted. An ``ok`` counts only when the line waited
     (``WAITED_S`` of device time between sending and ``ok``): else the planner was not full.
     ``unit_mm``: millimetres per G-code unit; ``start_mm``: where the machine starts.

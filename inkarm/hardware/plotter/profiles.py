@@ -118,8 +118,22 @@ def parse_profile(data: dict, source: str, name: str) -> PenProfile:
             value = data[key]
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 raise rd.error(key, "expected an array of G-code lines (strings)", value=value)
+            if key in ("pen_down", "pen_up") and not value:
+                raise rd.error(key, "expected at least one G-code line (the pen would never "
+                               "move)", value=value)
             for i, line in enumerate(value):
-                if len(line) > 79 or "\n" in line or "\r" in line:
+                bad = next((c for c in line if not " " <= c <= "~"), None)
+                if bad is not None:
+                    # GRBL acts on some bytes wherever they come (0x18: soft reset, "?", "!",
+                    # "~", 0x80-0xFF: real-time commands), so a line carries printable ASCII
+                    raise rd.error(f"{key}[{i}]", "expected one G-code line of printable "
+                                   f"ASCII, got the character {bad!r} (U+{ord(bad):04X})",
+                                   value=line)
+                if any(c in line for c in "?!~"):
+                    raise rd.error(f"{key}[{i}]", "expected G-code without '?', '!' or '~' "
+                                   "(GRBL's real-time status, hold and resume commands)",
+                                   value=line)
+                if len(line) > 79:
                     raise rd.error(f"{key}[{i}]", "expected one G-code line of at most 79 "
                                    "characters", value=line)
             kw[key] = tuple(value)

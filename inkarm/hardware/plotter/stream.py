@@ -8,12 +8,18 @@ Answers come in the order of the lines, so the oldest unanswered line is the one
 ``error:N`` is about. Real-time bytes (``?``, ``!``, ``~``, 0x18) bypass the buffer and are
 sent at any time; status is polled with ``?`` at most 5 times a second (GRBL's advice).
 
+One driver per port: the advisory lock of :mod:`inkarm.hardware.port_lock` is taken before
+the port opens and released when the streamer closes (and when opening fails); a second
+driver on the port is refused at once naming the holder (two senders on one GRBL lose each
+other's ``ok`` s: the second waited 240 s for answers the first one took).
+
 The first ``error:N`` or ``ALARM:N`` stops the stream: nothing more is sent, and
 :attr:`StreamState.failure` names the line number (1-based, counting the lines of the job).
 """
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
@@ -21,11 +27,13 @@ from dataclasses import dataclass, field, replace
 
 import serial
 
-from inkarm.errors import InkarmError
+from inkarm.errors import InkarmError, InputError
+from inkarm.hardware.port_lock import PortBusyError, port_lock
 
 RX_BUFFER = 128
 STATUS_PERIOD_S = 0.2  # at most 5 status reports a second
 POLL_LOST_S = 1.0  # a "?" unanswered this long [s, wall] is taken as lost
+REPORT_AFTER_POLL_S = 0.001  # latest stamp of a report after its poll [s, wall] (_answer)
 STATUS_RETRY_S = 0.25  # :meth:`GrblStreamer.status` asks again after this long [s, wall]
 
 
@@ -147,6 +155,8 @@ class StreamState:
             before its main loop looks with one report, and none during a reset).
         rx_overcounts: Reports whose ``Bf:`` showed more bytes in GRBL's receive buffer than
             this sender has unanswered (another sender on the port, or a miscount).
+        lifted: (from, until) [s, streamer clock] of each hold in which the pen was lifted by
+            the spindle-stop override (``until`` is inf while it lasts).
     """
 
     sent: int = 0
@@ -159,6 +169,7 @@ class StreamState:
     messages: list[str] = field(default_factory=list)
     lost_polls: int = 0
     rx_overcounts: int = 0
+    lifted: list[tuple[float, float]] = field(default_factory=list)
 
 
 class GrblStreamer:
@@ -177,9 +188,18 @@ class GrblStreamer:
                  clock: Callable[[], float] = time.monotonic,
                  on_status: Callable[[StatusReport], None] | None = None,
                  time_scale: float = 1.0):
+        self._lock = contextlib.ExitStack()
+        try:
+            self._lock.enter_context(port_lock(port))
+        except PortBusyError as busy:  # the command line's --port
+            busy.key = "--port"
+            raise busy from None
+        except OSError as e:
+            raise InputError(f"cannot lock {port}: {e}", key="--port", value=port) from None
         try:
             self.serial = serial.Serial(port, baudrate, timeout=0.002, write_timeout=2.0)
         except (serial.SerialException, ValueError, OSError) as e:
+            self._lock.close()
             raise GrblError(f"cannot open {port}: {e}", key="--port", value=port) from None
         self.port = port
         self.clock = clock
@@ -278,6 +298,13 @@ class GrblStreamer:
     def resume(self) -> None:
         """``~``: resume (a pen lifted by :meth:`pause` goes down first, where it left)."""
         self.realtime(b"~")
+        lifted = self.state.lifted
+        if lifted and lifted[-1][1] == float("inf"):
+            lifted[-1] = (lifted[-1][0], self.clock())
+
+    def lifted_at(self, t: float) -> bool:
+        """Whether the pen was held lifted by :meth:`pause` at ``t`` [s, streamer clock]."""
+        return any(a <= t < b for a, b in self.state.lifted)
 
     def pause(self, lift: bool = True, timeout_s: float = 10.0) -> StatusReport | None:
         """Feed hold (``!``) until the device stops (Hold:0), then, with ``lift``, GRBL 1.1's
@@ -292,16 +319,22 @@ class GrblStreamer:
             s = self.last_status
             if s is not None and s.state == "Hold:0":
                 if lift:
+                    # GRBL 1.1h protocol.c: in Hold, 0x9E stops the spindle (the servo pen
+                    # lifts) until the cycle resumes; the pen is up from here on
+                    self.state.lifted.append((self.clock(), float("inf")))
                     self.realtime(b"\x9e")
                 return s
             time.sleep(0.05)
         return self.last_status
 
     def close(self) -> None:
+        """Close the port and release its lock (idempotent)."""
         try:
             self.serial.close()
         except (serial.SerialException, OSError):
             pass
+        finally:
+            self._lock.close()
 
     # -- streaming -----------------------------------------------------------------------------
 
@@ -373,12 +406,17 @@ class GrblStreamer:
 
     def _answer(self, line: str) -> None:
         if line.startswith("<"):
-            # The report describes the device between the poll and its arrival: stamp it
-            # half-way (the round trip's middle), not at arrival.
+            # GRBL writes the report as soon as its main loop sees the "?" (serial.c raises a
+            # flag; protocol.c answers it at its next pass, well under a millisecond), so the
+            # report describes the device just after the poll; the rest of the round trip is
+            # the way back (about 6 ms for 70 bytes at 115200 bit/s, a USB adapter's latency
+            # timer) and this host's own delay in reading. Stamped half-way through the round
+            # trip, but never more than REPORT_AFTER_POLL_S after the poll.
             now = self.clock()
             asked = self._poll_at if self._poll_at is not None else now
             self._poll_at = None
-            status = parse_status(line, 0.5 * (asked + now), self.wco)
+            stamp = asked + min(0.5 * (now - asked), REPORT_AFTER_POLL_S)
+            status = parse_status(line, stamp, self.wco)
             if status is not None:
                 self._note(replace(status, acked=self.state.acked))
             return

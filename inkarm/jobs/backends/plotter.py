@@ -1,7 +1,8 @@
 """A scenario drawn on a GRBL pen plotter: the plotter backend of :mod:`inkarm.jobs.backends`.
 
 The scenario's drawing is placed on its page (page frame = the plotter's work frame: G54's
-offset puts the sheet's lower-left corner where the pen profile's ``page_origin`` says, see
+offset puts the sheet's lower-left corner where the scenario's ``[plotter] page_origin``,
+else the pen profile's, says, see
 :mod:`inkarm.hardware.plotter.workspace`), the pen path sequenced as for the arms and streamed
 through a :class:`~inkarm.hardware.plotter.plant.GrblPlant`; the result is the same
 :class:`~inkarm.jobs.run.Run` as a simulated run, with the same metrics. A job that leaves the
@@ -17,6 +18,8 @@ inked on a canvas (a polyline through the status reports: coarse at 5 Hz).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from inkarm.analysis.metrics import compute_metrics
@@ -25,14 +28,17 @@ from inkarm.core.log import DrawLog
 from inkarm.core.run import Metrics, Senses
 from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.hardware.plotter.plant import GrblPlant
-from inkarm.hardware.plotter.profiles import load_profile
+from inkarm.hardware.plotter.profiles import PenProfile, load_profile, parse_placement
 from inkarm.hardware.plotter.stream import GrblStreamer
 from inkarm.ink.canvas import Canvas
+from inkarm.io.toml import TomlReader
 from inkarm.jobs.backends import BackendOptions, Progress, run_backend
 from inkarm.jobs.outcome import Run, undefined_unsensed
 from inkarm.jobs.scenario import Scenario, place, source_drawing
+from inkarm.jobs.scenario_tables import thawed
 from inkarm.sim.cell_config import Cell
 
+PERIOD_S = 0.01  # the plotter run's control period: one G-code line per period of the pen path
 NO_FORCE = "a plotter senses no pen force (its pen is up or down)"
 STATUS_INK = "the ink is on the paper; this run's canvas inks the 5 Hz status reports"
 
@@ -64,11 +70,23 @@ def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
     return drawing
 
 
+def scenario_pen(scenario: Scenario, profile: str | None) -> PenProfile:
+    """The pen profile (``profile``, else the scenario's), with the scenario's ``[plotter]``
+    ``page_origin`` and ``homing`` in place of the profile's own (checked when the scenario
+    was read)."""
+    pen = load_profile(profile or scenario.plotter_profile)
+    if not scenario.plotter_placement:
+        return pen
+    table = {k: thawed(v) for k, v in scenario.plotter_placement}
+    rd = TomlReader(str(scenario.path))
+    return replace(pen, placement=parse_placement(rd, table, "plotter.", base=pen.placement))
+
+
 def prepared(scenario: Scenario, profile: str | None):
-    """The pen profile, the sheet's size [mm] and the drawing placed on it; errors name the
-    scenario file."""
+    """The pen profile (:func:`scenario_pen`), the sheet's size [mm] and the drawing placed on
+    it; errors name the scenario file."""
     try:
-        pen = load_profile(profile)
+        pen = scenario_pen(scenario, profile)
         size = page_size_mm(scenario)
         return pen, size, placed_on_sheet(scenario, size)
     except InkarmError as e:
@@ -82,7 +100,7 @@ class PlotterSession:
     interrupted = ("interrupted by the user (Ctrl-C); the plotter was reset and its pen "
                    "lifted")
 
-    def __init__(self, scenario: Scenario, options: BackendOptions, dt: float = 0.01):
+    def __init__(self, scenario: Scenario, options: BackendOptions, dt: float = PERIOD_S):
         self.scenario = scenario
         self.pen, size, self.drawing = prepared(scenario, options.profile
                                                 or scenario.plotter_profile)
@@ -107,9 +125,10 @@ class PlotterSession:
         plant = self.plant
         try:
             log = run_plotter(self.drawing, plant, self.scenario.controller, progress=progress)
-        except KeyboardInterrupt:  # stop the machine now (soft reset, unlock, pen up)
+        except KeyboardInterrupt as stop:  # stop the machine now (soft reset, unlock, pen up)
             plant.streamer.state.failure = plant.streamer.state.failure or \
                 "interrupted by the user"
+            stop.log = self.partial_log()  # kept as the sim backend keeps its own
             raise
         ws = plant.workspace
         self.notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile "
@@ -132,6 +151,24 @@ class PlotterSession:
             fault.log = log
             raise fault
         return log
+
+    def partial_log(self) -> DrawLog | None:
+        """The log of what the plant measured so far (a run stopped by Ctrl-C): the status
+        reports against the same pen path and schedule a finished run logs; None when
+        nothing was measured."""
+        from inkarm.control.plotter import plotter_commands, plotter_log
+        from inkarm.control.sequencing import sequence_pen
+
+        plant = self.plant
+        readings = plant.readings()
+        if not readings:
+            return None
+        path = sequence_pen(self.drawing, self.scenario.controller, 0.0, plant.dt)
+        _, rows, phases = plotter_commands(path, plant.dt)
+        rows, phases = rows[:len(plant.command_line)], phases[:len(plant.command_line)]
+        ends, schedule = plant.schedule()
+        return plotter_log(path, rows, phases, readings, (ends, schedule),
+                           self.scenario.controller)
 
     def measure(self, log: DrawLog | None, finished: bool) -> Metrics:
         if log is not None and self.own_canvas:
@@ -179,19 +216,31 @@ def run_plotter_scenario(scenario: Scenario, port: str | None, *, profile: str |
         progress)
 
 
+def run_lines(scenario: Scenario, pen: PenProfile, drawing, dt: float = PERIOD_S) -> list[str]:
+    """The G-code lines a plotter run of ``drawing`` streams (the arms' pen sequencing on the
+    control grid of ``dt`` [s], :func:`~inkarm.control.plotter.plotter_commands`, each
+    command's lines as :class:`GrblPlant` writes them): what the run sends, which is not the
+    ``inkarm gcode`` file of the same drawing (that one follows the drawing's own samples)."""
+    from inkarm.control.plotter import plotter_commands
+    from inkarm.control.sequencing import sequence_pen
+    from inkarm.hardware.plotter.plant import streamed_lines
+
+    path = sequence_pen(drawing, scenario.controller, 0.0, dt)
+    return streamed_lines(pen, plotter_commands(path, dt)[0])
+
+
 def check_plotter_scenario(scenario: Scenario, profile: str | None = None) -> str:
     """Everything a plotter run checks before it opens the port (profile, source, placement on
-    the sheet), and the job's G-code and time estimate on GRBL's planner with its default
-    settings; a one-line summary. Nothing is sent."""
-    from inkarm.hardware.plotter.gcode import drawing_to_gcode
+    the sheet), and the G-code lines the run would stream with their time on GRBL's planner
+    with its default settings; a one-line summary. Nothing is sent."""
     from inkarm.hardware.plotter.timing import estimate_seconds
 
     pen, _, drawing = prepared(scenario, profile)
-    job = drawing_to_gcode(drawing, pen)
-    return (f"ok: {scenario.title!r}, {len(drawing.strokes)} strokes on the sheet; "
-            f"{len(job.lines)} G-code lines for pen profile {pen.name!r}, about "
-            f"{estimate_seconds(job.lines):.1f} s on GRBL's planner (default settings); "
-            "nothing sent")
+    lines = run_lines(scenario, pen, drawing)
+    return (f"ok: {scenario.title!r}, {len(drawing.strokes)} strokes on the sheet; a run "
+            f"streams {len(lines)} G-code lines (one per {PERIOD_S * 1000:g} ms of the pen "
+            f"path) for pen profile {pen.name!r}, about {estimate_seconds(lines):.1f} s on "
+            "GRBL's planner (default settings); nothing sent")
 
 
 def page_range(plant: GrblPlant) -> np.ndarray:
@@ -206,15 +255,14 @@ def page_range(plant: GrblPlant) -> np.ndarray:
 
 
 def check_on_device(scenario: Scenario, options: BackendOptions, profile: str | None) -> str:
-    """The job's G-code (as ``inkarm gcode`` writes it) validated by the device in check mode
+    """The lines a run streams (:func:`run_lines`) validated by the device in check mode
     (``$C``): set up as for drawing (page origin, travel check; ``$X`` instead of homing),
     streamed, every line answered ``ok``; nothing moves. A refused line raises an error naming
     it and the device's answer."""
-    from inkarm.hardware.plotter.gcode import drawing_to_gcode
     from inkarm.hardware.plotter.workspace import leave_check_mode, set_up
 
     pen, size, drawing = prepared(scenario, profile)
-    job = drawing_to_gcode(drawing, pen)
+    lines = run_lines(scenario, pen, drawing)
     streamer = GrblStreamer(options.port, options.baudrate, time_scale=options.time_scale)
     try:
         streamer.wake()
@@ -222,17 +270,18 @@ def check_on_device(scenario: Scenario, options: BackendOptions, profile: str | 
             ws = set_up(streamer, pen.placement, size, drawing.bounds(), check_mode=True)
         except InkarmError as e:
             raise e.within(file=scenario.path) from None
-        state = streamer.stream(job.lines)
+        state = streamer.stream(lines)
         if state.failure:
-            line = job.lines[state.failed_line - 1] if state.failed_line else ""
+            line = lines[state.failed_line - 1] if state.failed_line else ""
             streamer.wake()  # out of check mode (or an alarm's lock: home before drawing)
             raise InputError(f"the device refused the job in check mode: {state.failure} "
                              f"({line!r})", key="--port", value=options.port)
         leave_check_mode(streamer)
     finally:
         streamer.close()
-    return (f"ok: {scenario.title!r}, {len(job.lines)} G-code lines for pen profile "
-            f"{pen.name!r} accepted by the device in check mode ($C), page origin at machine "
+    return (f"ok: {scenario.title!r}, the {len(lines)} G-code lines a run streams for pen "
+            f"profile {pen.name!r} accepted by the device in check mode ($C) on {options.port}, "
+            f"page origin at machine "
             f"({ws.origin_mm[0]:g}, {ws.origin_mm[1]:g}) mm; nothing moved")
 
 

@@ -116,9 +116,19 @@ def test_emulate_grbl_prints_its_port_and_writes_its_canvas_on_ctrl_c(tmp_path):
 
 
 def test_draw_check_on_the_plotter_sends_nothing(tmp_path, capsys):
+    from inkarm.hardware.plotter.gcode import drawing_to_gcode
+    from inkarm.jobs.backends.plotter import prepared, run_lines
+    from inkarm.jobs.scenario import load_scenario
+
     assert main(["draw", "--backend", "plotter", "--check", "--out", str(tmp_path / "o")]) == 0
     out = capsys.readouterr().out
-    assert "G-code lines for pen profile 'servo'" in out and "nothing sent" in out
+    assert "G-code lines (one per 10 ms of the pen path) for pen profile 'servo'" in out
+    assert "nothing sent" in out
+    # the count is what a run streams (issue 21: it was the `inkarm gcode` file's)
+    scenario = load_scenario(None)
+    pen, _, drawing = prepared(scenario, None)
+    sent, written = run_lines(scenario, pen, drawing), drawing_to_gcode(drawing, pen).lines
+    assert f"a run streams {len(sent)} G-code lines" in out and len(sent) != len(written)
     scenario = tmp_path / "off.toml"
     scenario.write_text('[source]\nkind = "text"\ntext = "hi"\n[placement]\n'
                         'centre_mm = [5.0, 5.0]\nheight_mm = 40.0\n')
