@@ -119,6 +119,12 @@ class LoopConfig:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
+            if isinstance(f.default, bool) and not isinstance(value, bool):
+                raise InputError(f"expected true or false, got {value!r}", key=f.name,
+                                 value=value)
+            if isinstance(f.default, int | float) and not isinstance(f.default, bool) and (
+                    isinstance(value, bool) or not isinstance(value, int | float | np.number)):
+                raise InputError(f"expected a number, got {value!r}", key=f.name, value=value)
             if isinstance(value, float) and not np.isfinite(value):
                 raise InputError(f"expected a finite number, got {value}", key=f.name,
                                  value=value)

@@ -93,11 +93,15 @@ class PencilProfile:
             raise InputError(f"a pencil profile expects {len(OFFSETS)} co-occurrence matrices "
                              f"of L x L probabilities (2 <= L <= 256), got shape {glcm.shape}",
                              key="glcm")
-        for key in ("width_mm", "px_per_mm", "reference_force_n"):
+        # plausible ranges: a scan from 13 to 5080 dpi, a line up to 20 mm wide, a force up to
+        # 100 N (past them a profile is damaged, and rendering at its resolution runs for ever)
+        for key, low, high in (("width_mm", 0.0, 20.0), ("px_per_mm", 0.5, 200.0),
+                               ("reference_force_n", 0.0, 100.0)):
             value = float(getattr(self, key))
-            if not (value > 0 and np.isfinite(value)):
-                raise InputError(f"a pencil profile expects a positive {key}, got {value!r}",
-                                 key=key, value=value)
+            if not (low < value <= high and np.isfinite(value)) and not (
+                    key == "px_per_mm" and value == low):
+                raise InputError(f"a pencil profile expects {key} in ({low:g}, {high:g}], got "
+                                 f"{value!r}", key=key, value=value)
 
     @property
     def levels(self) -> int:

@@ -101,8 +101,9 @@ def test_a_profile_with_malformed_arrays_is_refused_naming_the_file_and_field(tm
     ({"full_hist": np.ones(10) / 10}, r"full_hist: a pencil profile expects 256"),
     ({"glcm": np.ones((4, 1, 1))}, r"glcm: .* \(2 <= L <= 256\), got shape \(4, 1, 1\)"),
     ({"glcm": -np.ones((4, 2, 2)) / 4}, r"glcm: "),
-    ({"width_mm": 0.0}, r"width_mm: a pencil profile expects a positive width_mm, got 0.0"),
-    ({"px_per_mm": float("nan")}, r"px_per_mm: a pencil profile expects a positive"),
+    ({"width_mm": 0.0}, r"width_mm: a pencil profile expects width_mm in \(0, 20\], got 0.0"),
+    ({"px_per_mm": float("nan")}, r"px_per_mm: a pencil profile expects px_per_mm in"),
+    ({"px_per_mm": 954.0}, r"px_per_mm in \(0.5, 200\], got 954.0"),  # rendered for ever
 ])
 def test_profile_fields_are_checked(changes, message):
     with pytest.raises(InputError, match=message):

@@ -28,8 +28,12 @@ def suite(tmp_path):
 
 @pytest.mark.sim
 @pytest.mark.parametrize("metrics, message", [
-    ("{}", (r"metrics.json: no tracking_rms_mm, tracking_max_mm, ink_chamfer_mm: every finished "
-           r"run measures them, so this baseline compares nothing")),
+    ("{}", (r"metrics.json: no tracking_rms_mm, tracking_max_mm, ink_chamfer_mm, gap_mm, "
+           r"contact_force_mean_n, contact_force_std_n, joint_limit_margin_rad: every baseline "
+           r"records them \(null where not sensed\), so they would pass unchecked")),
+    (('{"tracking_rms_mm": 0.1, "tracking_max_mm": 0.2, "ink_chamfer_mm": 0.1, "gap_mm": 0, '
+     '"contact_force_std_n": 0.02, "joint_limit_margin_rad": 0.3}'),
+     r"no contact_force_mean_n: every baseline records it"),
     ("[]", r"metrics.json: expected a table of metric names to numbers, got list"),
     ('{"tracking_rms_mm": NaN}', (r"metrics.json: tracking_rms_mm: metric 'tracking_rms_mm' is "
                                  r"nan: expected a finite number")),
