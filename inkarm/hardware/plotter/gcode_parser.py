@@ -30,6 +30,8 @@ P and L, unused words) are in :mod:`inkarm.hardware.plotter.interpreter`.
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,33 +76,11 @@ class Block:
         return [i for i, a in enumerate("XYZ") if a in self.values]
 
 
-def filter_line(raw: str) -> tuple[str, bool]:
-    """GRBL's character filter over one received line: the characters kept (upper-cased) and
-    whether the line overflowed the line buffer."""
-    out: list[str] = []
-    paren = semicolon = overflow = False
+def _kept(raw: str) -> Iterator[str]:
+    """The characters GRBL keeps of a line, upper-cased: whitespace, control characters, ``/``
+    (block delete), ``(...)`` comments and everything after ``;`` are dropped."""
+    paren = semicolon = False
     for ch in raw:
-        if paren or semicolon or overflow:
-            if ch == ")" and paren:
-                paren = False
-            continue
-        if ch <= " " or ch == "/":
-            continue
-        if ch == "(":
-            paren = True
-        elif ch == ";":
-            semicolon = True
-        elif len(out) >= MAX_LINE:
-            overflow = True
-        else:
-            out.append(ch.upper() if "a" <= ch <= "z" else ch)
-    return "".join(out), overflow
-
-
-def normalise(line: str) -> str:
-    """The characters of ``line`` GRBL keeps (see :func:`filter_line`), overflow ignored."""
-    out, paren, semicolon = [], False, False
-    for ch in line:
         if paren or semicolon:
             paren = paren and ch != ")"
             continue
@@ -111,8 +91,19 @@ def normalise(line: str) -> str:
         elif ch == ";":
             semicolon = True
         else:
-            out.append(ch.upper() if "a" <= ch <= "z" else ch)
-    return "".join(out)
+            yield ch.upper() if "a" <= ch <= "z" else ch
+
+
+def filter_line(raw: str) -> tuple[str, bool]:
+    """GRBL's character filter over one received line: the characters kept (upper-cased), at
+    most :data:`MAX_LINE` of them, and whether the line overflowed the line buffer."""
+    kept = list(itertools.islice(_kept(raw), MAX_LINE + 1))
+    return "".join(kept[:MAX_LINE]), len(kept) > MAX_LINE
+
+
+def normalise(line: str) -> str:
+    """The characters of ``line`` GRBL keeps (see :func:`filter_line`), overflow ignored."""
+    return "".join(_kept(line))
 
 
 def read_float(text: str, pos: int) -> tuple[float, int] | None:
