@@ -16,10 +16,6 @@ from inkarm.io.outputs import check_out_dir
 from inkarm.robots.registry import robot_names
 
 MAX_FPS = 240.0
-# The metrics of the summary line (a backend that senses less has them undefined: nan).
-SUMMARY_KEYS = ("tracking_rms_mm", "tracking_max_mm", "ink_chamfer_mm", "gap_mm",
-                "contact_force_mean_n", "contact_force_std_n", "force_p1_n", "force_p99_n",
-                "joint_limit_margin_rad", "realtime_factor")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -123,9 +119,11 @@ def summary_line(m) -> str:
     """The run's metrics in one line; what the backend does not sense says so (never "nan")."""
     from inkarm.core.run import metric_text
 
-    force = ("not sensed" if math.isnan(m["contact_force_mean_n"]) else
-             f"{m['contact_force_mean_n']:.2f} +- {m['contact_force_std_n']:.3f} N "
-             f"({m['force_p1_n']:.2f}..{m['force_p99_n']:.2f} N while drawing)")
+    f = {k: float(m.get(k, math.nan)) for k in ("contact_force_mean_n", "contact_force_std_n",
+                                                 "force_p1_n", "force_p99_n")}
+    force = ("not sensed" if math.isnan(f["contact_force_mean_n"]) else
+             f"{f['contact_force_mean_n']:.2f} +- {f['contact_force_std_n']:.3f} N "
+             f"({f['force_p1_n']:.2f}..{f['force_p99_n']:.2f} N while drawing)")
     return (f"tracking RMS {metric_text(m, 'tracking_rms_mm')}, max "
             f"{metric_text(m, 'tracking_max_mm')}; ink chamfer {metric_text(m, 'ink_chamfer_mm')}; "
             f"gaps {metric_text(m, 'gap_mm', spec='.2f')}; force {force}; joint margin "
@@ -205,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
     if not result.ok:
         print(f"inkarm draw: warning: the drawing is {result.status}: {result.reason}",
               file=sys.stderr)
-    print(summary_line({key: math.nan for key in SUMMARY_KEYS} | dict(result.metrics)))
+    print(summary_line(dict(result.metrics)))
     for unjudged in result.unjudged:  # the backend cannot sense these: never passed in silence
         print(unjudged)  # "force_band_n not judged: <why>"
     out = Path(args.out)

@@ -313,7 +313,8 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     force_f = 0.0  # low-passed sensed force [N] (0 where not sensed)
     lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
     lookahead_rows = int(lookahead_rows)
-    lookahead_step = lookahead_frac * (q_ref[1:] - q_ref[:-1])  # goal's share of the next row
+    # the goal's share of the next row, only read with a fraction of a period to look ahead
+    lookahead_step = lookahead_frac * (q_ref[1:] - q_ref[:-1]) if lookahead_frac else None
     commanded = [0] * len(log)  # reference row commanded at each log row
     ref_blend = [0.0] * len(log)  # fraction of the way to the next commanded row
     page_x, page_y = page_ref[:, 0].tolist(), page_ref[:, 1].tolist()
@@ -435,13 +436,13 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
 
 
 def _with_plan_columns(log: DrawLog, ref: JointReference, ref_row: list[int], k: int,
-                       blend: list[float] | None = None) -> DrawLog:
+                       blend: list[float]) -> DrawLog:
     """The first ``k`` rows of ``log``, with the reference, phase and stroke of the plan rows
     ``ref_row`` filled in; the reference ``blend`` of the way to the next plan row."""
     rows = np.asarray(ref_row[:k], dtype=np.intp)
     log.reference[:k] = ref.page_mm[rows]
-    w = None if blend is None else np.asarray(blend[:k])[:, None]
-    if w is not None and w.any():
+    w = np.asarray(blend[:k])[:, None]
+    if w.any():
         after = np.minimum(rows + 1, len(ref) - 1)
         log.reference[:k] += w * (ref.page_mm[after] - ref.page_mm[rows])
     log.phase[:k] = ref.phase[rows]

@@ -34,7 +34,7 @@ class PortBusyError(InputError):
     """The port is held by another driver; ``holder`` is its process id where known."""
 
     def __init__(self, message: str, *, port: str, holder: int | None = None):
-        super().__init__(message, key="port", value=port)
+        super().__init__(message, key="--port", value=port)  # the command line's option
         self.port, self.holder = port, holder
 
 
@@ -124,7 +124,8 @@ def port_lock(port: str | os.PathLike) -> Iterator[None]:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError as e:
                 if e.errno not in (errno.EWOULDBLOCK, errno.EACCES):
-                    raise
+                    raise InputError(f"cannot lock {port}: {e}", key="--port",
+                                     value=port) from None
                 folder = _lock_dir()
                 pid = _read_pid(folder / lock_file_name(port)) if folder else None
                 raise _busy(port, pid if pid is not None and _alive(pid) else None) from None

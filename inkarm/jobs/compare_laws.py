@@ -38,9 +38,8 @@ from scipy.signal import find_peaks
 from scipy.spatial import cKDTree
 
 from inkarm.analysis.metrics import chamfer_mm, ink_centreline_mm, resample_polyline
-from inkarm.control.executor import plan_within_speed_limits
 from inkarm.control.laws.sensorimotor import Sensorimotor, Targets, dppla_targets, stroke_rows
-from inkarm.control.reference import JointReference
+from inkarm.control.reference import JointReference, plan_within_speed_limits
 from inkarm.core.log import DRAW
 from inkarm.errors import InputError
 from inkarm.jobs.run import Run, run

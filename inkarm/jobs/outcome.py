@@ -128,16 +128,12 @@ def failed_run(scenario: Scenario, drawing: Drawing, fault, canvas: Canvas,
 
 
 def measured(log: DrawLog | None, drawing: Drawing, believed, canvas,
-             force_sensed: bool = True, senses: Senses | None = None) -> Metrics:
+             senses: Senses = SIM_SENSES) -> Metrics:
     """The metrics of a (possibly partial) log; empty when nothing was logged or drawn. What
-    the backend does not sense (``senses``; ``force_sensed=False`` is
-    ``Senses.without(force=..., contact=...)``) is undefined (NaN), never a number made up:
+    the backend does not sense (``senses``) is undefined (NaN), never a number made up:
     without force the force metrics, and without contact the gaps (found from the force)."""
     if log is None or len(log) == 0 or not log.drawing.any():
         return Metrics()
-    if senses is None:
-        senses = SIM_SENSES if force_sensed else Senses.without(
-            force="not sensed", contact="found from the force, not sensed")
     metrics = compute_metrics(
         times_s=log.time, reference_mm=log.reference, tip_mm=log.tip,
         force_n=log.force if senses.senses("force") else np.nan_to_num(log.force),

@@ -37,7 +37,7 @@ import serial
 from inkarm.errors import InputError, SimulationError
 from inkarm.hardware.dynamixel import protocol as p
 from inkarm.hardware.dynamixel.tables import COMMON, decode, to_unsigned
-from inkarm.hardware.port_lock import PortBusyError, port_lock
+from inkarm.hardware.port_lock import port_lock
 
 STATE_ADDRESS, STATE_SIZE = 126, 10  # present current (2), velocity (4), position (4)
 _REG = {r.name: r for r in COMMON}
@@ -125,14 +125,7 @@ class DynamixelBus:
         self.last_waits: dict[int, float] = {}  # per servo: wait for its reply [s], last read
         self.levels: dict[int, int] = {}  # Status Return Level per servo, where known
         self._lock = contextlib.ExitStack()
-        try:
-            self._lock.enter_context(port_lock(port))
-        except PortBusyError as busy:  # the command line's --port, not the scenario's
-            busy.key = "--port"
-            busy.args = (str(busy),)
-            raise busy from None
-        except OSError as e:
-            raise InputError(f"cannot lock {port}: {e}", key="--port", value=port) from None
+        self._lock.enter_context(port_lock(port))
         try:
             try:
                 ok = self.port.openPort() and self.port.setBaudRate(self.baudrate)

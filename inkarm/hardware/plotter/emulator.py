@@ -35,15 +35,16 @@ from typing import Self
 
 from inkarm.errors import InputError
 from inkarm.hardware.plotter.machine import GrblMachine, PenConfig
+from inkarm.hardware.plotter.realtime import OVERRIDE_BYTES
+from inkarm.hardware.plotter.reports import RX_BYTES
 from inkarm.hardware.pty import close_quietly, open_raw_pty
 
-RX_BUFFER = 128  # GRBL 1.1's serial receive buffer [bytes]
+RX_BUFFER = RX_BYTES  # GRBL 1.1's serial receive buffer [bytes]
 MAX_REPLIES_KEPT = 10_000
 IDLE_TICK_S = 0.02
 REALTIME = {ord("?"), ord("!"), ord("~"), 0x18}
 SPINDLE_STOP = 0x9E  # GRBL 1.1's spindle-stop override (extended real-time byte)
 JOG_CANCEL = 0x85
-OVERRIDES = frozenset({*range(0x90, 0x98), *range(0x99, 0x9E), 0xA0})
 FAULT_KINDS = ("error", "alarm", "disconnect")
 DEFAULT_CODES = {"error": 20, "alarm": 1, "disconnect": 0}
 
@@ -254,7 +255,7 @@ class GrblEmulator:
                 machine.toggle_spindle_stop()
             elif byte == JOG_CANCEL:
                 machine.jog_cancel_byte()
-            elif byte in OVERRIDES:
+            elif byte in OVERRIDE_BYTES:
                 machine.override(byte)
             elif byte == 0x18:
                 machine.soft_reset()

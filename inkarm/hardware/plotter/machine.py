@@ -132,9 +132,7 @@ class GrblMachine(RealtimeCommands, HomingMixin, stepper.StepperView):
         self.gc = ParserState(coord_system=self.params[0].copy(),
                               position=self._quantised())
         self.counters = ReportCounters()
-        self.overrides = [100, 100, 100]
-        self.planner.set_overrides(100, 100)
-        self.pending_override, self.override_at = None, math.inf
+        self._reset_overrides()
         self.spindle_mode, self.spindle_rpm, self.flood = 5, 0.0, False
         self.programmed: tuple[int, float] = (5, 0.0)  # the spindle as last programmed
         self._pen_command(False)

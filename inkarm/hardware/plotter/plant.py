@@ -29,6 +29,7 @@ axis (a Z pen) is where the report puts that axis: down at work Z <= 0.
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import math
 import time
@@ -37,13 +38,14 @@ import numpy as np
 
 from inkarm.core.plant import Command, PenCommand, PlantState, PositionCommand, unsupported
 from inkarm.errors import InputError
+from inkarm.hardware.plotter.planner import BLOCK_BUFFER
 from inkarm.hardware.plotter.profiles import PenProfile
 from inkarm.hardware.plotter.stream import GrblError, GrblStreamer, StatusReport
 from inkarm.hardware.plotter.timing import Schedule, simulate
 from inkarm.hardware.plotter.workspace import leave_check_mode, set_up
 
 AXES = set("XYZABC")
-PLANNER_BLOCKS = 15  # GRBL 1.1h's planner blocks on an ATmega328p ($I: [OPT:V,15,128])
+PLANNER_BLOCKS = BLOCK_BUFFER  # GRBL 1.1h's planner blocks on an ATmega328p ($I: [OPT:V,15,128])
 WAITED_S = 0.02  # a motion line answered this long [s] after it was sent waited for a block
 # The segment prep frees a block when it has prepared the block's last segment: at most the
 # executing segment and four more still to run (stepper.c: SEGMENT_BUFFER_SIZE 6, one slot
@@ -213,8 +215,9 @@ class GrblPlant:
         plan = simulate(pre + self.lines, {**self.settings, 20: 0, 21: 0, 22: 0},
                         samples=True)
         begin = float(plan.line_end_s[0])  # the model's move to the start, cut off
-        warp = self._clock_warp(plan.line_end_s[1:] - begin)
-        line_end = warp(plan.line_end_s[1:] - begin)
+        model_end = plan.line_end_s[1:] - begin
+        warp = self._clock_warp(model_end)
+        line_end = warp(model_end)
         samples = plan.samples[plan.samples[:, 0] >= begin].copy()
         samples[:, 0] = warp(samples[:, 0] - begin)
         forward = np.concatenate(([True], samples[1:, 0] > np.maximum.accumulate(
@@ -262,11 +265,9 @@ class GrblPlant:
         """Whether the pen touches at report ``s`` (see the module docstring)."""
         if self._z_pen:
             return s.wpos is not None and s.wpos[2] <= 1e-3
-        down = False
-        for line, state in self.pen_marks:
-            if line > s.acked:
-                break
-            down = state
+        # the marks' line numbers increase (every pen group has a line): the last one done
+        k = bisect.bisect_right(self.pen_marks, (s.acked, True)) - 1
+        down = k >= 0 and self.pen_marks[k][1]
         # a hold's spindle-stop override (:meth:`pause`) lifts a servo pen until the resume
         return down and not s.state.startswith("Check") and not self.streamer.lifted_at(s.time)
 
@@ -403,10 +404,15 @@ def planner_anchors(lines: list[str], settings: dict[int, float], state, time_sc
     return out
 
 
+def _code(line: str) -> str:
+    """``line`` upper-cased without its comment (``;...`` or ``(...)``)."""
+    return line.upper().split(";")[0].split("(")[0]
+
+
 def _target(line: str) -> dict[int, float] | None:
     """The axis words of a ``G0``/``G1`` line in millimetres (absolute, G21), by axis; None
     for any other line."""
-    words = line.upper().split(";")[0].split("(")[0].split()
+    words = _code(line).split()
     if not words or words[0] not in ("G0", "G1", "G00", "G01"):
         return None
     out = {}
@@ -424,17 +430,16 @@ def _synchronous(line: str) -> bool:
     ``ok`` when it is done (gcode.c: a dwell, spindle and coolant changes call
     ``protocol_buffer_synchronize``): a dwell or an ``M3``-``M5``/``M7``-``M9`` line without
     axis words."""
-    words = line.upper().split(";")[0].split("(")[0].split()
-    return not _moves(line) and any(
+    code = _code(line)
+    return not any(c in AXES for c in code) and any(
         w in ("G4", "G04", "M3", "M03", "M4", "M04", "M5", "M05", "M7", "M07", "M8", "M08",
-              "M9", "M09") for w in words)
+              "M9", "M09") for w in code.split())
 
 
 def _moves(line: str) -> bool:
     """Whether a G-code line has axis words (a motion the planner queues; its ``ok`` comes
     when it is queued, not done)."""
-    code = line.upper().split(";")[0].split("(")[0]
-    return any(c in AXES for c in code)
+    return any(c in AXES for c in _code(line))
 
 
 def safe_stop(streamer: GrblStreamer, profile: PenProfile, failed: bool) -> None:

@@ -23,6 +23,7 @@ FEED_KEYS = {0x90: None, 0x91: 10, 0x92: -10, 0x93: 1, 0x94: -1}
 RAPID_KEYS = {0x95: 100, 0x96: 50, 0x97: 25}
 SPINDLE_KEYS = {0x99: None, 0x9A: 10, 0x9B: -10, 0x9C: 1, 0x9D: -1}
 FLOOD_TOGGLE = 0xA0
+OVERRIDE_BYTES = frozenset({*FEED_KEYS, *RAPID_KEYS, *SPINDLE_KEYS, FLOOD_TOGGLE})
 
 
 def _step(value: int, delta: int | None) -> int:
@@ -63,10 +64,7 @@ class RealtimeCommands:
         if not self.cycle_done:
             return  # GRBL resumes only once the hold is complete (Hold:0)
         if self.spindle_stopped:  # GRBL restores the spindle and moves on at once
-            self.spindle_stopped = False
-            if self.programmed[0] != 5:
-                self.outbox.append("[MSG:Restoring spindle]")
-                self._set_spindle(*self.programmed)
+            self._restore_spindle()
         self.hold = False
         self.planner.recalculate()
 
@@ -80,10 +78,20 @@ class RealtimeCommands:
             self._spindle_output(5, 0.0)
             self.counters.ovr = 0
         else:
-            self.spindle_stopped = False
-            if self.programmed[0] != 5:
-                self.outbox.append("[MSG:Restoring spindle]")
-                self._set_spindle(*self.programmed)
+            self._restore_spindle()
+
+    def _restore_spindle(self) -> None:
+        """Undo the spindle-stop override: the spindle as last programmed, said so."""
+        self.spindle_stopped = False
+        if self.programmed[0] != 5:
+            self.outbox.append("[MSG:Restoring spindle]")
+            self._set_spindle(*self.programmed)
+
+    def _reset_overrides(self) -> None:
+        """Feed, rapid and spindle overrides back to 100 %, nothing pending."""
+        self.overrides = [100, 100, 100]
+        self.planner.set_overrides(100, 100)
+        self.pending_override, self.override_at = None, math.inf
 
     def override(self, byte: int) -> None:
         """0x90-0x9D, 0xA0: feed, rapid and spindle overrides, the flood toggle."""
@@ -153,9 +161,7 @@ class RealtimeCommands:
     def _program_end(self, check: bool) -> None:
         """M2/M30: overrides back to 100 %, work offset refreshed, spindle and coolant off,
         ``[MSG:Pgm End]``."""
-        self.overrides = [100, 100, 100]
-        self.planner.set_overrides(100, 100)
-        self.pending_override, self.override_at = None, math.inf
+        self._reset_overrides()
         if not check:
             self.counters.wco = 0
             self.programmed = (5, 0.0)

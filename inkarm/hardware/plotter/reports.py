@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inkarm.hardware.plotter.planner import BLOCK_BUFFER
 from inkarm.hardware.plotter.settings import grbl_float
 
 VERSION = "1.1h"
@@ -32,7 +33,7 @@ BANNER = f"Grbl {VERSION} ['$' for help]"
 HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
 OVR_BUSY, OVR_IDLE, WCO_BUSY, WCO_IDLE = 20, 10, 30, 10  # config.h REPORT_*_REFRESH_*_COUNT
 BUSY_STATES = ("Run", "Hold", "Jog", "Home", "Door")
-BLOCKS = 15  # BLOCK_BUFFER_SIZE - 1
+BLOCKS = BLOCK_BUFFER  # BLOCK_BUFFER_SIZE - 1
 RX_BYTES = 128
 COORD_NAMES = ("G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30")
 

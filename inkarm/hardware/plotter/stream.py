@@ -27,8 +27,8 @@ from dataclasses import dataclass, field, replace
 
 import serial
 
-from inkarm.errors import InkarmError, InputError
-from inkarm.hardware.port_lock import PortBusyError, port_lock
+from inkarm.errors import InkarmError
+from inkarm.hardware.port_lock import port_lock
 
 RX_BUFFER = 128
 STATUS_PERIOD_S = 0.2  # at most 5 status reports a second
@@ -189,13 +189,7 @@ class GrblStreamer:
                  on_status: Callable[[StatusReport], None] | None = None,
                  time_scale: float = 1.0):
         self._lock = contextlib.ExitStack()
-        try:
-            self._lock.enter_context(port_lock(port))
-        except PortBusyError as busy:  # the command line's --port
-            busy.key = "--port"
-            raise busy from None
-        except OSError as e:
-            raise InputError(f"cannot lock {port}: {e}", key="--port", value=port) from None
+        self._lock.enter_context(port_lock(port))
         try:
             self.serial = serial.Serial(port, baudrate, timeout=0.002, write_timeout=2.0)
         except (serial.SerialException, ValueError, OSError) as e:

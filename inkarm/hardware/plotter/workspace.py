@@ -32,6 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from inkarm.errors import InputError
+from inkarm.hardware.plotter import homing
+from inkarm.hardware.plotter.settings import GRBL_DEFAULTS
 from inkarm.hardware.plotter.stream import GrblError, GrblStreamer
 
 ORIGINS = ("auto", "lower-left", "lower-right", "upper-left", "upper-right", "machine-zero",
@@ -93,18 +95,22 @@ def read_offsets(streamer: GrblStreamer) -> dict[str, tuple[float, ...]]:
     return offsets
 
 
-def homes(settings: dict[int, float], placement: Placement) -> bool:
+def homes(settings: dict[int, float]) -> bool:
     """Whether the machine's space is GRBL's homed one ([-max travel, 0]): homing is on
     (``$22=1``; with ``homing = "skip"`` the machine is taken as standing at home)."""
     return bool(settings.get(22, 0))
 
 
+def xy_travel(settings: dict[int, float]) -> np.ndarray:
+    """The x and y travel ``$130``, ``$131`` [mm] of a device's settings (GRBL's defaults for
+    those it did not report)."""
+    return homing.travel({**GRBL_DEFAULTS, **settings})[:2]
+
+
 def homed_position(settings: dict[int, float]) -> tuple[float, float]:
     """Where ``$H`` leaves x and y, in machine coordinates [mm] (limits.c, see the module
     docstring)."""
-    pull, mask = settings.get(27, 1.0), int(settings.get(23, 0))
-    return tuple(-settings.get(130 + a, 200.0) + pull if mask >> a & 1 else -pull
-                 for a in range(2))
+    return tuple(float(v) for v in homing.homed_position({**GRBL_DEFAULTS, **settings})[:2])
 
 
 def page_origin(placement: Placement, settings: dict[int, float], page_mm: tuple[float, float],
@@ -115,12 +121,12 @@ def page_origin(placement: Placement, settings: dict[int, float], page_mm: tuple
     if not isinstance(origin, str):
         return (float(origin[0]), float(origin[1]))
     if origin == "auto":
-        origin = "lower-left" if homes(settings, placement) else "machine-zero"
+        origin = "lower-left" if homes(settings) else "machine-zero"
     if origin == "machine-zero":
         return (0.0, 0.0)
     if origin == "current":
         return (float(here_mm[0]), float(here_mm[1]))
-    travel = [settings.get(130 + a, 200.0) for a in range(2)]
+    travel = xy_travel(settings)
     vertical, horizontal = origin.split("-")
     x = -travel[0] if horizontal == "left" else -page_mm[0]
     y = -travel[1] if vertical == "lower" else -page_mm[1]
@@ -135,7 +141,7 @@ def check_reach(origin: tuple[float, float], lo: np.ndarray, hi: np.ndarray,
     must fit the travel."""
     for axis, name in enumerate("XY"):
         key = 130 + axis
-        travel = settings.get(key, 200.0)
+        travel = xy_travel(settings)[axis]
         a, b = origin[axis] + float(lo[axis]), origin[axis] + float(hi[axis])
         if homed and (a < -travel - TOLERANCE_MM or b > TOLERANCE_MM):
             raise InputError(
@@ -163,14 +169,14 @@ def set_up(streamer: GrblStreamer, placement: Placement, page_mm: tuple[float, f
     if settings.get(13):
         raise InputError("the device reports inches ($13=1); inkarm reads positions in "
                          "millimetres: set $13=0", key="$13", value=settings[13])
-    homed = homes(settings, placement)
+    homed = homes(settings)
+    will_home = homed and placement.homing == "auto" and not check_mode
     status = streamer.status()
-    here = homed_position(settings) if settings.get(22) and placement.homing == "auto" \
-        and not check_mode else status.mpos[:2]
+    here = homed_position(settings) if will_home else status.mpos[:2]
     origin = page_origin(placement, settings, page_mm, here)
     if extent_mm is not None:
         check_reach(origin, *extent_mm, settings, homed)
-    if settings.get(22) and placement.homing == "auto" and not check_mode:
+    if will_home:
         streamer.home(HOME_TIMEOUT_S)
     elif status.state.startswith("Alarm"):
         streamer.unlock()

@@ -30,6 +30,7 @@ from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.hardware.plotter.plant import GrblPlant
 from inkarm.hardware.plotter.profiles import PenProfile, load_profile, parse_placement
 from inkarm.hardware.plotter.stream import GrblStreamer
+from inkarm.hardware.plotter.workspace import xy_travel
 from inkarm.ink.canvas import Canvas
 from inkarm.io.toml import TomlReader
 from inkarm.jobs.backends import BackendOptions, Progress, run_backend
@@ -102,8 +103,7 @@ class PlotterSession:
 
     def __init__(self, scenario: Scenario, options: BackendOptions, dt: float = PERIOD_S):
         self.scenario = scenario
-        self.pen, size, self.drawing = prepared(scenario, options.profile
-                                                or scenario.plotter_profile)
+        self.pen, size, self.drawing = prepared(scenario, options.profile)
         self.own_canvas = options.canvas is None
         self.canvas = scenario.ink.canvas(size) if self.own_canvas else options.canvas
         self.senses = plotter_senses(ink=not self.own_canvas)
@@ -196,10 +196,9 @@ class PlotterBackend:
     needs_port = True
 
     def check(self, scenario: Scenario, options: BackendOptions) -> str:
-        profile = options.profile or scenario.plotter_profile
         if options.port:
-            return check_on_device(scenario, options, profile)
-        return check_plotter_scenario(scenario, profile)
+            return check_on_device(scenario, options, options.profile)
+        return check_plotter_scenario(scenario, options.profile)
 
     def open(self, scenario: Scenario, options: BackendOptions) -> PlotterSession:
         return PlotterSession(scenario, options)
@@ -247,7 +246,7 @@ def page_range(plant: GrblPlant) -> np.ndarray:
     """Per axis (x, y), the page coordinates [mm] the machine reaches: its homed travel
     [-$13x, 0] less the page origin, or [0, $13x] on a machine that does not home."""
     ws = plant.workspace
-    travel = np.array([ws.settings.get(130, 200.0), ws.settings.get(131, 200.0)])
+    travel = xy_travel(ws.settings)
     if not ws.homed:
         return np.column_stack([np.zeros(2), travel])
     origin = np.asarray(ws.origin_mm)

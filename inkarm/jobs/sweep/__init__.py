@@ -117,11 +117,11 @@ def scenario_digest(scenario: Scenario) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def check_manifest(out: Path, scenario: Scenario) -> None:
+def check_manifest(out: Path, scenario: Scenario, digest: str) -> None:
     """Write ``sweep.json`` in a new sweep folder; in an existing one, refuse a different
-    scenario (its rows would be mixed with this one's)."""
+    scenario (its rows would be mixed with this one's); ``digest``: the scenario's
+    (:func:`scenario_digest`)."""
     manifest = out / MANIFEST
-    digest = scenario_digest(scenario)
     if manifest.is_file():
         try:
             old = json.loads(manifest.read_text()).get("scenario_digest")
@@ -225,7 +225,7 @@ def run_sweep(scenario: Scenario, points: list[Point], out_dir: str | Path, *,
     digest = scenario_digest(scenario)
     done = finished_ids(out, digest)  # before the manifest: a refused folder stays as it was
     new_folder = not (out / MANIFEST).exists()
-    check_manifest(out, scenario)
+    check_manifest(out, scenario, digest)
     todo = [p for p in points if p.point_id not in done]
     summary = SweepSummary(total=len(points), skipped=len(points) - len(todo))
     if workers is None:

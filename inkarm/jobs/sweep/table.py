@@ -30,11 +30,11 @@ PARTS_DIR = "parts"
 DIGEST_COLUMN = "scenario_digest"
 
 
-def _read(path: Path, columns: list[str] | None = None) -> pa.Table:
+def _read(path: Path) -> pa.Table:
     """``path`` as a Parquet table, or an InputError naming it (a truncated, garbage or
     foreign file is never a traceback from inside pyarrow)."""
     try:
-        return pq.read_table(path, columns=columns)
+        return pq.read_table(path)
     except (pa.ArrowException, OSError, ValueError) as e:
         raise InputError(f"{path}: not a table of sweep results ({type(e).__name__}: "
                          f"{str(e).splitlines()[0] if str(e) else 'unreadable'}); remove it "
