@@ -347,7 +347,10 @@ def compute_metrics(
     mask = _mask("drawing", drawing, n)
     if plan_strokes is None:
         plan_strokes = plan_strokes_from_reference(reference, mask)
-    tracking = tracking_error(reference, tip_mm, mask)
+    # a run that never reached a drawing row (a fault before the first stroke, or a plotter's
+    # reports that all fell outside its strokes): undefined tracking, which the judge fails
+    tracking = (tracking_error(reference, tip_mm, mask) if mask.any()
+                else TrackingError(math.nan, math.nan))
     gaps = pen_gaps(reference, force_n, mask, contact_threshold_n)
     force_mean, force_std = contact_force_stats(force_n, mask, contact_threshold_n)
     force_p1, force_p99 = force_percentiles(force_n, mask)

@@ -39,8 +39,22 @@ TRACE_OPTIONS = {"speed": "--speed", "rate": "--rate"}
 
 def load_trace_for(args: argparse.Namespace):
     """The trace ``args.trace`` read with the ``--speed`` and ``--rate`` options, errors naming
-    the option at fault."""
+    the option at fault; what an SVG reading skipped is said on stderr in one line
+    ("note: FILE: skipped 3 elements: 2 hidden, 1 <text> (convert text to paths)")."""
     from inkarm.io.trace import load_trace
 
     with options_named(**TRACE_OPTIONS):
-        return load_trace(args.trace, speed=args.speed, rate=args.rate)
+        drawing = load_trace(args.trace, speed=args.speed, rate=args.rate)
+    say_skipped(drawing, str(args.trace))
+    return drawing
+
+
+def say_skipped(drawing, source: str) -> None:
+    """What an SVG reading skipped, on stderr in one line (nothing when nothing was)."""
+    import sys
+
+    from inkarm.io.trace import skipped_summary
+
+    said = skipped_summary(drawing)
+    if said:
+        print(f"note: {source}: {said}", file=sys.stderr)

@@ -22,7 +22,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "draw",
         help="draw a scenario with the simulated arm (the embedded default without one), or on "
-             "a Dynamixel arm or a GRBL plotter (--backend)",
+             "a Dynamixel arm, a GRBL plotter or an AxiDraw (--backend)",
         description="Build the scenario's drawing, check the arm can reach it, simulate the arm "
         "tracking it in MuJoCo and write canvas.png, trace.npz, metrics.json, report.png and "
         "reference.csv into --out. Schema: see inkarm.jobs.scenario.",
@@ -44,12 +44,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--backend", default="sim", metavar="NAME",
                    help="where to draw: sim (the MuJoCo arm, default), servo_sim (the arm on its "
                    "servos' firmware model), or a device on --port: plotter (GRBL 1.1), "
-                   "dynamixel; plug-ins add more (inkarm.jobs.backends)")
+                   "axidraw (EiBotBoard), dynamixel; plug-ins add more (inkarm.jobs.backends)")
     p.add_argument("--port", default=None,
                    help="serial port of the device (a pseudo-terminal from `inkarm emulate`)")
     p.add_argument("--profile", metavar="NAME|FILE.toml", default=None,
-                   help="device profile: for a plotter, the pen profile (servo, z) or a file; for a "
-                   "Dynamixel arm, its calibration file (default: beside the robot profile)")
+                   help="device profile: for a plotter, the pen profile (servo, z) or a file; for an "
+                   "AxiDraw, its model profile (v3, v3_a3) or a file; for a Dynamixel arm, its calibration file (default: beside the robot profile)")
     p.add_argument("--time-scale", type=float, default=1.0,
                    help="device seconds per wall second: an emulator's --speedup (default 1)")
     p.add_argument("--check", action="store_true",

@@ -1,4 +1,4 @@
-"""``inkarm emulate {grbl,...}``: start a device emulator on a pseudo-terminal, print the port
+"""``inkarm emulate {grbl,axidraw,...}``: start a device emulator on a pseudo-terminal, print the port
 to connect to and run until Ctrl-C.
 
 One sub-parser per emulated device; to add one, write ``_add_<name>(subparsers)`` that sets
@@ -56,7 +56,37 @@ def _add_grbl(sub) -> None:
     p.set_defaults(_emulate=_run_grbl)
 
 
-EMULATORS = {"grbl": _add_grbl, "dynamixel": add_emulate_parser}
+def _add_axidraw(sub) -> None:
+    p = sub.add_parser(
+        "axidraw",
+        help="an AxiDraw on its EiBotBoard (EBB firmware 3.0.3: motion FIFO, pen servo, ink "
+        "canvas)",
+        description="Emulate an AxiDraw V3 or V3/A3 on a pseudo-terminal: the EiBotBoard's "
+        "serial commands as firmware 3.0.3 answers them (SM, XM, LM, LT, HM, EM, SP, TP, SC, "
+        "SR, QS, QM, QG, ES, ...), the motion FIFO in 40 us ISR ticks, the H-bot carriage "
+        "held by the frame, and the pen-lift servo at its configured rates drawing on an ink "
+        "canvas (the sheet against the home corner). Prints the port; Ctrl-C stops it.",
+    )
+    p.add_argument("--model", choices=("V3", "V3A3"), default="V3",
+                   help="the travel: V3 (300 x 218 mm, default) or V3A3 (430 x 297 mm)")
+    p.add_argument("--speedup", type=_positive, default=1.0,
+                   help="machine seconds per wall-clock second (default 1: real time)")
+    p.add_argument("--out", metavar="FILE.png", default=None,
+                   help="write the emulated pen's canvas here on exit")
+    p.add_argument("--page", metavar="W,H", default=None,
+                   help="sheet (width, height) in mm, its upper-left corner at the home corner "
+                   "(default: A4 landscape 297,210 for V3, A3 landscape 420,297 for V3A3)")
+    p.add_argument("--px-per-mm", type=_positive, default=10.0,
+                   help="canvas resolution in px/mm (default 10)")
+    p.add_argument("--fault", action="append", default=[], metavar="KIND:K[:CODE]",
+                   help="inject a fault at the K-th command received: drop:K (it runs, its "
+                   "reply is never sent), error:K[:CODE] (it does not run; the reply is the "
+                   "firmware's !CODE error, default 6), disconnect:K (close the port); "
+                   "repeatable")
+    p.set_defaults(_emulate=_run_axidraw)
+
+
+EMULATORS = {"grbl": _add_grbl, "axidraw": _add_axidraw, "dynamixel": add_emulate_parser}
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -118,6 +148,23 @@ def _run_grbl(args: argparse.Namespace) -> int:
                                  "Ctrl-C to stop", args.out)
     stats = emulator.stats
     print(f"received {stats.lines} lines, {stats.bytes_dropped} bytes lost to overflow, "
+          f"{stats.machine_time_s:.2f} s of machine time", file=sys.stderr)
+    return 0
+
+
+def _run_axidraw(args: argparse.Namespace) -> int:
+    from inkarm.hardware.axidraw.emulator import PAGE_MM, EbbEmulator, parse_fault
+    from inkarm.ink.canvas import Canvas
+
+    check_png(args.out)
+    faults = [parse_fault(text) for text in args.fault]
+    page = _page(args.page) if args.page is not None else PAGE_MM[args.model]
+    canvas = Canvas(size_mm=page, px_per_mm=args.px_per_mm)
+    emulator = EbbEmulator(speedup=args.speedup, canvas=canvas, model=args.model, faults=faults)
+    serve(emulator, lambda port: f"AxiDraw {args.model} (EBB firmware 3.0.3) emulator on {port} "
+                                 f"(speed-up {args.speedup:g}); Ctrl-C to stop", args.out)
+    stats = emulator.stats
+    print(f"received {stats.lines} commands, {stats.steps} motor steps, "
           f"{stats.machine_time_s:.2f} s of machine time", file=sys.stderr)
     return 0
 

@@ -1,5 +1,8 @@
 """``inkarm restyle TRACE --out DIR``: a trace re-drawn through its DPPLA targets by the
-Gaussian-target LQT (seeds 001 and 000)."""
+Gaussian-target LQT (seeds 001 and 000), laid out on a page first (vpype's layout options,
+:mod:`inkarm.commands._layout`) and kept inside it after (``--overshoot refit|clip``): the LQT
+cuts and rounds corners, and its curves may pass up to a few millimetres outside the source's
+bounding box."""
 
 from __future__ import annotations
 
@@ -7,6 +10,13 @@ import argparse
 from pathlib import Path
 
 from inkarm.commands import add_trace_options, load_trace_for, options_named
+from inkarm.commands._layout import (
+    LAYOUT_OPTIONS,
+    add_layout_options,
+    laid_out,
+    layout_from,
+    overshoot_from,
+)
 from inkarm.errors import InputError
 from inkarm.io.outputs import check_out_dir, out_path, staged
 from inkarm.plans.restyle import STYLES, RestyleConfig
@@ -20,7 +30,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="re-draw a trace (CSV or SVG) through its DPPLA targets with the LQT",
         description="Each stroke of the trace is reduced to DPPLA targets (Marteau and Gibet 2005), which "
         "become Gaussians shaped by the local geometry, tracked by the LQT (Berio, Calinon and Leymarie 2017). Writes "
-        "the stylised drawing as CSV and SVG and a figure comparing trace, targets and result.",
+        "the stylised drawing as CSV and SVG and a figure comparing trace, targets and result. "
+        "The trace is laid out on the page first (vpype's options: --page-size a4 "
+        "--fit-to-margins 10mm ...), and the restyled lines, which may overshoot the trace's "
+        "corners by a few mm, are kept inside the page less its margins (--overshoot: refit, "
+        "the default, scales the drawing down just enough; clip cuts the lines at the edge).",
     )
     p.add_argument("trace", type=Path, help="trace file: CSV (t,x,y[,z][,stroke]) or SVG")
     p.add_argument("--out", type=out_path, required=True, help="output folder")
@@ -72,6 +86,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="std across the path / local segment length",
     )
     add_trace_options(p)
+    add_layout_options(p, overshoot=True)
     return p
 
 
@@ -98,12 +113,15 @@ def run(args: argparse.Namespace) -> int:
     stem = args.trace.stem
     names = [f"{stem}_restyled.csv", f"{stem}_restyled.svg", f"{stem}_restyle.png"]
     out = check_out_dir(args.out, inputs=[args.trace], names=names)
+    layout, overshoot = layout_from(args), overshoot_from(args)
     trace = load_trace_for(args)
+    trace = laid_out(trace, layout, str(args.trace))
     try:
         with options_named(**_OPTIONS):
             result = restyle(trace, cfg)
     except InputError as e:
         raise e.within(file=str(args.trace)) from None
+    result, kept = kept_on_page(result, trace, layout, overshoot)
     with staged(out) as stage:
         result.drawing.to_csv(stage / names[0])
         result.drawing.to_svg(stage / names[1])
@@ -111,6 +129,25 @@ def run(args: argparse.Namespace) -> int:
     targets = sum(r.k + 1 for r in result.targets)
     print(
         f"{len(result.drawing.strokes)} strokes, {targets} targets "
-        f"(compression {cfg.compression}), written to {args.out}"
+        f"(compression {cfg.compression}){kept}, written to {args.out}"
     )
     return 0
+
+
+def kept_on_page(result, trace, layout, how: str):
+    """The restyled ``result`` kept inside the page by ``how`` (``--overshoot``): the page
+    less the margins when the options laid the trace out, else the trace's own page when the
+    trace lies on it (else nothing to keep inside); and a phrase for the output line."""
+    from dataclasses import replace
+
+    from inkarm.plans.page import keep_inside, outside
+
+    if layout is not None and layout.places:
+        lo, hi = layout.area(trace.page_size)
+    else:
+        lo, hi = (0.0, 0.0), trace.page_size
+        if outside(trace, lo, hi) is not None:
+            return result, ""
+    with options_named(**LAYOUT_OPTIONS):
+        drawing, said = keep_inside(result.drawing, lo, hi, how)
+    return replace(result, drawing=drawing), f"; {said}"

@@ -436,17 +436,44 @@ class Drawing:
 
     def to_svg(self, path: str | Path, stroke_width: float = 0.5) -> None:
         """Write the strokes as SVG polylines in a viewBox of the page in [mm] (y flipped so the
-        page's y axis points up, as in inkarm's page frame)."""
+        page's y axis points up, as in inkarm's page frame).
+
+        A drawing with ``meta["layers"]`` (one vpype layer id per stroke) is written as vpype
+        writes layers: one Inkscape layer per id, ascending, ``<g inkscape:groupmode="layer"
+        inkscape:label="N" id="layerN">``, each holding its strokes in drawing order (so
+        reading the file back keeps the layers; strokes of different layers come out grouped
+        by layer). Without it, one group holds every stroke.
+        """
         w, h = self.page_size
+        style = (f'fill="none" stroke="black" stroke-width="{stroke_width}" '
+                 'stroke-linecap="round" stroke-linejoin="round"')
         lines = [
             '<?xml version="1.0" encoding="UTF-8"?>',
-            (f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}mm" height="{h}mm" '
-            f'viewBox="0 0 {w} {h}">'),
-            (f'<g fill="none" stroke="black" stroke-width="{stroke_width}" '
-            'stroke-linecap="round" stroke-linejoin="round">'),
+            ('<svg xmlns="http://www.w3.org/2000/svg" '
+             'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" '
+             f'width="{w}mm" height="{h}mm" viewBox="0 0 {w} {h}">'),
         ]
-        for s in self.strokes:
-            pts = " ".join(f"{x:.3f},{h - y:.3f}" for x, y in s.pos[:, :2])
-            lines.append(f'<polyline points="{pts}"/>')
-        lines += ["</g>", "</svg>"]
+        for layer, indices in self._svg_layers():
+            if layer is None:
+                lines.append(f"<g {style}>")
+            else:
+                lines.append(f'<g inkscape:groupmode="layer" inkscape:label="{layer}" '
+                             f'id="layer{layer}" {style}>')
+            for k in indices:
+                pts = " ".join(f"{x:.3f},{h - y:.3f}" for x, y in self.strokes[k].pos[:, :2])
+                lines.append(f'<polyline points="{pts}"/>')
+            lines.append("</g>")
+        lines.append("</svg>")
         Path(path).write_text("\n".join(lines) + "\n")
+
+    def _svg_layers(self) -> list[tuple[int | None, list[int]]]:
+        """(layer id, stroke indices) per SVG group :meth:`to_svg` writes: one per id of
+        ``meta["layers"]`` ascending, or (None, all) without layers."""
+        layers = self.meta.get("layers")
+        if layers is None:
+            return [(None, list(range(len(self.strokes))))]
+        ids = np.asarray(layers)
+        if ids.shape != (len(self.strokes),) or not np.issubdtype(ids.dtype, np.integer):
+            raise InputError(f"drawing meta['layers']: expected one integer layer id per stroke "
+                             f"({len(self.strokes)}), got {ids.dtype} of shape {ids.shape}")
+        return [(int(lid), np.flatnonzero(ids == lid).tolist()) for lid in np.unique(ids)]

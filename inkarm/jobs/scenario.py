@@ -30,6 +30,16 @@ Schema (lengths [mm], times [s], forces [N], angles [deg]; every key optional un
     scale = 1.0                    # ... or by this factor (not both)
     rotation_deg = 0.0             # counter-clockwise, about the bounding-box centre
     time_scale = 1.0               # > 1 draws slower (times multiplied)
+    # or laid out as vpype's layout (inkarm.plans.page), instead of centre_mm:
+    page_size = "a4"               # a0-a6, letter, legal, executive, tabloid, "WxH" with a
+                                   # unit ("210x297mm", "8.5x11in") or [w, h] mm: the plotter's
+                                   # sheet (the simulated cell's paper stays [sim]'s)
+    landscape = false              # the page's orientation (portrait unless true, as vpype);
+                                   # page_size and landscape set the plotter's sheet
+    fit_to_margins_mm = 10.0       # scale the drawing (aspect kept) to the page less this
+                                   # margin (not with height_mm or scale)
+    align = "center"               # "left", "center", "right" within the margins
+    valign = "center"              # "top", "center", "bottom"
 
     [controller]                   # inkarm.control.config.LoopConfig fields, e.g.
     force_n = 1.0
@@ -77,6 +87,10 @@ same for every backend::
     page_origin = "lower-left"     # where the sheet goes, and whether to home: replace the
     homing = "auto"                # pen profile's (inkarm.hardware.plotter.workspace)
 
+    [axidraw]
+    profile = "v3_a3"              # the AxiDraw profile: "v3" (default), "v3_a3" or a file
+    page_origin = [0.0, 0.0]       # the sheet's upper-left corner in machine mm (the profile's)
+
 The page frame has its origin at the lower-left corner of the sheet, x to the right, y up.
 """
 
@@ -112,14 +126,15 @@ from inkarm.jobs.scenario_tables import (
     thawed,
 )
 from inkarm.jobs.sources import Source, parse_source, source_table
+from inkarm.plans.page import LAYOUT_KEYS, Layout, lay_out, oriented, read_layout_keys
 from inkarm.robots.profile import GAIN_KEYS, RobotProfile, gain_vector
 from inkarm.robots.registry import DEFAULT_ROBOT, load_robot, robot_names
 from inkarm.sim.cell_config import CellConfig
 from inkarm.sim.imperfections import PlantTruth
 
 TOP_KEYS = ("title", "seed", "source", "placement", "robot", "controller", "judge", "ink",
-            "sim", "dynamixel", "plotter", "cell", "plant")
-PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale")
+            "sim", "dynamixel", "plotter", "axidraw", "cell", "plant")
+PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale", *LAYOUT_KEYS)
 ROBOT_KEYS = ("name", "file", "gains")
 # Upper bounds of the placement's scalings: a sheet is at most 2 m, a drawing at most 1000x its
 # source, at most 100x slower.
@@ -130,13 +145,32 @@ DEFAULT_SCENARIO = Path(__file__).parents[1] / "data" / "default.toml"
 
 @dataclass(frozen=True)
 class Placement:
-    """Where and how large the drawing lands on the page. Lengths [mm], angles [deg]."""
+    """Where and how large the drawing lands on the page. Lengths [mm], angles [deg]; the
+    layout keys (``page_size`` [mm] before orientation, ``landscape``, ``fit_to_margins_mm``,
+    ``align``, ``valign``) lay it out as vpype's ``layout`` (:mod:`inkarm.plans.page`)."""
 
     centre_mm: tuple[float, float] | None = None
     height_mm: float | None = None
     scale: float = 1.0
     rotation_deg: float = 0.0
     time_scale: float = 1.0
+    page_size: tuple[float, float] | None = None
+    landscape: bool = False
+    fit_to_margins_mm: float | None = None
+    align: str | None = None
+    valign: str | None = None
+
+    @property
+    def lays_out(self) -> bool:
+        """Whether the drawing is laid out as vpype's ``layout`` (a page, a fit or an
+        alignment given), not centred on ``centre_mm``."""
+        return any(getattr(self, k) not in (None, False) for k in LAYOUT_KEYS)
+
+    def sheet_mm(self, paper_mm: tuple[float, float]) -> tuple[float, float]:
+        """The page [mm] the layout names, oriented (``paper_mm`` when it names none)."""
+        if self.page_size is None and not self.landscape:
+            return (float(paper_mm[0]), float(paper_mm[1]))
+        return oriented(self.page_size or paper_mm, self.landscape)
 
 
 @dataclass(frozen=True)
@@ -189,6 +223,7 @@ class Scenario:
     dynamixel: tuple[tuple[str, Any], ...] = ()
     plotter_profile: str | None = None
     plotter_placement: tuple[tuple[str, Any], ...] = ()  # [plotter] page_origin, homing
+    axidraw: tuple[tuple[str, Any], ...] = ()  # [axidraw] profile, page_origin
 
     def to_dict(self) -> dict:
         """The TOML tables that parse back to this scenario (file names absolute)."""
@@ -210,6 +245,7 @@ class Scenario:
             "dynamixel": {k: thawed(v) for k, v in self.dynamixel},
             "plotter": ({} if self.plotter_profile is None else {"profile": self.plotter_profile})
             | {k: thawed(v) for k, v in self.plotter_placement},
+            "axidraw": {k: thawed(v) for k, v in self.axidraw},
         }
 
     def with_overrides(self, overrides: dict[str, Any]) -> Scenario:
@@ -302,6 +338,7 @@ def _placement(rd: TomlReader, raw) -> Placement:
     if "rotation_deg" in table:
         kw["rotation_deg"] = rd.number(table["rotation_deg"], "placement.rotation_deg", -3600.0,
                                        maximum=3600.0)
+    kw.update(read_layout_keys(rd, table, "placement"))
     return Placement(**kw)
 
 
@@ -386,7 +423,9 @@ def source_drawing(scenario: Scenario) -> Drawing:
 
 def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, float]) -> Drawing:
     """Scale, rotate and translate a 2-D ``drawing`` onto a page of ``page_size_mm``, and stretch
-    its times by ``placement.time_scale``."""
+    its times by ``placement.time_scale``: centred on ``centre_mm`` (the page's centre by
+    default), or laid out as vpype's ``layout`` when the placement names a page, a fit or an
+    alignment (:func:`inkarm.plans.page.lay_out`, on ``page_size_mm`` as it is)."""
     if drawing.dim != 2:
         # The pen's height is the force loop's to decide; a planned z would fight it.
         raise InputError(f"source: the drawing has {drawing.dim}-D positions; the arm draws "
@@ -399,6 +438,22 @@ def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, flo
         if height <= 0:
             raise InputError("placement.height_mm: the drawing has no height to scale")
         scale = placement.height_mm / height
+    if placement.lays_out:
+        w, h = (float(v) for v in page_size_mm)
+        layout = Layout(page_size=(w, h), landscape=w > h,
+                        fit_to_margins_mm=placement.fit_to_margins_mm,
+                        scale=None if placement.fit_to_margins_mm is not None else scale,
+                        align=placement.align or "center", valign=placement.valign or "center",
+                        rotation_deg=placement.rotation_deg)
+        try:
+            laid = lay_out(drawing, layout)
+        except InputError as e:
+            if e.key == "fit_to_margins":  # (the Layout's name of the key)
+                e.key = "fit_to_margins_mm"
+            raise e.within(key="placement") from None
+        strokes = [Trajectory(t=s.t * placement.time_scale, pos=s.pos, pressure=s.pressure)
+                   for s in laid.strokes]
+        return Drawing(strokes, page_size=(w, h))
     target = np.array(placement.centre_mm if placement.centre_mm is not None
                       else (0.5 * page_size_mm[0], 0.5 * page_size_mm[1]))
     a = np.deg2rad(placement.rotation_deg)

@@ -25,6 +25,7 @@ from inkarm.sim.cell_config import CellConfig
 from inkarm.sim.imperfections import PlantTruth
 
 PLOTTER_KEYS = ("profile", "page_origin", "homing")
+AXIDRAW_KEYS = ("profile", "page_origin")
 # The simulator's tables of 0.2, kept for one release: [cell] is now [sim], [plant] [sim.plant].
 OLD_SIM_TABLES = {"cell": "sim", "plant": "sim.plant"}
 
@@ -129,8 +130,9 @@ def read_dynamixel(rd: TomlReader, robot: RobotProfile, table: dict,
 
 def read_backend_tables(rd: TomlReader, data: dict, robot: RobotProfile,
                     base_dir: Path) -> dict[str, Any]:
-    """The Scenario fields of the ``[dynamixel]`` and ``[plotter]`` tables (how the job reaches
-    each device; ``[dynamixel]`` has been applied to the robot profile already)."""
+    """The Scenario fields of the ``[dynamixel]``, ``[plotter]`` and ``[axidraw]`` tables (how
+    the job reaches each device; ``[dynamixel]`` has been applied to the robot profile
+    already)."""
     dynamixel = rd.table(data.get("dynamixel", {}), "dynamixel")
     plotter = rd.table(data.get("plotter", {}), "plotter")
     rd.keys(plotter, PLOTTER_KEYS, "plotter")
@@ -157,7 +159,38 @@ def read_backend_tables(rd: TomlReader, data: dict, robot: RobotProfile,
     pairs = tuple((k, frozen(v)) for k, v in dynamixel.items() if k != "calibration")
     if calibration is not None:
         pairs += (("calibration", str((base_dir / calibration).resolve())),)
-    return {"dynamixel": pairs, "plotter_profile": profile, "plotter_placement": placement}
+    return {"dynamixel": pairs, "plotter_profile": profile, "plotter_placement": placement,
+            "axidraw": read_axidraw(rd, data, base_dir)}
+
+
+def read_axidraw(rd: TomlReader, data: dict, base_dir: Path) -> tuple[tuple[str, Any], ...]:
+    """The ``[axidraw]`` table: ``profile`` (a name or a file, checked by loading it) and
+    ``page_origin`` (the sheet's upper-left corner in machine [mm], two numbers)."""
+    table = rd.table(data.get("axidraw", {}), "axidraw")
+    rd.keys(table, AXIDRAW_KEYS, "axidraw")
+    pairs: list[tuple[str, Any]] = []
+    if "profile" in table:
+        from inkarm.hardware.axidraw.profiles import load_profile as load_axidraw
+
+        name = rd.text(table["profile"], "axidraw.profile")
+        if name.endswith(".toml"):
+            name = str((base_dir / name).resolve())
+        try:
+            load_axidraw(name)
+        except InkarmError as e:
+            raise ScenarioError(e.message, key="axidraw.profile", value=e.value,
+                                choices=e.choices, file=rd.source) from None
+        pairs.append(("profile", name))
+    if "page_origin" in table:
+        origin = table["page_origin"]
+        if not (isinstance(origin, list) and len(origin) == 2
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                        and abs(v) <= 10000 for v in origin)):
+            raise ScenarioError(f"expected two numbers [x, y] in mm (each within +-10000), got "
+                                f"{origin!r}", key="axidraw.page_origin", value=origin,
+                                file=rd.source)
+        pairs.append(("page_origin", (float(origin[0]), float(origin[1]))))
+    return tuple(pairs)
 
 
 # The `[controller] command` of 0.2, kept for one release: the law that does what it did.
@@ -274,6 +307,6 @@ def dataclass_table(rd: TomlReader, table: dict, key: str, cls):
                             choices=e.choices).within(file=rd.source, key=key) from None
 
 
-__all__ = ["COMMAND_LAWS", "OLD_SIM_TABLES", "PLOTTER_KEYS", "controller_table",
+__all__ = ["AXIDRAW_KEYS", "COMMAND_LAWS", "OLD_SIM_TABLES", "PLOTTER_KEYS", "controller_table",
            "dataclass_table", "frozen", "plant_table", "read_backend_tables", "read_controller",
            "read_dynamixel", "read_plant", "read_sim", "table_of", "thawed"]

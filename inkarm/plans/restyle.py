@@ -16,17 +16,32 @@ elongated along the path: the movement may slide along the trace but must pass c
 it. ``style="semi-tied"`` uses seed 000's eq. 22 covariances Sigma_i = H h I H^T instead,
 with one oblique basis H = along L (I + shear e_x e_y^T) for the whole stroke (L the mean
 segment length, h = 1): every target shares the same slanted ellipse, a uniform "hand".
+``style="handstyle"`` (:meth:`RestyleConfig.from_handstyle`) takes the covariances of one of
+inkarm's handstyles (:mod:`inkarm.plans.handstyles`: Sigma_i = h_i H H^T, h_i ~ N(h, rho),
+seed 000 eq. 22) with its order and d. The LQT's optimum is linear in the means, so the
+shape of a restyled stroke depends on sqrt(h) / d, H, the order and rho, not on the size of
+the drawing nor on the time per target (r = 1 / (omega^n d)^2, omega = 2 pi / segment_time):
+a handstyle made for letters restyles a 300 mm drawing the same way.
+
+A stroke too short in time for the LQT's chain (fewer than order + 1 steps) has its targets
+held longer, (order + 1) / targets steps each, rounded up. Strokes of fewer than 3 samples
+cannot hold two DPPLA targets and are dropped; the restyled
+drawing's ``meta["restyle_dropped"]`` lists their indices in the input (absent when none).
+Layers: when the input carries ``meta["layers"]`` (one layer id per stroke, the convention of
+:mod:`inkarm.io.trace`), the restyled drawing carries the ids of the strokes it kept, in the
+same order.
 
 Budgets (:mod:`inkarm.core.budget`): before any stroke is restyled, every stroke's DPPLA is
 estimated (:func:`inkarm.analysis.dppla_budget.check_budget`) and the LQT's time steps, targets x
-max(1, segment_time / dt), are summed and checked against ``INKARM_MAX_STEPS`` (and their
-memory, about :data:`LQT_BYTES_PER_STEP` x order x D bytes a step, against
-``INKARM_MAX_MEMORY_MB``).
+max(1, segment_time / dt), are summed and checked against ``INKARM_MAX_STEPS``; the memory
+of the longest stroke's solve (the strokes are solved one after the other), about
+:data:`LQT_BYTES_PER_STEP` x order x D bytes a step, against ``INKARM_MAX_MEMORY_MB``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,8 +56,21 @@ from inkarm.core.budget import STEPS, require, require_memory
 from inkarm.core.plan import MotorPlan, StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
+from inkarm.io.vpype_doc import stroke_layers
+
+if TYPE_CHECKING:
+    from inkarm.plans.handstyles import Handstyle
 
 STYLES = ("geometric", "semi-tied")
+"""Covariances a restyle chooses by name (``"handstyle"`` comes with :attr:`RestyleConfig.hand`)."""
+MIN_SAMPLES = 3
+"""Fewest samples of a restyled stroke (two DPPLA targets and a point between)."""
+MIN_TARGETS = 4
+"""Fewest DPPLA targets of a restyled stroke (fewer only when it has fewer samples). With two,
+a closed outline (an SVG circle or rectangle: its ends coincide) collapses to a dot, and the
+LQT, which starts at rest on the first, falls short of the second (a straight 10 mm line at
+compression 0.8: the cursive pen ends at 4.0 mm, the italic at 1.8 mm); with three it
+overshoots (10.8 mm); from four on every preset ends within 0.6 mm of the end."""
 D_RANGE = (1e-3, 1e4)
 """Accepted LQT maximum displacements d in [mm]."""
 DT_RANGE = (1e-4, 1.0)
@@ -74,7 +102,9 @@ class RestyleConfig:
         shear: Shear of the semi-tied basis H (seed 000, eq. 22), for style "semi-tied".
         banded: Use the banded DPPLA (O(w^2 / k)) or the exact one (O(k w^2)); None picks the
             exact one where k w^2 / 2 <= ``dppla.EXACT_BUDGET``.
-        seed: Random seed of the semi-tied magnitudes h_i.
+        seed: Random seed of the semi-tied magnitudes h_i (and of a handstyle's, rho > 0).
+        hand: The handstyle whose covariances style "handstyle" uses (set both with
+            :meth:`from_handstyle`); None otherwise.
     """
 
     compression: float = 0.95
@@ -89,13 +119,23 @@ class RestyleConfig:
     shear: float = 0.5
     banded: bool | None = None
     seed: int | None = 0
+    hand: Handstyle | None = None
+
+    @classmethod
+    def from_handstyle(cls, hand: Handstyle, **overrides) -> RestyleConfig:
+        """The restyle of handstyle ``hand``: its covariances, order and d (module docstring);
+        ``overrides`` set any other field (compression, dt, segment_time, seed, ...)."""
+        return replace(cls(), style="handstyle", hand=hand, order=hand.order, d=hand.d,
+                       **overrides)
 
     def __post_init__(self) -> None:
         from inkarm.models.lqt.config import MAX_ORDER
 
         if not (isinstance(self.compression, (int, float)) and 0 < self.compression < 1):
             self._fail("compression", f"must lie in (0, 1), got {self.compression!r}")
-        if self.style not in STYLES:
+        if self.style == "handstyle" or self.hand is not None:
+            self._check_hand()
+        elif self.style not in STYLES:
             self._fail("style", f"expected one of {STYLES}, got {self.style!r}")
         if (isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer))
                 or not 1 <= self.order <= MAX_ORDER):
@@ -117,6 +157,15 @@ class RestyleConfig:
         ):
             self._fail("segment_time", f"must be positive seconds, at most {MAX_SEGMENT_TIME:g}, "
                        f"got {self.segment_time!r}")
+
+    def _check_hand(self) -> None:
+        from inkarm.plans.handstyles import Handstyle
+
+        if not isinstance(self.hand, Handstyle):
+            self._fail("hand", "style 'handstyle' needs hand, a Handstyle (use "
+                       f"RestyleConfig.from_handstyle), got {self.hand!r}")
+        if self.style != "handstyle":
+            self._fail("style", f"a hand is given: expected style 'handstyle', got {self.style!r}")
 
     def _fail(self, key: str, message: str):
         raise InputError(message, key=key, value=getattr(self, key))
@@ -155,15 +204,30 @@ def geometric_covariances(targets, along: float, across: float, min_std: float) 
 
 
 def stroke_targets(traj: Trajectory, compression: float, banded: bool | None = None) -> DPPLAResult:
-    """DPPLA of a stroke's positions at a compression rate (time as the chord parameter)."""
-    k = segments_for_compression(compression, traj.n, traj.dim)
+    """DPPLA of a stroke's positions at a compression rate (time as the chord parameter), at
+    least :data:`MIN_TARGETS` targets."""
+    k = stroke_segments(traj, compression)
     return dppla(traj.pos, k, banded=_banded(banded, k, traj.n), tau=traj.t, verify=False)
 
 
-def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig) -> StrokePlan:
-    """Gaussian targets at the DPPLA break points of ``traj``."""
+def stroke_segments(traj: Trajectory, compression: float) -> int:
+    """DPPLA segments of ``traj`` at ``compression`` (seed 001, sec. 3), at least
+    :data:`MIN_TARGETS` - 1 where the stroke has the samples."""
+    k = segments_for_compression(compression, traj.n, traj.dim)
+    return max(k, min(MIN_TARGETS, traj.n) - 1)
+
+
+def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig,
+                rng: np.random.Generator | None = None) -> StrokePlan:
+    """Gaussian targets at the DPPLA break points of ``traj``; ``rng`` draws a handstyle's
+    magnitudes h_i (rho > 0; default a generator seeded with ``cfg.seed``)."""
     means = traj.pos[result.breakpoints]
-    if cfg.style == "geometric":
+    if cfg.hand is not None:
+        if traj.dim != 2:
+            raise InputError(f"restyle: a handstyle's covariances are 2 x 2; the stroke has "
+                             f"{traj.dim} coordinates", key="style", value=cfg.hand.name)
+        covs = cfg.hand.covariances(len(means), rng or np.random.default_rng(cfg.seed))
+    elif cfg.style == "geometric":
         covs = geometric_covariances(means, cfg.along, cfg.across, cfg.min_std)
     else:
         from inkarm.models.lqt import semi_tied_covariances
@@ -173,37 +237,45 @@ def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig) -> St
         if traj.dim > 1:
             basis[0, 1] = cfg.along * scale * cfg.shear
         covs = semi_tied_covariances(len(means), basis, 1.0, seed=cfg.seed)
-    segment_time = cfg.segment_time or traj.duration / len(means)
-    if not segment_time > 0:
+    if not (cfg.segment_time or traj.duration / len(means)) > 0:
         raise InputError(f"restyle: stroke of duration {traj.duration} s; give segment_time")
-    # The LQT holds each target a whole number of steps.
-    segment_time = max(1, round(segment_time / cfg.dt)) * cfg.dt
-    return StrokePlan.from_arrays(means, covs, segment_time=segment_time)
+    per = _steps_per_target(traj, len(means), cfg)
+    return StrokePlan.from_arrays(means, covs, segment_time=per * cfg.dt)
+
+
+def _steps_per_target(traj: Trajectory, targets: int, cfg: RestyleConfig) -> int:
+    """LQT steps each of ``targets`` targets is held: segment_time / dt rounded (the LQT holds
+    a target a whole number of steps), at least 1, and at least (order + 1) / targets rounded
+    up, the fewest steps an order-n chain needs (a short stroke is slowed rather than refused
+    by :func:`inkarm.models.lqt.config.time_grid`)."""
+    segment_time = cfg.segment_time or traj.duration / targets
+    return max(1, round(segment_time / cfg.dt), -(-(cfg.order + 1) // targets))
 
 
 def _lqt_steps(traj: Trajectory, targets: int, cfg: RestyleConfig) -> float:
     """Time steps of the LQT that re-draws ``traj`` through ``targets`` targets."""
-    segment_time = cfg.segment_time or traj.duration / targets
-    return targets * max(1.0, round(segment_time / cfg.dt))
+    return float(targets * _steps_per_target(traj, targets, cfg))
 
 
 def check_restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> None:
     """Refuse a restyle over the budgets (module docstring) before any work."""
-    steps, dim = 0.0, drawing.dim
+    steps, longest, dim = 0.0, 0.0, drawing.dim
     for i, traj in enumerate(drawing.strokes):
-        if traj.n < 3:
+        if traj.n < MIN_SAMPLES:
             continue
-        k = segments_for_compression(cfg.compression, traj.n, traj.dim)
+        k = stroke_segments(traj, cfg.compression)
         try:
             check_budget(k, traj.n, traj.dim, banded=_banded(cfg.banded, k, traj.n))
         except InputError as e:
             raise e.within(key=f"stroke {i}") from None
-        steps += _lqt_steps(traj, k + 1, cfg)
+        stroke_steps = _lqt_steps(traj, k + 1, cfg)
+        steps += stroke_steps
+        longest = max(longest, stroke_steps)
     key = "dt" if cfg.segment_time is None else "segment_time"
     what = (f"LQT of the restyled drawing ({len(drawing.strokes)} strokes, order {cfg.order}, "
             f"dt = {cfg.dt:g} s)")
     require(steps, STEPS, what, key=key, value=getattr(cfg, key))
-    require_memory(steps * LQT_BYTES_PER_STEP * cfg.order * dim, what, key=key,
+    require_memory(longest * LQT_BYTES_PER_STEP * cfg.order * dim, what, key=key,
                    value=getattr(cfg, key))
 
 
@@ -213,21 +285,31 @@ def _banded(banded: bool | None, k: int, w: int) -> bool:
 
 def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
     """Restyle every stroke of ``drawing`` (strokes too short for two targets are dropped:
-    fewer than 3 samples); the whole job is checked against the budgets first."""
+    fewer than :data:`MIN_SAMPLES` samples, listed in ``meta["restyle_dropped"]``), layers
+    kept (module docstring); the whole job is checked against the budgets first."""
     from inkarm.models.lqt import LQTConfig, solve
 
+    layers = stroke_layers(drawing) if "layers" in drawing.meta else None
     check_restyle(drawing, cfg)
     lqt = LQTConfig(order=cfg.order, dt=cfg.dt, d=cfg.d)
-    strokes, plans, results = [], [], []
-    for traj in drawing.strokes:
-        if traj.n < 3:
+    rng = np.random.default_rng(cfg.seed)
+    strokes, plans, results, kept = [], [], [], []
+    for i, traj in enumerate(drawing.strokes):
+        if traj.n < MIN_SAMPLES:
             continue
         result = stroke_targets(traj, cfg.compression, cfg.banded)
-        plan = stroke_plan(traj, result, cfg)
+        plan = stroke_plan(traj, result, cfg, rng)
         strokes.append(solve(plan, lqt))
         plans.append(plan)
         results.append(result)
+        kept.append(i)
     if not strokes:
-        raise InputError("restyle: the trace has no stroke with at least 3 samples")
-    out = Drawing(strokes, page_size=drawing.page_size).sequential()
+        raise InputError(f"restyle: the trace has no stroke with at least {MIN_SAMPLES} samples")
+    meta: dict = {}
+    if layers is not None:
+        meta["layers"] = layers[kept]
+    if len(kept) < len(drawing.strokes):
+        meta["restyle_dropped"] = tuple(sorted(set(range(len(drawing.strokes))) - set(kept)))
+    out = Drawing(strokes, page_size=drawing.page_size, meta=meta).sequential()
     return Restyled(out, MotorPlan(tuple(plans)), tuple(results))
+

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from inkarm.analysis import metrics as M
+from inkarm.core.run import Bounds, judge
 from inkarm.errors import InputError
 from inkarm.ink.canvas import Canvas, MarkerInk, PencilInk
 
@@ -206,7 +207,6 @@ def test_compute_metrics_gives_exactly_the_documented_keys_with_consistent_value
             {"drawing": np.ones(10)},
             r"drawing: expected a boolean array of shape \(10,\), got float64",
         ),
-        ({"drawing": np.zeros(10, bool)}, r"tracking_error: the drawing mask selects no sample"),
         ({"q": np.zeros((10, 3))}, r"joint_range: expected shape \(3, 2\), got \(2, 2\)"),
     ],
 )
@@ -225,6 +225,17 @@ def test_compute_metrics_names_the_bad_input(kwargs, message):
     args.update(kwargs)
     with pytest.raises(InputError, match=message):
         M.compute_metrics(**args)
+
+
+def test_a_run_with_no_drawing_row_has_undefined_tracking_which_never_passes():
+    result = M.compute_metrics(
+        times_s=np.linspace(0, 1, 10), reference_mm=np.zeros((10, 2)), tip_mm=np.ones((10, 2)),
+        force_n=np.zeros(10), drawing=np.zeros(10, bool), q=np.zeros((10, 2)),
+        joint_range=[[-1.0, 1.0], [-1.0, 1.0]], wall_time_s=1.0, canvas=Canvas(size_mm=(5, 5)),
+        plan_strokes=[np.array([[1.0, 1.0], [4.0, 1.0]])])
+    assert np.isnan(result["tracking_rms_mm"]) and np.isnan(result["tracking_max_mm"])
+    shortfalls, _ = judge(result, Bounds(), force_n=1.0)
+    assert any("tracking" in f.bound for f in shortfalls)
 
 
 def _centreline_on_the_whole_page(darkness, px_per_mm: float, threshold: float) -> np.ndarray:

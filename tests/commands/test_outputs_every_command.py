@@ -17,6 +17,7 @@ from inkarm.cli import main
 ROOT = Path(__file__).resolve().parents[2]
 QUICK = ROOT / "scenarios" / "quick_stroke.toml"
 SIGNATURE = ROOT / "scenarios" / "traces" / "signature.svg"
+COMPASS = ROOT / "tests" / "data" / "gcode" / "compass_quick.gcode"
 
 # (command line with {out}, the files it writes in a folder --out, or None for a file --out)
 FOLDER_COMMANDS = {
@@ -32,6 +33,7 @@ FOLDER_COMMANDS = {
 }
 FILE_COMMANDS = {
     "gcode": (["gcode", str(SIGNATURE), "--out", "{out}"], ".gcode", str(SIGNATURE)),
+    "preview": (["preview", str(COMPASS), "--out", "{out}"], ".png", str(COMPASS)),
     "primitives learn": (["primitives", "learn", "letter:a", "--samples", "3", "--chains", "2",
                           "--states", "3", "--iterations", "1", "--quiet", "--out", "{out}"],
                          ".npz", None),

@@ -160,10 +160,12 @@ def test_units_and_view_box_fix_the_scale(tmp_path):
 
 def test_svg_without_paths_names_the_file(tmp_path):
     path = write_svg(
-        tmp_path, '<rect x="0" y="0" width="10" height="10"/><path d="M5 5"/>', name="empty.svg"
+        tmp_path, '<rect x="0" y="0" width="10" height="10" display="none"/><path d="M5 5"/>',
+        name="empty.svg",
     )
     with pytest.raises(
-        InputError, match=r"empty\.svg: no drawable <path>, <polyline> or <polygon>"
+        InputError, match=r"empty\.svg: no drawable shape \(visible, of non-zero length\) found; "
+        r"skipped 2 elements: 1 hidden, 1 of zero length"
     ):
         load_trace(path)
 
@@ -244,8 +246,11 @@ def test_elements_that_are_not_drawn_are_ignored_even_when_broken(tmp_path):
         '<g id="a"><use href="#a"/><use href="#s"/></g>'  # a self-referencing <use>: no loop
         '<path d="M0 0 L10 0"/>'
     )
-    (stroke,) = read_svg(write_svg(tmp_path, body)).strokes
-    assert stroke.length == pytest.approx(10.0)
+    drawing = read_svg(write_svg(tmp_path, body))
+    symbol, line = drawing.strokes  # the <use> of the symbol draws its path
+    assert symbol.length == pytest.approx(math.sqrt(2))
+    assert line.length == pytest.approx(10.0)
+    assert drawing.meta["svg_skipped"] == {"circular <use>": 1, "text": 1}
 
 
 def test_display_none_is_not_drawn(tmp_path):
@@ -287,7 +292,8 @@ def test_deep_nesting_up_to_the_limit_is_read_and_beyond_it_is_refused(tmp_path)
             ),
             r"hostile\.svg: not well-formed XML \(reference to external entity",
         ),
-        ("<svg><rect width='5' height='5'/></svg>", r"hostile\.svg: no drawable <path>"),
+        ("<svg><rect width='5' height='5' fill='none'/></svg>",
+         r"hostile\.svg: no drawable shape .*: 1 with no stroke or fill"),
         (
             "<svg><path id='g' d='M0 0 L 5 5 @@@'/></svg>",
             r"hostile\.svg: <path> id='g': d: expected a number or a path command at character 11",

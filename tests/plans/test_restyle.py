@@ -103,9 +103,11 @@ def test_bad_restyle_inputs_are_refused(tmp_path, capsys):
         restyle(Drawing([Trajectory([0.0, 1.0], [[0.0, 0.0], [1.0, 1.0]])]))
     assert main(["restyle", str(tmp_path / "none.svg"), "--out", str(tmp_path)]) == 2
     assert "none.svg: no such file" in capsys.readouterr().err
-    (tmp_path / "e.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg"><circle r="3"/></svg>')
+    (tmp_path / "e.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg">'
+                                    '<circle r="3" display="none"/></svg>')
     assert main(["restyle", str(tmp_path / "e.svg"), "--out", str(tmp_path)]) == 2
-    assert "e.svg: no drawable <path>" in capsys.readouterr().err
+    assert "e.svg: no drawable shape (visible, of non-zero length) found; skipped 1 element: " \
+        "1 hidden" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

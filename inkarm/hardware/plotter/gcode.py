@@ -187,9 +187,11 @@ def check_travel(drawing: Drawing, travel_mm: tuple[float, float],
                  key: str = "--travel") -> None:
     """Refuse a drawing with a point outside the machine's travel, page frame
     [0, ``travel_mm``] per axis [mm] (``$130``, ``$131``: the job's G-code is in page
-    coordinates, the page's lower-left corner at the travel's): the first such point, its
-    stroke and what to do. GRBL itself raises ALARM:2 there with soft limits on, or drives
-    the pen into the frame without."""
+    coordinates, the page's lower-left corner at the travel's): the first such point (x, y
+    [mm], 1-based stroke and point), the travel and what to do. GRBL itself raises ALARM:2
+    there with soft limits on (system.c ``system_check_travel_limits``), or drives the pen
+    into the frame without."""
+    travel = f"X 0 to {travel_mm[0]:g} mm ($130), Y 0 to {travel_mm[1]:g} mm ($131)"
     for s, stroke in enumerate(drawing.strokes):
         xy = np.asarray(stroke.pos, dtype=float)[:, :2]
         for axis, name in enumerate("XY"):
@@ -199,7 +201,8 @@ def check_travel(drawing: Drawing, travel_mm: tuple[float, float],
                 i = int(out[0])
                 raise InputError(
                     f"stroke {s + 1} point {i + 1} at ({xy[i, 0]:.2f}, {xy[i, 1]:.2f}) mm lies "
-                    f"outside the machine's travel in {name}: 0 to {limit:g} mm from the page "
-                    f"origin (${130 + axis}, {name} max travel); move or scale the drawing "
-                    f"onto the page, or give the machine's travel with --travel X,Y",
+                    f"outside the machine's travel in {name} (${130 + axis}, {name} max "
+                    f"travel): {travel}, from the page origin; lay the drawing out on the "
+                    f"page (--page-size a4 --fit-to-margins 10mm), or give the machine's "
+                    f"travel with --travel X,Y",
                     key=key, value=(float(xy[i, 0]), float(xy[i, 1])))

@@ -83,10 +83,38 @@ def _record(machine: GrblMachine, line_end: np.ndarray, taken: int, marked: int)
     return max(marked, done)
 
 
+def schedule_from(lines: list[str], settings: dict[int, float] | None = None,
+                  start_mm=(0.0, 0.0, 0.0), params: np.ndarray | None = None,
+                  pen: PenConfig | None = None, samples: bool = False) -> Schedule:
+    """:func:`simulate` of ``lines`` on a machine set up as a device is when a job starts:
+    standing at ``start_mm`` (machine [mm]) with the stored G54 and G28/G30 positions of
+    ``params`` (8 x 3 [mm], machine: G54-G59, G28, G30; zeros when None). The set-up lines
+    (``G10 L2``, ``G53 G0``, ``G28.1``/``G30.1``) run first and are cut off: times count
+    from the job's first line; ``samples`` are in machine coordinates."""
+    params = np.zeros((8, 3)) if params is None else np.asarray(params, dtype=float)
+    pre = ["G21 G90"]
+    for k, (x, y, z) in enumerate(params[:6]):
+        if np.any(params[k]):
+            pre.append(f"G10 L2 P{k + 1} X{x:.4f} Y{y:.4f} Z{z:.4f}")
+    for k, store in ((6, "G28.1"), (7, "G30.1")):
+        if np.any(params[k]):
+            x, y, z = params[k]
+            pre += [f"G53 G0 X{x:.4f} Y{y:.4f} Z{z:.4f}", store]
+    x, y, z = (float(v) for v in start_mm)
+    pre += [f"G53 G0 X{x:.4f} Y{y:.4f} Z{z:.4f}", "G4 P0"]
+    plan = simulate(pre + list(lines), settings, pen, samples)
+    begin = float(plan.line_end_s[len(pre) - 1])
+    cut = None
+    if plan.samples is not None:
+        cut = plan.samples[plan.samples[:, 0] >= begin].copy()
+        cut[:, 0] -= begin
+    return Schedule(plan.seconds - begin, plan.line_end_s[len(pre):] - begin, cut)
+
+
 def estimate_seconds(lines: Iterable[str], settings: dict[int, float] | None = None,
                      pen: PenConfig | None = None) -> float:
     """Execution time [s] of ``lines`` on the planner model (:func:`simulate`)."""
     return simulate(lines, settings, pen).seconds
 
 
-__all__ = ["BLOCK_BUFFER", "Schedule", "estimate_seconds", "simulate"]
+__all__ = ["BLOCK_BUFFER", "Schedule", "estimate_seconds", "schedule_from", "simulate"]

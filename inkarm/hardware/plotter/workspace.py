@@ -136,25 +136,49 @@ def page_origin(placement: Placement, settings: dict[int, float], page_mm: tuple
 def check_reach(origin: tuple[float, float], lo: np.ndarray, hi: np.ndarray,
                 settings: dict[int, float], homed: bool) -> None:
     """Refuse a job whose page points ``lo``..``hi`` [mm] leave the machine's travel, naming
-    the setting: with a homed space the machine targets must lie in [-$13x, 0] (GRBL raises
-    ALARM:2 with soft limits on, or drives into the frame without); without one the span
-    must fit the travel."""
+    the drawing's point that leaves it first (its lowest or highest x or y on the page), the
+    travel and the setting: with a homed space the machine targets must lie in [-$13x, 0]
+    (GRBL raises ALARM:2 with soft limits on, or drives into the frame without); without one
+    the span must fit the travel, and the targets lie in [0, $13x] from the power-on position
+    (taken as the travel's lower-left corner, as ``inkarm gcode``'s travel check takes the
+    page's)."""
+    travel_xy = xy_travel(settings)
+    travels = f"$130 = {travel_xy[0]:g} mm, $131 = {travel_xy[1]:g} mm"
     for axis, name in enumerate("XY"):
         key = 130 + axis
-        travel = xy_travel(settings)[axis]
+        travel = float(travel_xy[axis])
         a, b = origin[axis] + float(lo[axis]), origin[axis] + float(hi[axis])
         if homed and (a < -travel - TOLERANCE_MM or b > TOLERANCE_MM):
+            low = a < -travel - TOLERANCE_MM
+            page = float(lo[axis] if low else hi[axis])
             raise InputError(
-                f"the job reaches machine {name} {a:.2f} to {b:.2f} mm (page {name} "
-                f"{float(lo[axis]):.2f} to {float(hi[axis]):.2f} mm from the page origin at "
-                f"machine {name} {origin[axis]:.2f} mm), outside GRBL's homed travel "
-                f"[-{travel:g}, 0] mm (${key}, {name} max travel): move the page (the pen "
-                f"profile's page_origin) or the drawing, or raise ${key}",
+                f"the drawing's {'lowest' if low else 'highest'} {name.lower()} on the page, "
+                f"{name} = {page:.2f} mm, is machine {name} {a if low else b:.2f} mm with the "
+                f"page origin at machine {name} {origin[axis]:.2f} mm: the job reaches machine "
+                f"{name} {a:.2f} to {b:.2f} mm (page {name} {float(lo[axis]):.2f} to "
+                f"{float(hi[axis]):.2f} mm), outside GRBL's homed travel [-{travel:g}, 0] mm "
+                f"(${key}, {name} max travel) with {travels}: move the page (the pen "
+                f"profile's page_origin) or the drawing (the scenario's [placement]), or "
+                f"raise ${key}",
                 key=f"${key}", value=travel)
         if not homed and b - a > travel + TOLERANCE_MM:
             raise InputError(
                 f"the job spans {b - a:.2f} mm in {name}, more than the machine's travel "
-                f"${key} = {travel:g} mm ({name} max travel)", key=f"${key}", value=travel)
+                f"${key} = {travel:g} mm ({name} max travel) with {travels}: page {name} "
+                f"{float(lo[axis]):.2f} to {float(hi[axis]):.2f} mm; scale the drawing (the "
+                f"scenario's [placement] fit_to_margins_mm or scale)", key=f"${key}",
+                value=travel)
+        if not homed and (a < -TOLERANCE_MM or b > travel + TOLERANCE_MM):
+            low = a < -TOLERANCE_MM
+            raise InputError(
+                f"the drawing's {'lowest' if low else 'highest'} {name.lower()} on the page, "
+                f"{name} = {float(lo[axis] if low else hi[axis]):.2f} mm, is machine {name} "
+                f"{a if low else b:.2f} mm with the page origin at machine {name} "
+                f"{origin[axis]:.2f} mm: outside the travel [0, {travel:g}] mm (${key}, {name} "
+                f"max travel) with {travels}, from where a machine without homing ($22=0) was "
+                f"switched on (its lower-left corner, as `inkarm gcode` takes it): move or "
+                f"scale the drawing (the scenario's [placement]) or the page origin",
+                key=f"${key}", value=travel)
 
 
 def set_up(streamer: GrblStreamer, placement: Placement, page_mm: tuple[float, float],

@@ -14,7 +14,7 @@ one place that turns a scenario into a :class:`~inkarm.jobs.outcome.Run` on any 
 4. the metrics (the arms' :func:`~inkarm.jobs.outcome.measured`, or the backend's own) and the
    judge: :func:`~inkarm.jobs.outcome.finished_run`, on what the backend senses.
 
-Built-in backends (``sim``, ``servo_sim``, ``dynamixel``, ``plotter``) register in
+Built-in backends (``sim``, ``servo_sim``, ``dynamixel``, ``plotter``, ``axidraw``) register in
 :func:`inkarm.plugins.registry` ``("backend")`` when first looked up; another is its package
 plus one registration (or an ``inkarm.plugins`` entry point ``backend.<name>``).
 """

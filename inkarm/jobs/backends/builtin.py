@@ -9,6 +9,7 @@ from inkarm.plugins import Lazy
 
 for _name, _path in (("sim", "inkarm.jobs.backends.sim:SimBackend"),
                      ("plotter", "inkarm.jobs.backends.plotter:PlotterBackend"),
+                     ("axidraw", "inkarm.jobs.backends.axidraw:AxiDrawBackend"),
                      ("dynamixel", "inkarm.jobs.backends.dynamixel:DynamixelBackend"),
                      ("servo_sim", "inkarm.jobs.backends.sim:ServoSimBackend")):
     BACKENDS.register(_name, Lazy(_path))

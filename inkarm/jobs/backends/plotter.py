@@ -55,19 +55,28 @@ def plotter_senses(ink: bool) -> Senses:
 
 
 def page_size_mm(scenario: Scenario) -> tuple[float, float]:
-    return Cell(scenario.cell, scenario.robot).paper_size_mm
+    """The sheet [mm]: the page the scenario's ``[placement]`` names (``page_size``,
+    ``landscape``), else the simulated cell's paper (``[sim] paper_size_mm``)."""
+    return scenario.placement.sheet_mm(Cell(scenario.cell, scenario.robot).paper_size_mm)
 
 
 def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
     """The scenario's drawing placed on the sheet; refused when any of it lies off the sheet
-    (the page frame starts at the sheet's lower-left corner)."""
+    (the page frame starts at the sheet's lower-left corner), naming the first point off it."""
+    from inkarm.plans.page import outside
+
     drawing = place(source_drawing(scenario), scenario.placement, size)
-    lo, hi = drawing.bounds()
-    if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
-        raise InputError(f"the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
-                         f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet "
-                         "(the page's origin is the sheet's lower-left corner)",
-                         key="placement")
+    first = outside(drawing, (0.0, 0.0), size)
+    if first is not None:
+        s, i = first
+        x, y = drawing.strokes[s].pos[i, :2]
+        lo, hi = drawing.bounds()
+        raise InputError(f"stroke {s + 1} point {i + 1} at ({x:.2f}, {y:.2f}) mm lies off the "
+                         f"sheet: the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
+                         f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet (the "
+                         "page's origin is the sheet's lower-left corner); lay it out with "
+                         "[placement] fit_to_margins_mm = 10, or move or scale it",
+                         key="placement", value=(float(x), float(y)))
     return drawing
 
 
