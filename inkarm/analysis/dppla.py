@@ -176,9 +176,10 @@ def dppla(
     check_budget(k, w, p, banded=banded, band=band, window=window, error=error)
     if not banded:
         cost = SegmentCost(x, tau, error)
-        delta, parent = bellman(cost, k)
-        total = float(delta[k, w - 1])
-        return DPPLAResult(backtrack(parent, k, w), total, math.sqrt(total / w))
+        _, parent = bellman(cost, k, even_ties=True)
+        breakpoints = backtrack(parent, k, w)
+        total = float(np.sum(cost(breakpoints[:-1], breakpoints[1:])))
+        return DPPLAResult(breakpoints, total, math.sqrt(total / w))
     band = band_width(band, w, k)
     if verify:
         check_budget(k, w, p, error=error)

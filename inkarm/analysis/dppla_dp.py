@@ -48,15 +48,17 @@ def exact_windows(k: int, w: int, prune: bool) -> tuple[np.ndarray, np.ndarray]:
     return np.arange(k + 1), np.full(k + 1, w - 1)
 
 
-def bellman(cost: SegmentCost, k: int, prune: bool = True):
+def bellman(cost: SegmentCost, k: int, prune: bool = True, even_ties: bool = False):
     """Exact DP: fill delta(m, j) and the arg-min parents one row j at a time, every start i
     and every layer m at once (seed 001, sec. 3). Each segment error is computed once.
 
     ``prune`` drops states that cannot reach (k, w-1); without it delta(m, w-1) is filled for
-    every m <= k (used to pick k from an error tolerance).
+    every m <= k (used to pick k from an error tolerance). ``even_ties`` adds
+    :func:`tie_break`'s term to every segment (delta then holds it too).
     """
     w = cost.w
     lo, hi = exact_windows(k, w, prune)
+    tie = tie_break(cost) if even_ties else 0.0
     delta = np.full((k + 1, w), np.inf)
     parent = np.full((k + 1, w), -1, dtype=np.int64)
     delta[0, 0] = 0.0
@@ -65,11 +67,31 @@ def bellman(cost: SegmentCost, k: int, prune: bool = True):
         m0 = max(int(np.searchsorted(hi, j, side="left")), 1)
         m1 = int(np.searchsorted(lo, j, side="right")) - 1
         start = int(lo[m0 - 1])
-        total = delta[m0 - 1 : m1, start:j] + cost.row(start, j)
+        row = cost.row(start, j)
+        if even_ties:
+            row += tie * np.square(j - np.arange(start, j, dtype=float))
+        total = delta[m0 - 1 : m1, start:j] + row
         best = np.argmin(total, axis=1)
         delta[m0 : m1 + 1, j] = total[np.arange(m1 - m0 + 1), best]
         parent[m0 : m1 + 1, j] = start + best
     return delta, parent
+
+
+TIE_BREAK = 1e-9
+"""Weight of the tie-break of the exact DP, relative to the samples' summed squared spread."""
+
+
+def tie_break(cost: SegmentCost) -> float:
+    """The weight eps of a term eps (j - i)^2 added to each segment's error in the exact DP.
+
+    Where many break points fit equally well (a straight run: every chord error is zero up to
+    rounding), the arg-min would take the first, piling the targets at the start and leaving
+    one long last segment that the LQT overshoots; the term picks the evenest of the equal
+    fits. It is 1e-9 of the samples' spread over w^2, so it never outweighs a real error: the
+    DP's error is recomputed from the chosen break points without it."""
+    spread = float(cost.sxx[-1]) if cost.error == "interpolation" else float(
+        np.trace(cost.sxxt[-1]))
+    return TIE_BREAK * spread / max(cost.w - 1, 1) ** 2
 
 
 def _error_rows(cost: SegmentCost, r0: int, r1: int, back: np.ndarray) -> np.ndarray:

@@ -352,7 +352,7 @@ def keep_inside(drawing: Drawing, lo, hi, how: str) -> tuple[Drawing, str]:
     where = f"({lo[0]:g}, {lo[1]:g}) to ({hi[0]:g}, {hi[1]:g}) mm"
     if how == "refit":
         kept, k = refit(drawing, lo, hi)
-        return kept, (f"overshoot refit: scaled by {k:.4f} to stay within {where}" if k < 1
+        return kept, (f"overshoot refit: scaled by {k:.6f} to stay within {where}" if k < 1
                       else f"overshoot refit: moved to stay within {where}"
                       if kept is not drawing else f"no overshoot: inside {where}")
     if how == "clip":

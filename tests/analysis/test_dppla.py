@@ -347,3 +347,14 @@ def test_exact_dp_over_the_step_budget_is_refused(monkeypatch):
     monkeypatch.setenv("INKARM_MAX_DPPLA_STEPS", "1")
     with pytest.raises(BudgetError, match="banded DPPLA of 300 samples in 50 segments, band 12"):
         check_budget(50, 300, banded=True)
+
+
+@pytest.mark.parametrize("w, k", [(101, 4), (60, 7), (500, 3)])
+def test_on_a_straight_run_the_exact_dp_spreads_its_targets_evenly(w, k):
+    # every split of a uniformly traversed line fits exactly: the tie-break takes the evenest
+    # (without it the arg-min piled the break points at the start)
+    x = np.column_stack([np.linspace(0.0, 50.0, w), np.linspace(0.0, 20.0, w)])
+    result = dppla(x, k, banded=False)
+    lengths = np.diff(result.breakpoints)
+    assert lengths.max() - lengths.min() <= 1
+    assert result.cost == pytest.approx(0.0, abs=1e-9)
