@@ -26,6 +26,18 @@ def _positive(text: str) -> float:
     return value
 
 
+def _add_pen_options(p: argparse.ArgumentParser, page: str | None, page_help: str) -> None:
+    """What a pen plotter's emulator takes, in this order: --speedup, --out, --page (default
+    ``page``, described by ``page_help``) and --px-per-mm."""
+    p.add_argument("--speedup", type=_positive, default=1.0,
+                   help="machine seconds per wall-clock second (default 1: real time)")
+    p.add_argument("--out", metavar="FILE.png", default=None,
+                   help="write the emulated pen's canvas here on exit")
+    p.add_argument("--page", metavar="W,H", default=page, help=page_help)
+    p.add_argument("--px-per-mm", type=_positive, default=10.0,
+                   help="canvas resolution in px/mm (default 10)")
+
+
 def _add_grbl(sub) -> None:
     p = sub.add_parser(
         "grbl",
@@ -35,14 +47,8 @@ def _add_grbl(sub) -> None:
         "deviation, real-time commands, status reports, soft limits and alarms, a pen servo "
         "with a settle time drawing on an ink canvas. Prints the port; Ctrl-C stops it.",
     )
-    p.add_argument("--speedup", type=_positive, default=1.0,
-                   help="machine seconds per wall-clock second (default 1: real time)")
-    p.add_argument("--out", metavar="FILE.png", default=None,
-                   help="write the emulated pen's canvas here on exit")
-    p.add_argument("--page", metavar="W,H", default="210,297",
-                   help="page (width, height) in mm under the pen (default 210,297: A4)")
-    p.add_argument("--px-per-mm", type=_positive, default=10.0,
-                   help="canvas resolution in px/mm (default 10)")
+    _add_pen_options(p, "210,297", "page (width, height) in mm under the pen (default 210,297: "
+                     "A4)")
     p.add_argument("--pen", choices=("servo", "z"), default="servo",
                    help="pen mechanism: servo (M3 S>=500 puts it down, 0.12 s to settle; "
                    "profile servo) or z (touches at Z <= 0; profile z)")
@@ -69,15 +75,9 @@ def _add_axidraw(sub) -> None:
     )
     p.add_argument("--model", choices=("V3", "V3A3"), default="V3",
                    help="the travel: V3 (300 x 218 mm, default) or V3A3 (430 x 297 mm)")
-    p.add_argument("--speedup", type=_positive, default=1.0,
-                   help="machine seconds per wall-clock second (default 1: real time)")
-    p.add_argument("--out", metavar="FILE.png", default=None,
-                   help="write the emulated pen's canvas here on exit")
-    p.add_argument("--page", metavar="W,H", default=None,
-                   help="sheet (width, height) in mm, its upper-left corner at the home corner "
-                   "(default: A4 landscape 297,210 for V3, A3 landscape 420,297 for V3A3)")
-    p.add_argument("--px-per-mm", type=_positive, default=10.0,
-                   help="canvas resolution in px/mm (default 10)")
+    _add_pen_options(p, None, "sheet (width, height) in mm, its upper-left corner at the home "
+                     "corner (default: A4 landscape 297,210 for V3, A3 landscape 420,297 for "
+                     "V3A3)")
     p.add_argument("--fault", action="append", default=[], metavar="KIND:K[:CODE]",
                    help="inject a fault at the K-th command received: drop:K (it runs, its "
                    "reply is never sent), error:K[:CODE] (it does not run; the reply is the "

@@ -14,6 +14,7 @@ Two conventions serial tools share on Linux, both taken:
 A second driver on the same port (inkarm or another tool) is refused with
 :class:`PortBusyError` before it writes a byte, instead of two streams interleaving on one
 device (the second GRBL driver waited 240 s for replies the first one took).
+:func:`open_locked` takes the lock and opens the port, as the GRBL and EBB drivers do.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import contextlib
 import errno
 import fcntl
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from inkarm.errors import InputError
@@ -140,4 +141,20 @@ def port_lock(port: str | os.PathLike) -> Iterator[None]:
             os.close(fd)  # releases the flock
 
 
-__all__ = ["PortBusyError", "describe_holder", "lock_file_name", "port_lock"]
+def open_locked(port: str, baudrate: int, error: Callable[[str], Exception]):
+    """Take ``port``'s lock (:func:`port_lock`), then open it (pyserial, 2 ms read timeout, 2 s
+    write timeout): the lock (an :class:`~contextlib.ExitStack`; closing it releases the port)
+    and the open :class:`serial.Serial`. A port that does not open raises ``error(message)``
+    (``cannot open PORT: why``) with the lock released."""
+    import serial
+
+    lock = contextlib.ExitStack()
+    lock.enter_context(port_lock(port))
+    try:
+        return lock, serial.Serial(port, baudrate, timeout=0.002, write_timeout=2.0)
+    except (serial.SerialException, ValueError, OSError) as e:
+        lock.close()
+        raise error(f"cannot open {port}: {e}") from None
+
+
+__all__ = ["PortBusyError", "describe_holder", "lock_file_name", "open_locked", "port_lock"]

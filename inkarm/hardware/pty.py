@@ -1,5 +1,6 @@
 """The pseudo-terminal an emulator serves on: a raw pty whose slave end a host opens by name, as
-it would a USB serial adapter (both emulators, Dynamixel and GRBL, use it)."""
+it would a USB serial adapter (the Dynamixel emulator uses it, the GRBL and EBB ones through
+:mod:`inkarm.hardware.pty_device`)."""
 
 from __future__ import annotations
 

@@ -140,14 +140,8 @@ def read_backend_tables(rd: TomlReader, data: dict, robot: RobotProfile,
     if "profile" in plotter:
         from inkarm.hardware.plotter.profiles import load_profile
 
-        profile = rd.text(plotter["profile"], "plotter.profile")
-        if profile.endswith(".toml"):
-            profile = str((base_dir / profile).resolve())
-        try:
-            load_profile(profile)
-        except InkarmError as e:
-            raise ScenarioError(e.message, key="plotter.profile", value=e.value,
-                                choices=e.choices, file=rd.source) from None
+        profile = device_profile(rd, plotter["profile"], "plotter.profile", load_profile,
+                                 base_dir)
     placement: tuple[tuple[str, Any], ...] = ()
     if "page_origin" in plotter or "homing" in plotter:
         from inkarm.hardware.plotter.profiles import parse_placement
@@ -163,6 +157,20 @@ def read_backend_tables(rd: TomlReader, data: dict, robot: RobotProfile,
             "axidraw": read_axidraw(rd, data, base_dir)}
 
 
+def device_profile(rd: TomlReader, raw, key: str, load, base_dir: Path) -> str:
+    """A device profile's name, or its file resolved beside the scenario, checked by ``load``
+    (errors name the scenario file and ``key``)."""
+    name = rd.text(raw, key)
+    if name.endswith(".toml"):
+        name = str((base_dir / name).resolve())
+    try:
+        load(name)
+    except InkarmError as e:
+        raise ScenarioError(e.message, key=key, value=e.value, choices=e.choices,
+                            file=rd.source) from None
+    return name
+
+
 def read_axidraw(rd: TomlReader, data: dict, base_dir: Path) -> tuple[tuple[str, Any], ...]:
     """The ``[axidraw]`` table: ``profile`` (a name or a file, checked by loading it) and
     ``page_origin`` (the sheet's upper-left corner in machine [mm], two numbers)."""
@@ -172,15 +180,8 @@ def read_axidraw(rd: TomlReader, data: dict, base_dir: Path) -> tuple[tuple[str,
     if "profile" in table:
         from inkarm.hardware.axidraw.profiles import load_profile as load_axidraw
 
-        name = rd.text(table["profile"], "axidraw.profile")
-        if name.endswith(".toml"):
-            name = str((base_dir / name).resolve())
-        try:
-            load_axidraw(name)
-        except InkarmError as e:
-            raise ScenarioError(e.message, key="axidraw.profile", value=e.value,
-                                choices=e.choices, file=rd.source) from None
-        pairs.append(("profile", name))
+        pairs.append(("profile", device_profile(rd, table["profile"], "axidraw.profile",
+                                                load_axidraw, base_dir)))
     if "page_origin" in table:
         origin = table["page_origin"]
         if not (isinstance(origin, list) and len(origin) == 2

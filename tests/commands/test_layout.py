@@ -17,6 +17,7 @@ from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError
 from inkarm.jobs.backends.plotter import page_size_mm, prepared
 from inkarm.jobs.scenario import load_scenario
+from tests.hardware.scenario_files import scenario_file as one_stroke_file
 
 CASES = {  # the issue's three failing drawings, CSV t,x,y,stroke [mm]
     "450mm": ("0,5,10,0\n1,450,10,0\n", "stroke 1 point 2 at (450.00, 10.00) mm", "$130"),
@@ -142,28 +143,9 @@ def test_restyle_refuses_an_unknown_overshoot_before_any_work(tmp_path, capsys):
 
 # -- scenarios ------------------------------------------------------------------------------
 
-SCENARIO = """
-title = "laid out"
-[source]
-kind = "plan"
-[source.plan.model]
-order = 4
-dt = 0.01
-d = 5.0
-segment_time = 0.3
-[[source.plan.strokes]]
-name = "stroke"
-targets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [20.0, 8.0], cov = 1.0 }]
-[controller]
-go_home = false
-[placement]
-"""
-
-
 def scenario_file(tmp_path, placement: str, name: str = "s.toml"):
-    path = tmp_path / name
-    path.write_text(SCENARIO + textwrap.dedent(placement))
-    return path
+    return one_stroke_file(tmp_path, "laid out", "[placement]\n" + textwrap.dedent(placement),
+                           name)
 
 
 def test_the_placement_lays_the_drawing_out_on_the_plotters_sheet(tmp_path):

@@ -30,7 +30,7 @@ def scenario_with(tmp_path, table: str):
 
 def test_the_profile_and_the_page_origin_come_from_the_table(tmp_path):
     scenario = scenario_with(tmp_path, '[axidraw]\nprofile = "v3_a3"\npage_origin = [5, 7.5]\n')
-    profile, size, drawing, _ = prepared(scenario, None)
+    profile, size, _drawing, _ = prepared(scenario, None)
     assert profile.model == load_profile("v3_a3").model != load_profile("v3").model
     assert profile.page_origin == (5.0, 7.5)
     assert size == (420.0, 297.0)

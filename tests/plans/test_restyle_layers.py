@@ -102,8 +102,9 @@ def test_memory_is_bounded_by_the_longest_stroke(monkeypatch):
 
 
 def test_a_short_stroke_is_held_long_enough_for_the_chain_order():
-    # 3 samples in 0.02 s: 2 targets of 1 step, fewer than the order-4 chain's 5 steps
+    # 3 samples in 0.02 s: 3 targets (every sample, fewer than MIN_TARGETS) of 1 step, fewer
+    # than the order-4 chain's 5 steps
     short = Trajectory(t=[0.0, 0.01, 0.02], pos=[[0.0, 0.0], [0.2, 0.0], [0.4, 0.0]])
     result = restyle(Drawing([short, _line(10.0)]), RestyleConfig(order=4))
     assert len(result.drawing.strokes) == 2
-    assert result.plan.strokes[0].segment_time == pytest.approx(0.03)  # 3 steps x 2 targets
+    assert result.plan.strokes[0].segment_time == pytest.approx(0.02)  # 2 steps x 3 targets

@@ -26,7 +26,7 @@ import serial
 
 from inkarm.hardware.axidraw import ebb
 from inkarm.hardware.axidraw.ebb import EbbError
-from inkarm.hardware.port_lock import port_lock
+from inkarm.hardware.port_lock import open_locked
 
 MIN_FIRMWARE = (2, 4, 4)
 REPLY_TIMEOUT_S = 2.0  # a reply later than this after it was due is lost [s, wall]
@@ -50,14 +50,8 @@ class EbbBus:
     def __init__(self, port: str, baudrate: int = 115200, *,
                  reply_timeout_s: float | None = None,
                  clock: Callable[[], float] = time.monotonic):
-        self._lock = contextlib.ExitStack()
-        self._lock.enter_context(port_lock(port))
-        try:
-            self.serial = serial.Serial(port, baudrate, timeout=0.002, write_timeout=2.0)
-        except (serial.SerialException, ValueError, OSError) as e:
-            self._lock.close()
-            raise EbbError(f"cannot open {port}: {e}", kind="disconnected", port=port) \
-                from None
+        self._lock, self.serial = open_locked(
+            port, baudrate, lambda message: EbbError(message, kind="disconnected", port=port))
         self.port = port
         self.reply_timeout_s = float(REPLY_TIMEOUT_S if reply_timeout_s is None
                                      else reply_timeout_s)

@@ -24,22 +24,15 @@ command arrives).
 
 from __future__ import annotations
 
-import os
-import select
-import threading
-import time
-from collections import deque
 from dataclasses import dataclass
-from typing import Self
 
 from inkarm.errors import InputError
+from inkarm.hardware import pty_device
 from inkarm.hardware.axidraw.ebb_machine import EbbMachine, travel_mm
 from inkarm.hardware.axidraw.ebb_parse import ERROR_TEXT, Line, checksum
-from inkarm.hardware.pty import close_quietly, open_raw_pty
+from inkarm.hardware.pty_device import PtyDevice, check_speedup, parse_fault_text
 
 RX_LIMIT = 255  # characters of one command (kRX_BUF_SIZE 256 with its terminator)
-MAX_REPLIES_KEPT = 10_000
-IDLE_TICK_S = 0.02
 FAULT_KINDS = ("drop", "error", "disconnect")
 A4_LANDSCAPE_MM = (297.0, 210.0)
 A3_LANDSCAPE_MM = (420.0, 297.0)
@@ -66,20 +59,10 @@ class Fault:
 
 def parse_fault(text: str) -> Fault:
     """``drop:K``, ``error:K[:CODE]`` or ``disconnect:K`` (K: the K-th command)."""
-    parts = text.split(":")
-    if parts[0] not in FAULT_KINDS or not 2 <= len(parts) <= 3 or (
-            len(parts) == 3 and parts[0] != "error"):
-        raise InputError(f"expected drop:K, error:K[:CODE] or disconnect:K, got {text!r}",
-                         key="--fault", value=text, choices=FAULT_KINDS)
-    try:
-        numbers = [int(p) for p in parts[1:]]
-    except ValueError:
-        raise InputError(f"expected whole numbers in {text!r}", key="--fault",
-                         value=text) from None
-    if numbers[0] < 1 or (len(numbers) > 1 and not 0 <= numbers[1] <= 10):
-        raise InputError(f"expected K >= 1 and CODE in 0..10, got {text!r}", key="--fault",
-                         value=text)
-    return Fault(parts[0], numbers[0], numbers[1] if len(numbers) > 1 else 6)
+    kind, line, code = parse_fault_text(text, FAULT_KINDS,
+                                        "drop:K, error:K[:CODE] or disconnect:K",
+                                        range(11), coded=("error",), line="K")
+    return Fault(kind, line, 6 if code is None else code)
 
 
 def fault_reply(text: str, code: int, future: bool = False) -> str:
@@ -101,34 +84,21 @@ def fault_reply(text: str, code: int, future: bool = False) -> str:
 
 
 @dataclass
-class EmulatorStats:
-    """What the emulator saw.
+class EmulatorStats(pty_device.EmulatorStats):
+    """What the emulator saw: :class:`inkarm.hardware.pty_device.EmulatorStats` (``lines``
+    counts commands, ``replies`` holds each command's whole reply, ``bytes_dropped`` stays 0:
+    USB flow control holds the host back, nothing is lost), and
 
     Attributes:
-        lines: Commands taken.
-        bytes_received: Bytes read from the port.
-        bytes_dropped: Always 0: USB flow control holds the host back, nothing is lost (kept
-            for parity with the GRBL emulator's stats).
-        machine_time_s: Machine time now [s].
-        first_line_s: Machine time when the first command was taken [s] (None before).
-        idle_since_s: Machine time when it last became idle [s].
-        replies: The last replies written, in order (each a command's whole reply).
         steps: Motor steps taken (both motors).
         frame_hits: Samples at which the carriage was held by the frame (lost steps).
     """
 
-    lines: int = 0
-    bytes_received: int = 0
-    bytes_dropped: int = 0
-    machine_time_s: float = 0.0
-    first_line_s: float | None = None
-    idle_since_s: float = 0.0
-    replies: deque[str] | None = None
     steps: int = 0
     frame_hits: int = 0
 
 
-class EbbEmulator:
+class EbbEmulator(PtyDevice):
     """An AxiDraw's EiBotBoard on a pseudo-terminal (see the module docstring).
 
     Args:
@@ -141,87 +111,29 @@ class EbbEmulator:
         contact_pct: Pen height [%] at which the pen touches the paper.
     """
 
+    NAME = "ebb"
+    LOOP = "the EBB emulator's command loop"
+    ENCODING = "latin-1"
+    Stats = EmulatorStats
+    machine: EbbMachine
+    stats: EmulatorStats
+
     def __init__(self, speedup: float = 1.0, canvas=None, model: str = "V3",
                  faults=(), sheet_origin_mm=(0.0, 0.0), contact_pct: float = 40.0,
                  tick_s: float = 0.001) -> None:
-        if not 0 < speedup <= 1000:
-            raise InputError(f"expected a speed-up in (0, 1000], got {speedup}", key="speedup",
-                             value=speedup)
+        check_speedup(speedup)
         travel_mm(model)
         if canvas is None:
             from inkarm.ink.canvas import Canvas
 
             canvas = Canvas(size_mm=PAGE_MM[model])
-        self.speedup = float(speedup)
-        self.canvas = canvas
         self.model = model
-        self.machine = EbbMachine(model, canvas, sheet_origin_mm, contact_pct)
-        self.faults = {f.line: f for f in faults}
-        self.stats = EmulatorStats(replies=deque(maxlen=MAX_REPLIES_KEPT))
-        self.tick_s = tick_s
-        self._rx = bytearray()
-        self._line = bytearray()
+        super().__init__(EbbMachine(model, canvas, sheet_origin_mm, contact_pct), canvas,
+                         faults, speedup, tick_s)
         self._in_cr = False
         self._overrun = False
-        self._lock = threading.Lock()
-        self._wake = threading.Event()
-        self._stop = threading.Event()
-        self._master = self._slave = -1
-        self._threads: list[threading.Thread] = []
-        self.port = ""
-        self.error: Exception | None = None
 
-    # -- life cycle ----------------------------------------------------------------------------
-
-    def start(self) -> str:
-        """Open the pseudo-terminal, start both threads, return the port path."""
-        self._master, self._slave, self.port = open_raw_pty()
-        self._wall0 = time.monotonic()
-        self._threads = [threading.Thread(target=self._receive, name="ebb-rx", daemon=True),
-                         threading.Thread(target=self._loop, name="ebb-main", daemon=True)]
-        for t in self._threads:
-            t.start()
-        return self.port
-
-    @property
-    def running(self) -> bool:
-        return not self._stop.is_set()
-
-    def stop(self) -> None:
-        """Stop both threads and close the port (idempotent); a stroke in progress ends.
-        Raises the error that stopped the command loop, if one did (a bug in the machine)."""
-        self._stop.set()
-        self._wake.set()
-        for t in self._threads:
-            if t is not threading.current_thread():
-                t.join(timeout=2.0)
-        with self._lock:
-            if self.canvas is not None and self.canvas.in_contact:
-                self.canvas.lift()
-        close_quietly(self._master, self._slave)
-        self._master = self._slave = -1
-        if self.error is not None:
-            error, self.error = self.error, None
-            raise RuntimeError(f"the EBB emulator's command loop failed: {error!r}") from error
-
-    close = stop
-
-    def __enter__(self) -> Self:
-        self.start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
-
-    def wait_idle(self, timeout_s: float = 10.0) -> bool:
-        """Wait until the machine is idle with nothing left to read; False on timeout."""
-        end = time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            with self._lock:
-                if self.machine.idle and not self._rx and not self._line:
-                    return True
-            time.sleep(0.005)
-        return False
+    close = PtyDevice.stop
 
     def press_button(self) -> None:
         """Press the EBB's PRG button (the AxiDraw's pause button): ``QB`` and ``QG`` bit 5
@@ -229,45 +141,7 @@ class EbbEmulator:
         with self._lock:
             self.machine.button = True
 
-    # -- the receiver ----------------------------------------------------------------------------
-
-    def _receive(self) -> None:
-        while not self._stop.is_set():
-            try:
-                ready, _, _ = select.select([self._master], [], [], 0.05)
-                if not ready:
-                    continue
-                data = os.read(self._master, 4096)
-            except (OSError, ValueError):
-                return
-            if not data:
-                continue
-            with self._lock:
-                self.stats.bytes_received += len(data)
-                self._rx += data
-            self._wake.set()
-
     # -- the command loop ------------------------------------------------------------------------
-
-    def _machine_now(self) -> float:
-        return self.speedup * (time.monotonic() - self._wall0)
-
-    def _loop(self) -> None:
-        machine = self.machine
-        while not self._stop.is_set():
-            busy = not machine.idle or self._rx
-            self._wake.wait(self.tick_s if busy else IDLE_TICK_S)
-            self._wake.clear()
-            try:
-                with self._lock:
-                    out = self._tick(machine)
-            except Exception as error:  # noqa: BLE001 - a machine bug: stop, re-raised by stop()
-                self.error = error
-                self._stop.set()
-                close_quietly(self._master)
-                return
-            if out and not self._write(out):
-                return
 
     def _tick(self, machine: EbbMachine) -> list[str]:
         was_idle = machine.idle
@@ -277,15 +151,9 @@ class EbbEmulator:
         if now > machine.time:
             machine.advance(now - machine.time)
         self._take_lines(machine)
-        if machine.idle and not was_idle:
-            self.stats.idle_since_s = machine.time
-        self.stats.machine_time_s = machine.time
         self.stats.steps = machine.queue.steps_taken
         self.stats.frame_hits = machine.frame_hits
-        out = list(machine.outbox)
-        machine.outbox.clear()
-        self.stats.replies.extend(out)
-        return out
+        return self._replies(machine, was_idle)
 
     def _take_lines(self, machine: EbbMachine) -> None:
         i, rx = 0, self._rx
@@ -316,10 +184,7 @@ class EbbEmulator:
         del rx[:i]
 
     def _command(self, machine: EbbMachine, text: str) -> None:
-        self.stats.lines += 1
-        if self.stats.first_line_s is None:
-            self.stats.first_line_s = machine.time
-        fault = self.faults.get(self.stats.lines)
+        fault = self._taken(machine)
         if fault is None:
             machine.take_line(text)
         elif fault.kind == "drop":
@@ -327,20 +192,7 @@ class EbbEmulator:
         elif fault.kind == "error":
             machine.outbox.append(fault_reply(text, fault.code, machine.future))
         else:
-            self._stop.set()
-            close_quietly(self._master)
-            self._master = -1
-
-    def _write(self, replies: list[str]) -> bool:
-        data = "".join(replies).encode("latin-1")
-        try:
-            while data and not self._stop.is_set():
-                _, ready, _ = select.select([], [self._master], [], 0.05)
-                if ready:
-                    data = data[os.write(self._master, data):]
-        except (OSError, ValueError):
-            return False
-        return True
+            self._disconnect()
 
 
 __all__ = ["EbbEmulator", "EmulatorStats", "Fault", "fault_reply", "parse_fault"]

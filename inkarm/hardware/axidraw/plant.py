@@ -48,6 +48,7 @@ from inkarm.hardware.axidraw.ebb import EbbError
 from inkarm.hardware.axidraw.motion import Move, StepCursor, path_moves, profile_limits
 from inkarm.hardware.axidraw.placement import SheetPlacement
 from inkarm.hardware.axidraw.profiles import AxiDrawProfile
+from inkarm.hardware.pen_plant import PenPlotterPlant
 
 POLL_S = 0.05  # device seconds between readings (QS, QP)
 SAFE_STOP_S = 3.0  # the longest wait for each reply of a safe stop [s, wall]
@@ -77,7 +78,7 @@ class Plan:
     seconds: float
 
 
-class AxiDrawPlant:
+class AxiDrawPlant(PenPlotterPlant):
     """See the module docstring.
 
     Args:
@@ -111,19 +112,7 @@ class AxiDrawPlant:
         self._closed = False
         self._set_up()
 
-    # -- the Plant protocol --------------------------------------------------------------------
-
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def senses(self) -> frozenset[str]:
-        return frozenset({"tip"})
-
-    @property
-    def commands(self) -> frozenset[str]:
-        return frozenset({"position", "pen"})
+    # -- the Plant protocol (dt, senses, commands: PenPlotterPlant) ----------------------------
 
     def command(self, command: Command) -> None:
         if isinstance(command, PenCommand):

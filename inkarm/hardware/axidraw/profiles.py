@@ -42,9 +42,9 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from inkarm.errors import unknown_name
 from inkarm.hardware.axidraw.ebb import MAX_STEP_RATE
-from inkarm.io.toml import TomlReader, load_toml
+from inkarm.io.profile_files import builtin_names, load_named
+from inkarm.io.toml import TomlReader
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 DEFAULT_PROFILE = "v3"
@@ -111,19 +111,13 @@ class AxiDrawProfile:
 
 def profile_names() -> tuple[str, ...]:
     """The built-in profiles."""
-    return tuple(sorted(p.stem for p in PROFILE_DIR.glob("*.toml")))
+    return builtin_names(PROFILE_DIR)
 
 
 def load_profile(name_or_path: str | Path | None = None) -> AxiDrawProfile:
     """A built-in profile by name, or a profile file by path (ending in ``.toml``)."""
-    ref = str(name_or_path or DEFAULT_PROFILE)
-    if ref.endswith(".toml"):
-        path = Path(ref)
-    else:
-        if ref not in profile_names():
-            raise unknown_name("AxiDraw profile", ref, profile_names(), key="--profile")
-        path = PROFILE_DIR / f"{ref}.toml"
-    return parse_profile(load_toml(path, "AxiDraw profile"), str(path), name=path.stem)
+    return load_named(name_or_path or DEFAULT_PROFILE, PROFILE_DIR, "AxiDraw profile",
+                      parse_profile)
 
 
 NUMBERS = {  # key: (minimum, strict, maximum)

@@ -38,6 +38,7 @@ import numpy as np
 
 from inkarm.core.plant import Command, PenCommand, PlantState, PositionCommand, unsupported
 from inkarm.errors import InputError
+from inkarm.hardware.pen_plant import PenPlotterPlant
 from inkarm.hardware.plotter.planner import BLOCK_BUFFER
 from inkarm.hardware.plotter.profiles import PenProfile
 from inkarm.hardware.plotter.stream import GrblError, GrblStreamer, StatusReport
@@ -56,7 +57,7 @@ PREP_LEAD_S = 0.05
 SAFE_STOP_S = 3.0  # longest wait of each step of a safe stop (reset, unlock, pen up) [s]
 
 
-class GrblPlant:
+class GrblPlant(PenPlotterPlant):
     """See the module docstring.
 
     Args:
@@ -102,19 +103,7 @@ class GrblPlant:
         here = streamer.status()
         self._start_mm = here.wpos if here.wpos is not None else here.mpos  # work [mm]
 
-    # -- the Plant protocol --------------------------------------------------------------------
-
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def senses(self) -> frozenset[str]:
-        return frozenset({"tip"})
-
-    @property
-    def commands(self) -> frozenset[str]:
-        return frozenset({"position", "pen"})
+    # -- the Plant protocol (dt, senses, commands: PenPlotterPlant) ----------------------------
 
     def command(self, command: Command) -> None:
         lines, clipped = command_lines(self.profile, command)
@@ -162,7 +151,13 @@ class GrblPlant:
 
     @property
     def failure(self) -> str:
+        """Why the job failed (the stream's failure), empty while it is healthy; set, it ends
+        the job: :meth:`close` then stops the machine (soft reset, unlock, pen up)."""
         return self.streamer.state.failure
+
+    @failure.setter
+    def failure(self, reason: str) -> None:
+        self.streamer.state.failure = reason
 
     def now(self) -> float:
         """Device time [s] since the first line was sent."""

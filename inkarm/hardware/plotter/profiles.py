@@ -29,9 +29,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from inkarm.errors import unknown_name
 from inkarm.hardware.plotter.workspace import HOMINGS, ORIGINS, Placement
-from inkarm.io.toml import TomlReader, load_toml
+from inkarm.io.profile_files import builtin_names, load_named
+from inkarm.io.toml import TomlReader
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 KEYS = ("description", "units", "header", "footer", "pen_down", "pen_up", "pen_down_dwell_s",
@@ -89,19 +89,12 @@ class PenProfile:
 
 def profile_names() -> tuple[str, ...]:
     """The built-in profiles."""
-    return tuple(sorted(p.stem for p in PROFILE_DIR.glob("*.toml")))
+    return builtin_names(PROFILE_DIR)
 
 
 def load_profile(name_or_path: str | Path | None = None) -> PenProfile:
     """A built-in profile by name, or a profile file by path (ending in ``.toml``)."""
-    ref = str(name_or_path or DEFAULT_PROFILE)
-    if ref.endswith(".toml"):
-        path = Path(ref)
-    else:
-        if ref not in profile_names():
-            raise unknown_name("pen profile", ref, profile_names(), key="--profile")
-        path = PROFILE_DIR / f"{ref}.toml"
-    return parse_profile(load_toml(path, "pen profile"), str(path), name=path.stem)
+    return load_named(name_or_path or DEFAULT_PROFILE, PROFILE_DIR, "pen profile", parse_profile)
 
 
 def parse_profile(data: dict, source: str, name: str) -> PenProfile:

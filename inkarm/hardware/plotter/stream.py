@@ -19,7 +19,6 @@ The first ``error:N`` or ``ALARM:N`` stops the stream: nothing more is sent, and
 
 from __future__ import annotations
 
-import contextlib
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
@@ -28,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import serial
 
 from inkarm.errors import InkarmError
-from inkarm.hardware.port_lock import port_lock
+from inkarm.hardware.port_lock import open_locked
 
 RX_BUFFER = 128
 STATUS_PERIOD_S = 0.2  # at most 5 status reports a second
@@ -188,13 +187,8 @@ class GrblStreamer:
                  clock: Callable[[], float] = time.monotonic,
                  on_status: Callable[[StatusReport], None] | None = None,
                  time_scale: float = 1.0):
-        self._lock = contextlib.ExitStack()
-        self._lock.enter_context(port_lock(port))
-        try:
-            self.serial = serial.Serial(port, baudrate, timeout=0.002, write_timeout=2.0)
-        except (serial.SerialException, ValueError, OSError) as e:
-            self._lock.close()
-            raise GrblError(f"cannot open {port}: {e}", key="--port", value=port) from None
+        self._lock, self.serial = open_locked(
+            port, baudrate, lambda message: GrblError(message, key="--port", value=port))
         self.port = port
         self.clock = clock
         self.on_status = on_status

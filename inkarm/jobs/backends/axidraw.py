@@ -21,19 +21,22 @@ from dataclasses import replace
 
 import numpy as np
 
-from inkarm.analysis.metrics import compute_metrics
-from inkarm.control.plotter import run_plotter
 from inkarm.core.log import DrawLog
-from inkarm.core.run import Metrics, Senses
-from inkarm.errors import InkarmError, RunFault
+from inkarm.core.run import Senses
+from inkarm.errors import InkarmError
 from inkarm.hardware.axidraw.bus import EbbBus, version_text
 from inkarm.hardware.axidraw.placement import SheetPlacement
 from inkarm.hardware.axidraw.plant import AxiDrawPlant
 from inkarm.hardware.axidraw.profiles import AxiDrawProfile, load_profile
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.backends import BackendOptions, Progress, run_backend
-from inkarm.jobs.backends.plotter import ink_measured, page_size_mm, placed_on_sheet
-from inkarm.jobs.outcome import Run, undefined_unsensed
+from inkarm.jobs.backends.cartesian import (
+    CartesianSession,
+    page_size_mm,
+    pen_senses,
+    placed_on_sheet,
+)
+from inkarm.jobs.outcome import Run
 from inkarm.jobs.scenario import Scenario
 
 PERIOD_S = 0.01  # the pen path's control period [s]
@@ -44,10 +47,7 @@ READINGS_INK = "the ink is on the paper; this run's canvas inks the step-counter
 def axidraw_senses(ink: bool) -> Senses:
     """What an AxiDraw senses for the judge: the tip (its step counters) and the pen's contact
     (its commanded state), never a force; the ink only where the run has a canvas."""
-    lacking = {"force": NO_FORCE}
-    if not ink:
-        lacking["ink"] = READINGS_INK
-    return Senses.without(**lacking)
+    return pen_senses(ink, NO_FORCE, READINGS_INK)
 
 
 def prepared(scenario: Scenario, profile: str | None):
@@ -69,20 +69,17 @@ def prepared(scenario: Scenario, profile: str | None):
         raise e.within(file=scenario.path) from None
 
 
-class AxiDrawSession:
+class AxiDrawSession(CartesianSession):
     """A scenario on the AxiDraw at ``options.port`` (module docstring)."""
 
-    believed = None  # (no arm: the plant plans the moves)
     interrupted = ("interrupted by the user (Ctrl-C); the AxiDraw's moves were stopped (ES), "
                    "its pen lifted and its motors turned off")
+    label, device, speed_key = "axidraw", "the AxiDraw", "speed_pendown_mm_s"
+    planner, readings = "the plant plans the moves", "step-counter readings"
 
     def __init__(self, scenario: Scenario, options: BackendOptions, dt: float = PERIOD_S):
-        self.scenario = scenario
         self.profile, size, self.drawing, self.placement = prepared(scenario, options.profile)
-        self.own_canvas = options.canvas is None
-        self.canvas = scenario.ink.canvas(size) if self.own_canvas else options.canvas
-        self.senses = axidraw_senses(ink=not self.own_canvas)
-        self.notes: tuple[str, ...] = ()
+        self._open_canvas(scenario, options, size, axidraw_senses)
         bus = EbbBus(options.port, options.baudrate)
         try:
             bus.hello()
@@ -93,66 +90,17 @@ class AxiDrawSession:
             bus.close()
             raise
 
-    def execute(self, progress: Progress) -> DrawLog:
-        plant = self.plant
-        try:
-            log = run_plotter(self.drawing, plant, self.scenario.controller, progress=progress)
-        except KeyboardInterrupt as stop:
-            plant.failure = plant.failure or "interrupted by the user"
-            stop.log = self.partial_log()
-            raise
-        p, o = self.profile, self.placement.origin_mm
-        self.notes = ((f"axidraw: {len(plant.motions)} EBB motion commands (SM, SP), profile "
-                       f"{p.name!r} (AxiDraw {p.model}), firmware "
-                       f"{version_text(plant.bus.version)}, {len(log)} readings (QS, QP: the "
-                       "log's rows)"),
-                      (f"axidraw: the sheet's upper-left corner at machine ({o[0]:g}, {o[1]:g}) "
-                       "mm from home (the carriage parked at the upper-left stops at the start)"),)
-        s = self.scenario
-        if s.law.name != "position" or s.law.settings or s.watchdogs:
-            self.notes += ((f"axidraw: the plant plans the moves; the scenario's law "
-                            f"{s.law.name!r} and watchdogs are an arm's, not used here"),)
-        if plant.clipped:
-            self.notes += ((f"axidraw: {plant.clipped} pen-down moves slowed to the profile's "
-                            f"speed_pendown_mm_s = {p.speed_pendown_mm_s:g} mm/s"),)
-        if self.own_canvas:
-            self.notes += ("axidraw: the canvas inks the step-counter readings, not paper",)
-        if plant.failure:
-            fault = RunFault(f"the AxiDraw stopped: {plant.failure}", watchdog="device")
-            fault.log = log
-            raise fault
-        return log
+    def device_notes(self, log: DrawLog) -> tuple[str, ...]:
+        plant, p, o = self.plant, self.profile, self.placement.origin_mm
+        return ((f"axidraw: {len(plant.motions)} EBB motion commands (SM, SP), profile "
+                 f"{p.name!r} (AxiDraw {p.model}), firmware "
+                 f"{version_text(plant.bus.version)}, {len(log)} readings (QS, QP: the "
+                 "log's rows)"),
+                (f"axidraw: the sheet's upper-left corner at machine ({o[0]:g}, {o[1]:g}) "
+                 "mm from home (the carriage parked at the upper-left stops at the start)"))
 
-    def partial_log(self) -> DrawLog | None:
-        """The log of the readings so far (a run stopped by Ctrl-C); None without any."""
-        from inkarm.control.plotter import plotter_commands, plotter_log
-        from inkarm.control.sequencing import sequence_pen
-
-        plant = self.plant
-        readings = plant.readings()
-        if not readings:
-            return None
-        path = sequence_pen(self.drawing, self.scenario.controller, 0.0, plant.dt)
-        _, rows, phases = plotter_commands(path, plant.dt)
-        n = len(plant.command_motion)
-        return plotter_log(path, rows[:n], phases[:n], readings, plant.schedule(),
-                           self.scenario.controller)
-
-    def measure(self, log: DrawLog | None, finished: bool) -> Metrics:
-        if log is not None and self.own_canvas:
-            ink_measured(self.canvas, log)
-        if not finished or log is None:
-            return Metrics()
-        metrics = compute_metrics(
-            times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
-            drawing=log.drawing, q=log.q, joint_range=page_range(self.placement) / 1000.0,
-            wall_time_s=max(log.wall_s, 1e-9), canvas=self.canvas,
-            plan_strokes=[s.pos[:, :2] for s in self.drawing.strokes],
-            contact_threshold_n=self.scenario.controller.contact_threshold_n)
-        return undefined_unsensed(metrics, self.senses)
-
-    def close(self) -> None:
-        self.plant.close()
+    def page_range(self) -> np.ndarray:
+        return page_range(self.placement)
 
 
 class AxiDrawBackend:

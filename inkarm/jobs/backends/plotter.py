@@ -22,11 +22,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from inkarm.analysis.metrics import compute_metrics
-from inkarm.control.plotter import run_plotter
 from inkarm.core.log import DrawLog
-from inkarm.core.run import Metrics, Senses
-from inkarm.errors import InkarmError, InputError, RunFault
+from inkarm.core.run import Senses
+from inkarm.errors import InkarmError, InputError
 from inkarm.hardware.plotter.plant import GrblPlant
 from inkarm.hardware.plotter.profiles import PenProfile, load_profile, parse_placement
 from inkarm.hardware.plotter.stream import GrblStreamer
@@ -34,10 +32,15 @@ from inkarm.hardware.plotter.workspace import xy_travel
 from inkarm.ink.canvas import Canvas
 from inkarm.io.toml import TomlReader
 from inkarm.jobs.backends import BackendOptions, Progress, run_backend
-from inkarm.jobs.outcome import Run, undefined_unsensed
-from inkarm.jobs.scenario import Scenario, place, source_drawing
+from inkarm.jobs.backends.cartesian import (
+    CartesianSession,
+    page_size_mm,
+    pen_senses,
+    placed_on_sheet,
+)
+from inkarm.jobs.outcome import Run
+from inkarm.jobs.scenario import Scenario
 from inkarm.jobs.scenario_tables import thawed
-from inkarm.sim.cell_config import Cell
 
 PERIOD_S = 0.01  # the plotter run's control period: one G-code line per period of the pen path
 NO_FORCE = "a plotter senses no pen force (its pen is up or down)"
@@ -48,36 +51,7 @@ def plotter_senses(ink: bool) -> Senses:
     """What a plotter senses for the judge: the tip (its status reports) and the pen's contact
     (up or down, which the reports say), never a force; the ink only where the run has it
     (an emulator's canvas, or a scan), not from the coarse status reports."""
-    lacking = {"force": NO_FORCE}
-    if not ink:
-        lacking["ink"] = STATUS_INK
-    return Senses.without(**lacking)
-
-
-def page_size_mm(scenario: Scenario) -> tuple[float, float]:
-    """The sheet [mm]: the page the scenario's ``[placement]`` names (``page_size``,
-    ``landscape``), else the simulated cell's paper (``[sim] paper_size_mm``)."""
-    return scenario.placement.sheet_mm(Cell(scenario.cell, scenario.robot).paper_size_mm)
-
-
-def placed_on_sheet(scenario: Scenario, size: tuple[float, float]):
-    """The scenario's drawing placed on the sheet; refused when any of it lies off the sheet
-    (the page frame starts at the sheet's lower-left corner), naming the first point off it."""
-    from inkarm.plans.page import outside
-
-    drawing = place(source_drawing(scenario), scenario.placement, size)
-    first = outside(drawing, (0.0, 0.0), size)
-    if first is not None:
-        s, i = first
-        x, y = drawing.strokes[s].pos[i, :2]
-        lo, hi = drawing.bounds()
-        raise InputError(f"stroke {s + 1} point {i + 1} at ({x:.2f}, {y:.2f}) mm lies off the "
-                         f"sheet: the drawing spans ({lo[0]:.1f}, {lo[1]:.1f}) to ({hi[0]:.1f}, "
-                         f"{hi[1]:.1f}) mm, beyond the {size[0]:g} x {size[1]:g} mm sheet (the "
-                         "page's origin is the sheet's lower-left corner); lay it out with "
-                         "[placement] fit_to_margins_mm = 10, or move or scale it",
-                         key="placement", value=(float(x), float(y)))
-    return drawing
+    return pen_senses(ink, NO_FORCE, STATUS_INK)
 
 
 def scenario_pen(scenario: Scenario, profile: str | None) -> PenProfile:
@@ -103,24 +77,22 @@ def prepared(scenario: Scenario, profile: str | None):
         raise e.within(file=scenario.path) from None
 
 
-class PlotterSession:
+class PlotterSession(CartesianSession):
     """A scenario on the GRBL plotter at ``options.port`` (module docstring)."""
 
-    believed = None  # (no arm: the firmware plans the moves)
     interrupted = ("interrupted by the user (Ctrl-C); the plotter was reset and its pen "
                    "lifted")
+    label, device, speed_key = "plotter", "the plotter", "max_draw_speed_mm_s"
+    planner = "the firmware's planner moves the pen"
+    readings = "measured status positions (5 Hz)"
 
     def __init__(self, scenario: Scenario, options: BackendOptions, dt: float = PERIOD_S):
-        self.scenario = scenario
-        self.pen, size, self.drawing = prepared(scenario, options.profile)
-        self.own_canvas = options.canvas is None
-        self.canvas = scenario.ink.canvas(size) if self.own_canvas else options.canvas
-        self.senses = plotter_senses(ink=not self.own_canvas)
-        self.notes: tuple[str, ...] = ()
+        self.profile, size, self.drawing = prepared(scenario, options.profile)
+        self._open_canvas(scenario, options, size, plotter_senses)
         streamer = GrblStreamer(options.port, options.baudrate, time_scale=options.time_scale)
         try:
             streamer.wake()
-            self.plant = GrblPlant(streamer, self.pen, dt=dt, time_scale=options.time_scale,
+            self.plant = GrblPlant(streamer, self.profile, dt=dt, time_scale=options.time_scale,
                                    pen_force_n=scenario.controller.force_n, page_mm=size,
                                    extent_mm=self.drawing.bounds())
         except InkarmError as e:
@@ -130,73 +102,16 @@ class PlotterSession:
             streamer.close()
             raise
 
-    def execute(self, progress: Progress) -> DrawLog:
-        plant = self.plant
-        try:
-            log = run_plotter(self.drawing, plant, self.scenario.controller, progress=progress)
-        except KeyboardInterrupt as stop:  # stop the machine now (soft reset, unlock, pen up)
-            plant.streamer.state.failure = plant.streamer.state.failure or \
-                "interrupted by the user"
-            stop.log = self.partial_log()  # kept as the sim backend keeps its own
-            raise
-        ws = plant.workspace
-        self.notes = ((f"plotter: {len(plant.lines)} G-code lines, pen profile "
-                      f"{self.pen.name!r}, {len(log)} status reports (the log's rows)"),
-                      (f"plotter: page origin at machine ({ws.origin_mm[0]:g}, "
-                       f"{ws.origin_mm[1]:g}) mm (G54), "
-                       + ("homed ($22=1)" if ws.homed else "not homed ($22=0)")),)
-        s = self.scenario
-        if s.law.name != "position" or s.law.settings or s.watchdogs:
-            self.notes += ((f"plotter: the firmware's planner moves the pen; the scenario's law "
-                           f"{s.law.name!r} and watchdogs are an arm's, not used here"),)
-        if plant.clipped:
-            self.notes += ((f"plotter: {plant.clipped} pen-down moves slowed to the profile's "
-                           f"max_draw_speed_mm_s = {self.pen.max_draw_speed_mm_s:g} mm/s"),)
-        if self.own_canvas:
-            self.notes += (("plotter: the canvas inks the measured status positions (5 Hz), "
-                           "not paper"),)
-        if plant.failure:
-            fault = RunFault(f"the plotter stopped: {plant.failure}", watchdog="device")
-            fault.log = log
-            raise fault
-        return log
+    def device_notes(self, log: DrawLog) -> tuple[str, ...]:
+        plant, ws = self.plant, self.plant.workspace
+        return ((f"plotter: {len(plant.lines)} G-code lines, pen profile "
+                 f"{self.profile.name!r}, {len(log)} status reports (the log's rows)"),
+                (f"plotter: page origin at machine ({ws.origin_mm[0]:g}, "
+                 f"{ws.origin_mm[1]:g}) mm (G54), "
+                 + ("homed ($22=1)" if ws.homed else "not homed ($22=0)")))
 
-    def partial_log(self) -> DrawLog | None:
-        """The log of what the plant measured so far (a run stopped by Ctrl-C): the status
-        reports against the same pen path and schedule a finished run logs; None when
-        nothing was measured."""
-        from inkarm.control.plotter import plotter_commands, plotter_log
-        from inkarm.control.sequencing import sequence_pen
-
-        plant = self.plant
-        readings = plant.readings()
-        if not readings:
-            return None
-        path = sequence_pen(self.drawing, self.scenario.controller, 0.0, plant.dt)
-        _, rows, phases = plotter_commands(path, plant.dt)
-        rows, phases = rows[:len(plant.command_line)], phases[:len(plant.command_line)]
-        ends, schedule = plant.schedule()
-        return plotter_log(path, rows, phases, readings, (ends, schedule),
-                           self.scenario.controller)
-
-    def measure(self, log: DrawLog | None, finished: bool) -> Metrics:
-        if log is not None and self.own_canvas:
-            ink_measured(self.canvas, log)
-        if not finished or log is None:
-            return Metrics()
-        metrics = compute_metrics(
-            times_s=log.time, reference_mm=log.reference, tip_mm=log.tip, force_n=log.force,
-            drawing=log.drawing, q=log.q, joint_range=page_range(self.plant) / 1000.0,
-            wall_time_s=max(log.wall_s, 1e-9), canvas=self.canvas,
-            plan_strokes=[s.pos[:, :2] for s in self.drawing.strokes],
-            contact_threshold_n=self.scenario.controller.contact_threshold_n)
-        # The arms' judge; a plotter's tracking error is its distance from the firmware's own
-        # plan at the status reports' times (see inkarm.control.plotter), its force the nominal
-        # one while the pen is down (undefined here: not sensed).
-        return undefined_unsensed(metrics, self.senses)
-
-    def close(self) -> None:
-        self.plant.close()
+    def page_range(self) -> np.ndarray:
+        return page_range(self.plant)
 
 
 class PlotterBackend:
@@ -291,16 +206,6 @@ def check_on_device(scenario: Scenario, options: BackendOptions, profile: str | 
             f"profile {pen.name!r} accepted by the device in check mode ($C) on {options.port}, "
             f"page origin at machine "
             f"({ws.origin_mm[0]:g}, {ws.origin_mm[1]:g}) mm; nothing moved")
-
-
-def ink_measured(canvas: Canvas, log: DrawLog) -> None:
-    """Ink the measured tip positions of the rows with the pen down."""
-    for t, tip, force in zip(log.time, log.tip, log.force, strict=True):
-        if force > 0:
-            canvas.touch(tip[:2], float(force), float(t))
-        elif canvas.in_contact:
-            canvas.lift()
-    canvas.lift()
 
 
 def arm_and_plotter(scenario: Scenario, speedup: float = 2.0) -> tuple[Run, Run]:

@@ -20,6 +20,7 @@ from inkarm.jobs.backends import BackendOptions, check_backend, run_backend
 from inkarm.jobs.backends.axidraw import planned_motions, prepared, run_axidraw_scenario
 from inkarm.jobs.backends.plotter import page_size_mm
 from inkarm.jobs.scenario import load_scenario
+from tests.hardware.scenario_files import scenario_file
 
 QUICK = "scenarios/quick_stroke.toml"
 SPEEDUP = 10.0
@@ -86,28 +87,9 @@ def test_draw_on_the_command_line_with_the_port(tmp_path, capsys):
     assert (out / "trace.npz").exists() and (out / "canvas.png").exists()
 
 
-BEYOND = """
-title = "below the V3's reach"
-[source]
-kind = "plan"
-[source.plan.model]
-order = 4
-dt = 0.01
-d = 5.0
-segment_time = 0.3
-[[source.plan.strokes]]
-name = "stroke"
-targets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [20.0, 8.0], cov = 1.0 }]
-[placement]
-centre_mm = [105.0, 40.0]
-[controller]
-go_home = false
-"""
-
-
 def test_a_point_beyond_the_travel_is_refused_before_anything_is_sent(tmp_path, capsys):
-    path = tmp_path / "beyond.toml"
-    path.write_text(textwrap.dedent(BEYOND))
+    path = scenario_file(tmp_path, "below the V3's reach",
+                         "[placement]\ncentre_mm = [105.0, 40.0]\n", "beyond.toml")
     with EbbEmulator(speedup=SPEEDUP, model="V3") as emu:
         code = main(["draw", str(path), "--backend", "axidraw", "--port", emu.port,
                      "--quiet", "--out", str(tmp_path / "o")])

@@ -11,30 +11,14 @@ from inkarm.errors import InkarmError
 from inkarm.hardware.plotter.workspace import Placement
 from inkarm.jobs.backends.plotter import scenario_pen
 from inkarm.jobs.scenario import load_scenario
+from tests.hardware.scenario_files import scenario_file as one_stroke_file
 
-SCENARIO = """
-title = "plotter keys"
-[source]
-kind = "plan"
-[source.plan.model]
-order = 4
-dt = 0.01
-d = 5.0
-segment_time = 0.3
-[[source.plan.strokes]]
-name = "stroke"
-targets = [{ mean = [0.0, 0.0], cov = 1.0 }, { mean = [20.0, 8.0], cov = 1.0 }]
-[placement]
-centre_mm = [105.0, 148.5]
-[controller]
-go_home = false
-"""
+PLACED = "[placement]\ncentre_mm = [105.0, 148.5]\n"
 
 
 def scenario_file(tmp_path, plotter: str, name: str = "s.toml"):
-    path = tmp_path / name
-    path.write_text(SCENARIO + "[plotter]\n" + textwrap.dedent(plotter))
-    return path
+    return one_stroke_file(tmp_path, "plotter keys",
+                           PLACED + "[plotter]\n" + textwrap.dedent(plotter), name)
 
 
 @pytest.mark.parametrize("plotter, key, hint", [
