@@ -68,7 +68,7 @@ def chamfer(canvas: Canvas, drawing: Drawing) -> float:
                           [s.pos[:, :2] for s in drawing.strokes])
 
 
-AXIDRAW_SPEEDUP = 40.0  # machine seconds per wall second (the ink is inked in machine time)
+AXIDRAW_SPEEDUP = 100.0  # machine seconds per wall second (the ink is inked in machine time)
 # the AxiDraw model that takes each sheet in landscape, and its profile
 AXIDRAW = {"a4": ("V3", "v3"), "a3": ("V3A3", "v3_a3")}
 
