@@ -90,6 +90,9 @@ def read_gcode_file(path: str | Path) -> GcodeJob:
         if not text or text == "%":
             continue
         where = {"file": name, "key": f"line {number}"}
+        if text.startswith("<"):
+            raise InputError("this is XML (an SVG?), not G-code; make G-code from a drawing "
+                             "first: inkarm gcode DRAWING.svg --out FILE.gcode", **where)
         if text.startswith("$"):
             raise InputError(f"{text!r} is a GRBL system command, not G-code: settings, "
                              "homing and unlocking are the sender's ($H runs when $22=1); "

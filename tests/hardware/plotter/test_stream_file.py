@@ -316,3 +316,10 @@ def test_a_disconnect_mid_file_exits_1_naming_the_line(tmp_path, capsys):
     assert f"{path}: line {job.numbers[acked]}: the plotter stopped: the device " \
         "disconnected" in err, err
     assert "nothing more could be sent" in err
+
+
+def test_an_svg_given_as_g_code_is_named_for_what_it_is(tmp_path):
+    svg = tmp_path / "drawing.svg"
+    svg.write_text('<?xml version="1.0"?>\n<svg xmlns="http://www.w3.org/2000/svg"/>\n')
+    with pytest.raises(Exception, match=r"XML \(an SVG\?\), not G-code.*inkarm gcode"):
+        read_gcode_file(svg)
