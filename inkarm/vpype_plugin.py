@@ -40,6 +40,7 @@ from inkarm.analysis.dppla import segments_for_compression
 from inkarm.core.budget import BudgetError
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InkarmError, closest
+from inkarm.io.trace import resample_arc_length
 from inkarm.io.vpype_doc import MM_PER_PX, document_to_drawing, drawing_lines
 from inkarm.plans.handstyles import PRESETS, Handstyle, load_handstyles
 from inkarm.plans.restyle import MIN_SAMPLES, MIN_TARGETS, RestyleConfig, restyle
@@ -68,18 +69,13 @@ def resampled(drawing: Drawing, spacing: float, compression: float) -> Drawing:
     fewest = min_samples(compression)
     strokes = []
     for stroke in drawing.strokes:
-        step = np.linalg.norm(np.diff(stroke.pos, axis=0), axis=1)
-        length = float(step.sum())
-        if not length > 0:
+        pos = resample_arc_length(stroke.pos, spacing, fewest)
+        length = float(np.linalg.norm(np.diff(stroke.pos, axis=0), axis=1).sum())
+        t = None if pos is None else np.linspace(0.0, length, len(pos))  # arc length, not chords
+        if t is None or not np.all(np.diff(t) > 0):  # a length within rounding of 0: a dot
             strokes.append(stroke)
-            continue
-        along = np.concatenate([[0.0], np.cumsum(step)])
-        s = np.linspace(0.0, length, max(fewest, int(np.ceil(length / spacing)) + 1))
-        if not np.all(np.diff(s) > 0):  # a length within rounding of 0: a dot
-            strokes.append(stroke)
-            continue
-        pos = np.column_stack([np.interp(s, along, c) for c in stroke.pos.T])
-        strokes.append(Trajectory(t=s, pos=pos))
+        else:
+            strokes.append(Trajectory(t=t, pos=pos))
     return Drawing(strokes, page_size=drawing.page_size, meta=drawing.meta)
 
 

@@ -101,13 +101,6 @@ def layout_summary(fit_mm: float | None, drawing) -> str:
 
 def overshoot_from(args: argparse.Namespace) -> str:
     """``--overshoot``, checked before any work: "refit" or "clip"."""
-    from inkarm.errors import InputError, closest
-    from inkarm.plans.page import OVERSHOOTS
+    from inkarm.plans.page import check_overshoot
 
-    if args.overshoot not in OVERSHOOTS:
-        close = closest(args.overshoot, OVERSHOOTS)
-        hint = f" (did you mean '{close}'?)" if close else ""
-        raise InputError(f"unknown value {args.overshoot!r}{hint}; expected one of "
-                         f"{', '.join(OVERSHOOTS)}", key="--overshoot", value=args.overshoot,
-                         choices=OVERSHOOTS)
-    return args.overshoot
+    return check_overshoot(args.overshoot, "--overshoot")

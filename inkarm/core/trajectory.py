@@ -466,14 +466,33 @@ class Drawing:
         lines.append("</svg>")
         Path(path).write_text("\n".join(lines) + "\n")
 
+    def layer_ids(self) -> np.ndarray:
+        """One vpype layer id per stroke: ``meta["layers"]`` as int64, checked (an integer >= 1
+        per stroke), or all 1 when absent."""
+        if "layers" not in self.meta:
+            return np.ones(len(self.strokes), dtype=np.int64)
+        raw = self.meta["layers"]
+        try:
+            layers = np.asarray(raw)
+            ok = (layers.ndim == 1 and layers.dtype.kind in "iu"
+                  and len(layers) == len(self.strokes) and bool(np.all(layers >= 1)))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise InputError(f"drawing meta layers: expected one integer layer id >= 1 per "
+                             f"stroke ({len(self.strokes)}), got {raw!r}", key="layers")
+        return layers.astype(np.int64)
+
     def _svg_layers(self) -> list[tuple[int | None, list[int]]]:
         """(layer id, stroke indices) per SVG group :meth:`to_svg` writes: one per id of
-        ``meta["layers"]`` ascending, or (None, all) without layers."""
-        layers = self.meta.get("layers")
-        if layers is None:
+        ``meta["layers"]`` (:meth:`layer_ids`) ascending, or (None, all) without layers."""
+        if self.meta.get("layers") is None:
             return [(None, list(range(len(self.strokes))))]
-        ids = np.asarray(layers)
-        if ids.shape != (len(self.strokes),) or not np.issubdtype(ids.dtype, np.integer):
+        try:
+            ids = self.layer_ids()
+        except InputError:
+            got = np.asarray(self.meta["layers"])
             raise InputError(f"drawing meta['layers']: expected one integer layer id per stroke "
-                             f"({len(self.strokes)}), got {ids.dtype} of shape {ids.shape}")
+                             f"({len(self.strokes)}), got {got.dtype} of shape {got.shape}; "
+                             "ids must be >= 1", key="layers") from None
         return [(int(lid), np.flatnonzero(ids == lid).tolist()) for lid in np.unique(ids)]

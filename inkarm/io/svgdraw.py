@@ -66,11 +66,13 @@ _DIGITS = re.compile(r"\d+")
 
 @dataclass(frozen=True)
 class Piece:
-    """One drawn sub-path: the element it came from, its layer, its points in page [mm]."""
+    """One drawn sub-path: the element it came from, its layer, its points in page [mm] and
+    its length [mm] (> :data:`MIN_LENGTH_MM`)."""
 
     where: str
     layer: int
     points: np.ndarray
+    length: float
 
 
 @dataclass
@@ -115,14 +117,15 @@ def drawn(root: ET.Element, page: tuple[float, float, float]) -> Document:
             doc.skipped[reason] += 1
             continue
         where = _where(elem)
-        pieces = [p for p in _flatten(elem, where, page) if _length(p) > MIN_LENGTH_MM]
+        pieces = [Piece(where, layer, p, _length(p)) for p in _flatten(elem, where, page)]
+        pieces = [p for p in pieces if p.length > MIN_LENGTH_MM]
         if not pieces:
             doc.skipped["zero length"] += 1
-        for points in pieces:
-            count += len(points)
+        for piece in pieces:
+            count += len(piece.points)
             if count > MAX_SAMPLES:
                 raise InputError(f"{where}: more than {MAX_SAMPLES} points after flattening")
-            doc.pieces.append(Piece(where, layer, points))
+            doc.pieces.append(piece)
     return doc
 
 

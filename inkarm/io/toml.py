@@ -82,6 +82,14 @@ class TomlReader:
             raise self.error(key, f"expected a number <= {maximum:g}, got {value}", value=value)
         return v
 
+    def pair(self, value, key: str, low: float, high: float, what: str) -> tuple[float, float]:
+        """Two numbers, each in [low, high]; ``what`` describes them in the message."""
+        if not (isinstance(value, list) and len(value) == 2
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                        and low <= v <= high for v in value)):
+            raise self.error(key, f"expected two numbers {what}, got {value!r}", value=value)
+        return float(value[0]), float(value[1])
+
     def integer(self, value, key: str, low: int, high: int | None = None) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(key, f"expected an integer, got {describe(value)}")

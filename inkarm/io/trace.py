@@ -61,6 +61,7 @@ __all__ = [
     "CURVE_POINTS", "DEFAULT_RATE", "DEFAULT_SPEED", "MAX_DEPTH", "MAX_SAMPLES",
     "MIN_LENGTH_MM", "RATE_RANGE", "SPEED_RANGE", "check_path_data", "check_transform",
     "load_trace", "parse_path_data", "read_svg", "resample_arc_length", "skipped_summary",
+    "timed_by_length",
 ]
 
 DEFAULT_SPEED = 50.0
@@ -132,7 +133,7 @@ def read_svg(path: str | Path, speed: float = DEFAULT_SPEED, rate: float = DEFAU
     except InkarmError as e:
         raise e.within(file=str(path)) from None
     skipped = dict(dropped + doc.skipped)
-    strokes, kept = _strokes(doc.pieces, speed, rate, path)
+    strokes = _strokes(doc.pieces, speed, rate, path)
     if not strokes:
         said = _summary(skipped)
         raise InputError(
@@ -141,7 +142,7 @@ def read_svg(path: str | Path, speed: float = DEFAULT_SPEED, rate: float = DEFAU
         )
     meta: dict = {"svg_skipped": skipped}
     if doc.has_layers:
-        meta["layers"] = np.array([doc.pieces[k].layer for k in kept], dtype=np.int64)
+        meta["layers"] = np.array([p.layer for p in doc.pieces], dtype=np.int64)
     return Drawing(strokes, page_size=size[:2], meta=meta)
 
 
@@ -160,17 +161,24 @@ def _summary(skipped: dict) -> str | None:
     return f"skipped {total} element{'s' if total != 1 else ''}: " + ", ".join(parts)
 
 
-def resample_arc_length(points: np.ndarray, spacing: float) -> np.ndarray | None:
-    """Points equally spaced in arc length, at most ``spacing`` apart, both ends kept; None for
-    a polyline of zero length."""
+def resample_arc_length(points: np.ndarray, spacing: float, min_points: int = 2
+                        ) -> np.ndarray | None:
+    """Points equally spaced in arc length, at most ``spacing`` apart and at least
+    ``min_points`` of them, both ends kept; None for a polyline of zero length."""
     steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(steps)])
     if s[-1] <= 0:
         return None
     keep = np.concatenate([[True], steps > 0])
     s, points = s[keep], points[keep]
-    targets = np.linspace(0.0, s[-1], math.ceil(s[-1] / spacing) + 1)
+    targets = np.linspace(0.0, s[-1], max(min_points, math.ceil(s[-1] / spacing) + 1))
     return np.column_stack([np.interp(targets, s, c) for c in points.T])
+
+
+def timed_by_length(pos: np.ndarray, speed: float) -> np.ndarray:
+    """Times [s] of the points ``pos`` [mm] traced at a constant ``speed`` [mm/s]: cumulative
+    arc length / speed, 0 at the first point."""
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))]) / speed
 
 
 def parse_path_data(d: str, where: str = "path") -> list[np.ndarray]:
@@ -185,26 +193,16 @@ def parse_path_data(d: str, where: str = "path") -> list[np.ndarray]:
     return path_polylines(svgelements_call(lambda: se.Path(d), where), where)
 
 
-def _strokes(
-    pieces: list[Piece], speed: float, rate: float, path: Path
-) -> tuple[list[Trajectory], list[int]]:
-    """(strokes, index of each one's piece): each piece resampled every ``speed / rate`` [mm]
-    and timed at ``speed`` [mm/s]; the number of samples, length / speed x rate, is checked
-    against ``INKARM_MAX_STEPS`` first."""
-    lengths = [float(np.sum(np.linalg.norm(np.diff(p.points, axis=0), axis=1))) for p in pieces]
-    drawn_ = [length > MIN_LENGTH_MM for length in lengths]
-    total = sum(length for length, keep in zip(lengths, drawn_) if keep)
-    needed = total / speed * rate + sum(drawn_)
-    require(needed, STEPS, f"{total:.4g} mm of paths at {speed:g} mm/s sampled at {rate:g} Hz "
+def _strokes(pieces: list[Piece], speed: float, rate: float, path: Path) -> list[Trajectory]:
+    """Each piece resampled every ``speed / rate`` [mm] and timed at ``speed`` [mm/s]; the
+    number of samples, length / speed x rate, is checked against ``INKARM_MAX_STEPS`` first."""
+    total = sum(p.length for p in pieces)
+    require(total / speed * rate + len(pieces), STEPS,
+            f"{total:.4g} mm of paths at {speed:g} mm/s sampled at {rate:g} Hz "
             f"(one sample every {speed / rate:.3g} mm); lower the rate or raise the speed",
             key="rate", value=rate, file=str(path))
-    spacing = speed / rate
-    strokes, kept = [], []
-    for k, (piece, keep) in enumerate(zip(pieces, drawn_)):
-        pos = resample_arc_length(piece.points, spacing) if keep else None
-        if pos is not None:
-            step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
-            t = np.concatenate([[0.0], np.cumsum(step)]) / speed
-            strokes.append(Trajectory(t=t, pos=pos))
-            kept.append(k)
-    return strokes, kept
+    strokes = []
+    for piece in pieces:  # every piece is longer than MIN_LENGTH_MM (svgdraw.drawn)
+        pos = resample_arc_length(piece.points, speed / rate)
+        strokes.append(Trajectory(t=timed_by_length(pos, speed), pos=pos))
+    return strokes

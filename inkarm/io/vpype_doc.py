@@ -31,6 +31,7 @@ import numpy as np
 
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
+from inkarm.io.trace import timed_by_length
 
 MM_PER_PX = 25.4 / 96.0
 """Millimetres per CSS pixel, vpype's unit of length (96 px per inch)."""
@@ -98,8 +99,7 @@ def document_to_drawing(document, speed: float = DEFAULT_SPEED,
 def _stroke(line: np.ndarray, height: float, speed: float) -> Trajectory:
     """One vpype line [px] as a stroke [mm] timed at ``speed`` [mm/s]."""
     pos = np.column_stack([line.real * MM_PER_PX, height - line.imag * MM_PER_PX])
-    step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
-    t = np.concatenate([[0.0], np.cumsum(step)]) / speed
+    t = timed_by_length(pos, speed)
     keep = np.concatenate([[True], np.diff(t) > 0])  # a point that adds no time is a pause
     return Trajectory(t=t[keep], pos=pos[keep])
 
@@ -108,7 +108,7 @@ def drawing_lines(drawing: Drawing) -> dict[int, list[np.ndarray]]:
     """The strokes of ``drawing`` as vpype lines: layer id -> complex arrays [px], layers in
     increasing id, strokes in drawing order within a layer (z of a 3-D drawing dropped); a
     stroke of one sample (a dot) is the line from that point to itself, which vpype keeps."""
-    layers = stroke_layers(drawing)
+    layers = drawing.layer_ids()
     height = drawing.page_size[1]
     out: dict[int, list[np.ndarray]] = {}
     for lid in sorted(set(layers.tolist())):
@@ -131,21 +131,3 @@ def drawing_to_document(drawing: Drawing):
         w, h = drawing.page_size
         document.page_size = (w / MM_PER_PX, h / MM_PER_PX)
     return document
-
-
-def stroke_layers(drawing: Drawing) -> np.ndarray:
-    """One layer id per stroke: ``meta["layers"]`` as int64, checked (an integer >= 1 per
-    stroke), or all 1 when absent (module docstring)."""
-    if "layers" not in drawing.meta:
-        return np.ones(len(drawing.strokes), dtype=np.int64)
-    raw = drawing.meta["layers"]
-    try:
-        layers = np.asarray(raw)
-        ok = (layers.ndim == 1 and layers.dtype.kind in "iu"
-              and len(layers) == len(drawing.strokes) and bool(np.all(layers >= 1)))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise InputError(f"drawing meta layers: expected one integer layer id >= 1 per stroke "
-                         f"({len(drawing.strokes)}), got {raw!r}", key="layers")
-    return layers.astype(np.int64)

@@ -183,14 +183,8 @@ def read_axidraw(rd: TomlReader, data: dict, base_dir: Path) -> tuple[tuple[str,
         pairs.append(("profile", device_profile(rd, table["profile"], "axidraw.profile",
                                                 load_axidraw, base_dir)))
     if "page_origin" in table:
-        origin = table["page_origin"]
-        if not (isinstance(origin, list) and len(origin) == 2
-                and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                        and abs(v) <= 10000 for v in origin)):
-            raise ScenarioError(f"expected two numbers [x, y] in mm (each within +-10000), got "
-                                f"{origin!r}", key="axidraw.page_origin", value=origin,
-                                file=rd.source)
-        pairs.append(("page_origin", (float(origin[0]), float(origin[1]))))
+        pairs.append(("page_origin", rd.pair(table["page_origin"], "axidraw.page_origin",
+                                             -10000, 10000, "[x, y] in mm (each within +-10000)")))
     return tuple(pairs)
 
 

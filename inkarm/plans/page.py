@@ -57,6 +57,23 @@ _LENGTH_RE = re.compile(rf"^{_NUMBER}\s*({_UNIT})?$")
 _SIZE_RE = re.compile(rf"^{_NUMBER}\s*({_UNIT})?\s*x\s*{_NUMBER}\s*({_UNIT})?$")
 
 
+def _unknown(value, names, key: str, what: str = "value", tail: str = "",
+             near=None) -> InputError:
+    """The error for ``value`` (a ``what``) not one of ``names`` (``tail`` ends the list), the
+    name closest to ``near`` (default ``value``) offered."""
+    close = closest(value if near is None else near, names)
+    hint = f" (did you mean '{close}'?)" if close else ""
+    return InputError(f"unknown {what} {value!r}{hint}; expected one of {', '.join(names)}"
+                      f"{tail}", key=key, value=value, choices=tuple(names))
+
+
+def check_overshoot(how, key: str = "overshoot") -> str:
+    """``how``, when one of :data:`OVERSHOOTS`; else an :class:`InputError` naming ``key``."""
+    if how not in OVERSHOOTS:
+        raise _unknown(how, OVERSHOOTS, key)
+    return how
+
+
 def parse_length(text, key: str) -> float:
     """A length [mm] from ``10``, ``10mm``, ``1cm``, ``0.5in`` (a number alone is in mm)."""
     if isinstance(text, bool):
@@ -84,12 +101,8 @@ def parse_page_size(text, key: str = "page_size") -> tuple[float, float]:
         return PAGE_SIZES_MM[name]
     match = _SIZE_RE.match(name)
     if match is None:
-        close = closest(name, PAGE_SIZES_MM)
-        hint = f" (did you mean '{close}'?)" if close else ""
-        raise InputError(f"unknown page size {text!r}{hint}; expected one of "
-                         f"{', '.join(PAGE_SIZES_MM)} or WxH with a unit ({', '.join(UNITS_MM)})"
-                         f", e.g. 210x297mm or 8.5x11in", key=key, value=text,
-                         choices=tuple(PAGE_SIZES_MM))
+        raise _unknown(text, PAGE_SIZES_MM, key, "page size", f" or WxH with a unit "
+                       f"({', '.join(UNITS_MM)}), e.g. 210x297mm or 8.5x11in", near=name)
     w, w_unit, h, h_unit = match.groups()
     w_unit = w_unit or h_unit or "mm"
     h_unit = h_unit or w_unit
@@ -151,10 +164,7 @@ class Layout:
                                  "scale)", key="scale", value=self.scale)
         for key, value, names in (("align", self.align, ALIGNS), ("valign", self.valign, VALIGNS)):
             if value is not None and value not in names:
-                close = closest(value, names)
-                hint = f" (did you mean '{close}'?)" if close else ""
-                raise InputError(f"unknown value {value!r}{hint}; expected one of "
-                                 f"{', '.join(names)}", key=key, value=value, choices=names)
+                raise _unknown(value, names, key)
         if not (np.isfinite(self.rotation_deg) and abs(self.rotation_deg) <= 3600):
             raise InputError(f"expected an angle in [-3600, 3600] deg, got {self.rotation_deg}",
                              key="rotation_deg", value=self.rotation_deg)
@@ -234,15 +244,20 @@ def lay_out(drawing: Drawing, layout: Layout) -> Drawing:
         layout.align or "center", area_lo[0] + 0.5 * (room[0] - size[0]))
     y = {"bottom": area_lo[1], "top": area_hi[1] - size[1]}.get(
         layout.valign or "center", area_lo[1] + 0.5 * (room[1] - size[1]))
-    return _moved(out, k * np.eye(2), np.array([x, y]) - k * lo, page)
+    return out.transformed(k, np.array([x, y]) - k * lo)
 
 
 def outside(drawing: Drawing, lo, hi) -> tuple[int, int] | None:
     """The first (stroke, sample) index, 0-based, whose x, y lies outside ``lo``..``hi``
     [mm]; None when every point lies inside."""
+    return _first_outside((np.asarray(s.pos, dtype=float)[:, :2] for s in drawing.strokes),
+                          lo, hi)
+
+
+def _first_outside(xys, lo, hi) -> tuple[int, int] | None:
+    """:func:`outside` over the (n, 2) x, y arrays ``xys``, one a stroke."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    for s, stroke in enumerate(drawing.strokes):
-        xy = np.asarray(stroke.pos, dtype=float)[:, :2]
+    for s, xy in enumerate(xys):
         bad = np.flatnonzero(np.any((xy < lo - 1e-6) | (xy > hi + 1e-6), axis=1))
         if bad.size:
             return s, int(bad[0])
@@ -263,8 +278,7 @@ def refit(drawing: Drawing, lo, hi) -> tuple[Drawing, float]:
     centre = 0.5 * (b_lo + b_hi)
     new_lo, new_hi = centre - 0.5 * k * size, centre + 0.5 * k * size
     shift = np.maximum(lo - new_lo, 0.0) - np.maximum(new_hi - hi, 0.0)
-    moved = _moved(drawing, k * np.eye(2), centre - k * centre + shift, drawing.page_size)
-    return moved, k
+    return drawing.transformed(k, centre - k * centre + shift), k
 
 
 def _clip_segments(p: np.ndarray, lo: np.ndarray, hi: np.ndarray):
@@ -327,16 +341,16 @@ def clip(drawing: Drawing, lo, hi) -> tuple[Drawing, int]:
     (the pen lifts there), a stroke that leaves and comes back becomes two; ``meta["layers"]``
     follows the pieces. Returns it and the number of strokes cut."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    layers = drawing.meta.get("layers")
+    layers = None if drawing.meta.get("layers") is None else drawing.layer_ids()
     strokes, kept_layers, cut = [], [], 0
     for k, s in enumerate(drawing.strokes):
-        if outside(Drawing([s], page_size=drawing.page_size), lo, hi) is None:
+        if _first_outside([np.asarray(s.pos, dtype=float)[:, :2]], lo, hi) is None:
             pieces = [s]
         else:
             pieces, cut = _clip_stroke(s, lo, hi), cut + 1
         strokes += pieces
         if layers is not None:
-            kept_layers += [int(np.asarray(layers)[k])] * len(pieces)
+            kept_layers += [int(layers[k])] * len(pieces)
     if not strokes:
         raise InputError(f"nothing of the drawing lies inside ({lo[0]:g}, {lo[1]:g}) to "
                          f"({hi[0]:g}, {hi[1]:g}) mm", key="overshoot", value="clip")
@@ -349,20 +363,16 @@ def clip(drawing: Drawing, lo, hi) -> tuple[Drawing, int]:
 def keep_inside(drawing: Drawing, lo, hi, how: str) -> tuple[Drawing, str]:
     """``drawing`` kept inside ``lo``..``hi`` [mm] by ``how`` ("refit": :func:`refit`;
     "clip": :func:`clip`), and a sentence saying what was done."""
+    check_overshoot(how)
     where = f"({lo[0]:g}, {lo[1]:g}) to ({hi[0]:g}, {hi[1]:g}) mm"
     if how == "refit":
         kept, k = refit(drawing, lo, hi)
         return kept, (f"overshoot refit: scaled by {k:.6f} to stay within {where}" if k < 1
                       else f"overshoot refit: moved to stay within {where}"
                       if kept is not drawing else f"no overshoot: inside {where}")
-    if how == "clip":
-        kept, cut = clip(drawing, lo, hi)
-        return kept, (f"overshoot clip: {cut} strokes cut at the edges of {where}" if cut
-                      else f"no overshoot: inside {where}")
-    close = closest(how, OVERSHOOTS)
-    hint = f" (did you mean '{close}'?)" if close else ""
-    raise InputError(f"unknown value {how!r}{hint}; expected one of {', '.join(OVERSHOOTS)}",
-                     key="overshoot", value=how, choices=OVERSHOOTS)
+    kept, cut = clip(drawing, lo, hi)
+    return kept, (f"overshoot clip: {cut} strokes cut at the edges of {where}" if cut
+                  else f"no overshoot: inside {where}")
 
 
 LAYOUT_KEYS = ("page_size", "landscape", "fit_to_margins_mm", "align", "valign")
@@ -410,6 +420,6 @@ def read_layout_keys(rd: TomlReader, table: dict, where: str) -> dict:
     return kw
 
 
-__all__ = ["ALIGNS", "LAYOUT_KEYS", "OVERSHOOTS", "PAGE_SIZES_MM", "VALIGNS", "Layout", "clip",
-           "keep_inside", "lay_out", "oriented", "outside", "parse_length", "parse_page_size",
-           "read_layout_keys", "refit"]
+__all__ = ["ALIGNS", "LAYOUT_KEYS", "OVERSHOOTS", "PAGE_SIZES_MM", "VALIGNS", "Layout",
+           "check_overshoot", "clip", "keep_inside", "lay_out", "oriented", "outside",
+           "parse_length", "parse_page_size", "read_layout_keys", "refit"]

@@ -56,7 +56,6 @@ from inkarm.core.budget import STEPS, require, require_memory
 from inkarm.core.plan import MotorPlan, StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
-from inkarm.io.vpype_doc import stroke_layers
 
 if TYPE_CHECKING:
     from inkarm.plans.handstyles import Handstyle
@@ -289,7 +288,7 @@ def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
     kept (module docstring); the whole job is checked against the budgets first."""
     from inkarm.models.lqt import LQTConfig, solve
 
-    layers = stroke_layers(drawing) if "layers" in drawing.meta else None
+    layers = drawing.layer_ids() if "layers" in drawing.meta else None
     check_restyle(drawing, cfg)
     lqt = LQTConfig(order=cfg.order, dt=cfg.dt, d=cfg.d)
     rng = np.random.default_rng(cfg.seed)

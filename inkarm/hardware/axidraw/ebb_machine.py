@@ -146,9 +146,6 @@ class EbbMachine:
         if reply and text:
             self.outbox.append(text)
 
-    def drop_pending(self) -> None:
-        self._pending = self._waiting = self._line = None
-
     # -- hooks called by the motion queue when an entry executes ---------------------------------
 
     def on_servo(self, payload, tick: int) -> None:

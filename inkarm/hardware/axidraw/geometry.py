@@ -24,9 +24,9 @@ STEPS_PER_MM = STEPS_PER_INCH / 25.4
 
 
 def motor_steps(dx_mm, dy_mm, steps_per_mm: float = STEPS_PER_MM):
-    """(steps1, steps2) of a carriage move of (dx, dy) [mm] in the machine frame (floats:
-    round them where the firmware takes integers)."""
-    return steps_per_mm * (np.asarray(dx_mm) + dy_mm), steps_per_mm * (np.asarray(dx_mm) - dy_mm)
+    """(steps1, steps2) of a carriage move of (dx, dy) [mm] (numbers or arrays) in the machine
+    frame (floats: round them where the firmware takes integers)."""
+    return steps_per_mm * (dx_mm + dy_mm), steps_per_mm * (dx_mm - dy_mm)
 
 
 def carriage_mm(steps1, steps2, steps_per_mm: float = STEPS_PER_MM):

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inkarm.hardware.axidraw.ebb import MAX_STEP_RATE, MIN_STEP_RATE
+from inkarm.hardware.axidraw.geometry import carriage_mm, motor_steps
 
 SHARP_DEG = 20.0  # a vertex turning more than this is always a move boundary
 RATE_MARGIN = 0.9998  # a move's fastest axis stays below 25 kHz by this factor (axidraw:
@@ -204,13 +205,12 @@ class StepCursor:
 
     def target(self, xy_mm) -> tuple[int, int]:
         """The nearest whole steps of a machine position [mm]."""
-        x, y = float(xy_mm[0]), float(xy_mm[1])
-        return round(self.k * (x + y)), round(self.k * (x - y))
+        s1, s2 = motor_steps(float(xy_mm[0]), float(xy_mm[1]), self.k)
+        return round(s1), round(s2)
 
     def position_mm(self, steps: tuple[int, int] | None = None) -> np.ndarray:
         """The machine position [mm] of step counts (default: the cursor's)."""
-        s1, s2 = steps if steps is not None else self.steps
-        return np.array([(s1 + s2) / (2.0 * self.k), (s1 - s2) / (2.0 * self.k)])
+        return np.array(carriage_mm(*(steps if steps is not None else self.steps), self.k))
 
     def moves(self, timed: Timed) -> tuple[list[Move], np.ndarray]:
         """The ``SM`` moves along ``timed`` from the cursor's steps (which end at its last
@@ -262,11 +262,6 @@ def path_moves(cursor: StepCursor, points, caps, lim: Limits) -> tuple[list[Move
     return moves, reached[timed.vertex_sample]
 
 
-def moves_duration_s(moves: list[Move]) -> float:
-    """Total time [s] of ``moves``."""
-    return sum(m.duration_ms for m in moves) / 1000.0
-
-
 __all__ = ["SHARP_DEG", "Limits", "Move", "StepCursor", "Timed", "distance_at",
-           "junction_speed", "moves_duration_s", "path_moves", "plan_path", "profile_limits",
+           "junction_speed", "path_moves", "plan_path", "profile_limits",
            "segment_profile", "vertex_speeds"]

@@ -80,10 +80,11 @@ class SheetPlacement:
 
     def check_machine(self, machine_mm) -> None:
         """Refuse a machine point beyond the travel (a command the plant was given)."""
-        m = np.asarray(machine_mm, dtype=float)
-        if not inside(m[None, :2], self.travel_mm)[0]:
-            raise InputError(f"machine ({m[0]:.2f}, {m[1]:.2f}) mm is beyond "
-                             f"{self.travel_text()}", key="placement", value=tuple(m[:2]))
+        x, y = float(machine_mm[0]), float(machine_mm[1])
+        (tx, ty), tol = self.travel_mm, TOLERANCE_MM
+        if not (-tol <= x <= tx + tol and -tol <= y <= ty + tol):
+            raise InputError(f"machine ({x:.2f}, {y:.2f}) mm is beyond {self.travel_text()}",
+                             key="placement", value=(x, y))
 
 
 def inside(machine_mm: np.ndarray, travel_mm) -> np.ndarray:

@@ -33,7 +33,9 @@ from inkarm.hardware.plotter.gcode_parser import (
     normalise,
     parse_block,
 )
+from inkarm.hardware.plotter.homing import travel as axes_travel
 from inkarm.hardware.plotter.interpreter import G28_INDEX, G30_INDEX, ParserState, execute_block
+from inkarm.hardware.plotter.settings import GRBL_DEFAULTS
 
 RX_BUFFER = 128  # GRBL 1.1h's serial receive buffer [bytes]: a line and its newline must fit
 _COMMENT = re.compile(r"\([^)]*\)?|;.*")
@@ -50,12 +52,15 @@ class GcodeJob:
         numbers: Each sent line's 1-based line number in the file.
         drawing: Whether each line is a feed move (it moves, in G1, G2 or G3: the pen draws)
             rather than a rapid (G0: travel) or a line that does not move.
+        extent: What :func:`work_extent` returns, found as the file is read (None: found
+            when asked).
     """
 
     path: str
     lines: tuple[str, ...]
     numbers: tuple[int, ...]
     drawing: tuple[bool, ...]
+    extent: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def bytes(self) -> int:
@@ -112,8 +117,8 @@ def read_gcode_file(path: str | Path) -> GcodeJob:
         raise InputError("no G-code line in it (expected G-code text: G0/G1 moves ...)",
                          file=name)
     job = GcodeJob(name, tuple(lines), tuple(numbers), ())
-    drawing = machine_targets(job)[1]
-    return GcodeJob(name, job.lines, job.numbers, tuple(drawing))
+    targets, drawing = machine_targets(job)
+    return GcodeJob(name, job.lines, job.numbers, tuple(drawing), _extent(targets))
 
 
 def machine_targets(job: GcodeJob, params: np.ndarray | None = None,
@@ -146,7 +151,14 @@ def work_extent(job: GcodeJob) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest point [mm] (x, y, z) the job's moves reach, in its own (work)
     coordinates from a machine at 0 with no offsets (the page frame of a file drawn from
     its origin)."""
-    points = np.array([p for _, p in machine_targets(job)[0]]) if job.lines else np.zeros((0, 3))
+    if job.extent is not None:
+        return job.extent
+    return _extent(machine_targets(job)[0])
+
+
+def _extent(targets: list[tuple[int, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest of ``targets``' points [mm] (zeros when there are none)."""
+    points = np.array([p for _, p in targets])
     if not len(points):
         return np.zeros(3), np.zeros(3)
     return points.min(axis=0), points.max(axis=0)
@@ -175,8 +187,7 @@ def check_reach(job: GcodeJob, settings: dict[int, float], homed: bool,
     the travel. A homed machine's space is [-$13x, 0] (GRBL 1.1h limits.c, see
     :mod:`.workspace`); one that does not home reaches [0, $13x] from where it powered up
     (the page's lower-left corner)."""
-    travel = np.array([settings.get(130, 200.0), settings.get(131, 200.0),
-                       settings.get(132, 200.0)])
+    travel = axes_travel({**GRBL_DEFAULTS, **settings})
     lo, hi = (-travel, np.zeros(3)) if homed else (np.zeros(3), travel)
     axes = 3 if homed and settings.get(20) else 2
     if params is None:
