@@ -24,9 +24,9 @@ draw: $(VENV)/.installed
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest
 
-bench: $(VENV)/.installed
+bench: $(VENV)/.installed  # BENCH_ARGS=--quick: a smoke run (BENCHMARKS.md says so)
 	$(BIN)/pip install -q -e ".[compare]"
-	$(BIN)/python benchmarks/run_all.py --write
+	$(BIN)/python benchmarks/run_all.py --write $(BENCH_ARGS)
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis

@@ -1,13 +1,14 @@
 """DPPLA speed against a plain triple loop, and seed 001's density/curvature figures.
 
-Run: ``python benchmarks/bench_dppla.py`` (``--quick`` for fewer repeats). Prints two markdown
+Run: ``python benchmarks/bench_dppla.py`` (``--quick`` for fewer blocks). Prints two markdown
 tables:
 
 1. Median wall time of :func:`inkarm.analysis.dppla.dppla` (exact and banded) and of a plain
    triple-loop DP (pure Python loops over segments k, end sample j and start sample i, each
-   segment error in O(1) from the same prefix sums), in the same process on the same input
-   (with ``--quick`` the slow loops run on shorter inputs and their time is extrapolated by the
-   exact count of inner-loop iterations at full size: their cost is linear in that count).
+   segment error in O(1) from the same prefix sums), in the same process on the same input, in
+   alternating blocks (:mod:`blocks`). The slow loops run on shorter inputs (shorter still with
+   ``--quick``) and their time is extrapolated by the exact count of inner-loop iterations at
+   full size: their cost is linear in that count.
 2. Seed 001 sec. 5 measures (Table 1 and the power-law exponent gamma) for a harmonic
    ellipse, a lemniscate and a script word from a Hershey font sampled at 200 Hz.
 """
@@ -16,11 +17,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import statistics
 import sys
-import time
 
 import numpy as np
+from blocks import interleave, load_line
 
 from inkarm.analysis.density import analyse_drawing
 from inkarm.analysis.dppla import dppla
@@ -119,53 +119,56 @@ def inner_iterations(w: int, k: int, band: int | None, window: bool = True) -> i
     return total
 
 
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
-
-
-def timing_table(repeats: int, quick: bool) -> None:
-    cases = [  # (label, w, k, banded, window, w for the triple loop with --quick, budget in [s])
-        ("banded (window around uniform)", 2000, 100, True, True, 2000, 0.5),
-        ("banded (paper's lb only)", 2000, 100, True, False, 500, None),
-        ("exact", 1000, 30, False, True, 250, 2.0),
+def timing_table(blocks: int, repeats: int, quick: bool) -> str:
+    """Print the timing table; returns the load line of its blocks."""
+    cases = [  # (label, w, k, banded, window, w of the triple loop (full, quick), budget [s])
+        ("banded (window around uniform)", 2000, 100, True, True, (2000, 2000), 0.5),
+        ("banded (paper's lb only)", 2000, 100, True, False, (1000, 500), None),
+        ("exact", 1000, 30, False, True, (500, 250), 2.0),
     ]
     print(
         "| DPPLA | w | k | band | inkarm [s] (median) | budget [s] | triple loop [s] "
         "| triple loop run at w | ratio | costs agree | cost / exact optimum |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for label, w, k, banded, window, w_quick, budget in cases:
-        w_loop = w_quick if quick else w
+    first = last = None
+    for label, w, k, banded, window, w_loops, budget in cases:
+        w_loop = w_loops[quick]
         x = smooth_curve(w)
         band = math.ceil(2 * w / k) if banded else None
 
         def run(x=x, k=k, banded=banded, window=window):
             return dppla(x, k, banded=banded, window=window, verify=False)
 
-        t_fast = median_time(run, repeats)
         quality = run().cost / dppla(x, k).cost  # untimed: what the band costs
         # The band scales with w / k: keep k w_loop / w segments on the shorter run.
         k_loop = max(1, round(k * w_loop / w))
         x_loop = smooth_curve(w_loop)
         band_loop = math.ceil(2 * w_loop / k_loop) if banded else None
-        t0 = time.perf_counter()
-        loop_cost, n_loop = triple_loop(x_loop, k_loop, band_loop, window)
-        t_loop = (time.perf_counter() - t0) * inner_iterations(w, k, band, window) / n_loop
+        scale = inner_iterations(w, k, band, window) / inner_iterations(
+            w_loop, k_loop, band_loop, window)
+        loop_costs = []
+
+        def loop(x_loop=x_loop, k_loop=k_loop, band_loop=band_loop, window=window,
+                 loop_costs=loop_costs):
+            loop_costs.append(triple_loop(x_loop, k_loop, band_loop, window)[0])
+
+        result = interleave({"inkarm": run, "loop": loop}, blocks=blocks,
+                            repeats={"inkarm": repeats, "loop": 1}, warmup=0)
+        first = first or result
+        last = result
+        t_fast, t_loop = result.median("inkarm"), scale * result.median("loop")
         reference = dppla(
             x_loop, k_loop, banded=banded, band=band_loop, window=window, verify=False
         ).cost
-        agree = abs(loop_cost - reference) <= 1e-6 * max(reference, 1.0)
+        agree = all(abs(c - reference) <= 1e-6 * max(reference, 1.0) for c in loop_costs)
         extrapolated = "" if w_loop == w else " (extrapolated)"
         print(
             f"| {label} | {w} | {k} | {band or '-'} | {t_fast:.3f} | {budget or '-'} | "
             f"{t_loop:.2f}{extrapolated} | {w_loop} (k={k_loop}) | {t_loop / t_fast:.0f}x | "
             f"{agree} | {quality:.4f} |"
         )
+    return load_line(first.load_before, last.load_after)
 
 
 def harmonic_ellipse(rate: float) -> Trajectory:
@@ -246,15 +249,19 @@ def analysis_table() -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
-                        help="one repeat instead of seven; slow triple loops on shorter inputs")
+                        help="two blocks instead of five; slow triple loops on shorter inputs")
     args = parser.parse_args(argv)
     print("## dppla: adaptive sampling of traces (seed 001)\n")
-    print("Times are medians; the reference is a plain triple-loop DPPLA with the same O(1) "
-          "segment costs, run once in the same process on the same input. Below: "
-          "density-curvature correlation and gamma of seed 001 sec. 5. "
+    blocks, repeats = (2, 2) if args.quick else (5, 3)
+    print(f"The reference is a plain triple-loop DPPLA with the same O(1) segment costs, in the "
+          f"same process on the same curve; the two run in {blocks} alternating blocks ("
+          f"{repeats} calls of inkarm's, one triple loop a block), times are the medians of the "
+          "blocks' medians. The triple loop runs on a shorter input where it says so, its time "
+          "scaled by the exact count of inner-loop iterations at full size (its cost is linear "
+          "in that count). Below: density-curvature correlation and gamma of seed 001 sec. 5. "
           f"python {sys.version.split()[0]}, numpy {np.__version__}.\n")
-    timing_table(1 if args.quick else 7, args.quick)
-    print()
+    load = timing_table(blocks, repeats, args.quick)
+    print(f"\n{load}\n")
     analysis_table()
     return 0
 

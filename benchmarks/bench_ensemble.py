@@ -39,6 +39,11 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from inkarm.jobs.backends.sim import SimSession
 from inkarm.jobs.ensemble import iter_ensemble
 from inkarm.jobs.ensemble.workers import available_cpus, shutdown_workers, worker_cpu_seconds
 from inkarm.jobs.run import Run, run
@@ -92,6 +97,29 @@ def batched(path: str, seeds: list[int], processes: int, nthread: int = 0, cold:
     return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 
 
+def rollout_floor(path: str, seeds: list[int]) -> float:
+    """CPU [s] of ``mujoco.rollout`` over the members: each member's own plant model from its
+    start state, for as many physics steps as its run took, its logged torques held over each
+    control period (the physics without any controller: the floor of a member's cost)."""
+    cases = []
+    for seed in seeds:
+        scenario = with_point(load_scenario(path), {"plant.seed": seed})
+        plant = SimSession(scenario).plant
+        plant = getattr(plant, "plant", plant)  # (the MujocoPlant inside a servo wrapper)
+        model, data = plant.model, plant.data
+        state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+        mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        torques = run(scenario).log.torque
+        control = np.zeros((len(torques) * plant.substeps, model.nu))
+        control[:, plant._arm_ctrl] = np.repeat(np.nan_to_num(torques), plant.substeps, axis=0)
+        cases.append((model, data, state, control))
+    runner = rollout.Rollout(nthread=0)
+    cpu = time.process_time()
+    for model, data, state, control in cases:
+        runner.rollout(model, data, state[None], control[None], skip_checks=False)
+    return time.process_time() - cpu
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--members", type=int, default=None)
@@ -135,6 +163,13 @@ def main() -> int:
     for name, wall, cpu, simulated, _ in rows:
         print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
               f"{n / wall / reference:.2f}x | {cpu / n:.3f} | {reference_cpu / (cpu / n):.2f}x |")
+    floor = statistics.median(rollout_floor(args.scenario, seeds[:8]) / min(n, 8)
+                              for _ in range(args.repeat))
+    kept = rows[-1][2] / n
+    print(f"\nPhysics floor: `mujoco.rollout` of each member's plant model with its logged "
+          f"torques (8 members, one thread): {floor:.3f} s of CPU per member; the last "
+          f"executor above takes {kept / floor:.1f}x that (target <= 2x: "
+          f"{'ok' if kept / floor <= 2.0 else 'MISSED'}).")
     pool, batch = rows[0][4], rows[-1][4]
     shutdown_workers()
     same_status = sum(a[0] == b[0] for a, b in zip(pool, batch))

@@ -4,8 +4,9 @@ report included) at several raster resolutions, each in a fresh process.
 
 Run: ``python benchmarks/bench_memory.py [--quick] [--ppm 10 20 40]``. Prints a markdown section:
 a table of px/mm, page pixels, peak RSS (``ru_maxrss`` of the child, from ``os.wait4``) and
-wall time (run, write), then the least-squares line peak RSS = constant + bytes/px x page
-pixels, set beside :data:`inkarm.ink.canvas.RASTER_BYTES_PER_PX`, the bytes per page pixel
+wall time (run, write; the resolutions in ``--repeats`` alternating blocks, medians, the load
+average beside), then the least-squares line peak RSS = constant + bytes/px x page pixels, set
+beside :data:`inkarm.ink.canvas.RASTER_BYTES_PER_PX`, the bytes per page pixel
 that the memory budget (``INKARM_MAX_MEMORY_MB``) charges a job for its raster. The fitted
 slope must stay below it (the target). A fresh process that only imports what a run imports
 (inkarm, MuJoCo, matplotlib) gives the baseline the constant is compared with.
@@ -17,14 +18,17 @@ does not stop the measurement of what it estimates.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+from blocks import interleave
 
 DEFAULT_PPM = (10.0, 20.0, 40.0)
 
@@ -71,15 +75,25 @@ def section(ppms, repeats: int) -> str:
         from inkarm.ink.canvas import RASTER_BYTES_PER_PX as budget
     except ImportError:  # an inkarm from before the budget
         budget = float("nan")
-    _, base_rss, _ = measure_child(IMPORT_ONLY)
+    children: dict[str, list] = {"import": [], **{f"{ppm:g}": [] for ppm in ppms}}
+
+    def child(name: str, code: str, *args: str) -> float:
+        children[name].append(measure_child(code, *args))
+        return children[name][-1][2]
+
+    cases = {"import": functools.partial(child, "import", IMPORT_ONLY),
+             **{f"{ppm:g}": functools.partial(child, f"{ppm:g}", CHILD, str(ppm), "out")
+                for ppm in ppms}}
+    result = interleave(cases, blocks=repeats, repeats=1, warmup=0, clock=None)
+    base_rss = min(r[1] for r in children["import"])
     rows, pixels, peaks = [], [], []
     for ppm in ppms:
-        runs = [measure_child(CHILD, str(ppm), "out") for _ in range(repeats)]
+        runs = children[f"{ppm:g}"]
         info = runs[0][0]
         peak = min(r[1] for r in runs)
-        wall = sorted(r[2] for r in runs)[len(runs) // 2]
-        run_s = sorted(r[0]["run_s"] for r in runs)[len(runs) // 2]
-        write_s = sorted(r[0]["write_s"] for r in runs)[len(runs) // 2]
+        wall = result.median(f"{ppm:g}")
+        run_s = statistics.median(r[0]["run_s"] for r in runs)
+        write_s = statistics.median(r[0]["write_s"] for r in runs)
         pixels.append(info["pixels"])
         peaks.append(peak)
         rows.append(f"| {ppm:g} | {info['pixels'] / 1e6:.1f} M | {peak / 2**20:.0f} MB | "
@@ -93,8 +107,10 @@ def section(ppms, repeats: int) -> str:
         "",
         "The default scenario (60 mm letter N, marker, A4) drawn and written, report included, "
         "in a fresh process per resolution; peak RSS is the child's `ru_maxrss`"
-        + (f" (least of {repeats})" if repeats > 1 else "") + ". "
-        f"A process that only imports what a run imports peaks at {base_rss / 2**20:.0f} MB.",
+        + (f" (least of {repeats}; the resolutions and the import-only process in {repeats} "
+           "alternating blocks, wall times their medians)" if repeats > 1 else "") + ". "
+        f"A process that only imports what a run imports peaks at {base_rss / 2**20:.0f} MB "
+        f"({result.median('import'):.1f} s).",
         "",
         "| px/mm | page pixels | peak RSS | bytes/px above import | wall | run | write | status |",
         "|---|---|---|---|---|---|---|---|",
@@ -104,6 +120,8 @@ def section(ppms, repeats: int) -> str:
         f"pixels. The memory budget charges {budget:g} bytes per page pixel "
         f"(`inkarm.ink.canvas.RASTER_BYTES_PER_PX`): "
         + ("**met**" if ok else "**NOT met**") + " (fitted slope <= charged bytes/px).",
+        "",
+        result.load_line(),
     ]
     return "\n".join(lines)
 
@@ -112,7 +130,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="10 and 20 px/mm only, once each")
     parser.add_argument("--ppm", type=float, nargs="*", default=None, help="resolutions [px/mm]")
-    parser.add_argument("--repeats", type=int, default=1, help="runs per resolution")
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="alternating blocks (runs per resolution)")
     args = parser.parse_args()
     ppms = args.ppm or ((10.0, 20.0) if args.quick else DEFAULT_PPM)
     print(section(ppms, 1 if args.quick else args.repeats))

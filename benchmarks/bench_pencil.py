@@ -6,16 +6,19 @@ wave drawn at 1 N and touched at 1 kHz (the plant's physics rate: 1000 touches),
 of 10 and 20 px/mm. Rows: the marker (reference), the pencil without texture (its plain
 force-dependent mark), the textured pencil (HB and 8B: the texture is synthesized at the lift),
 and the synthesis alone (fill, repair, blur) of a straight 100 mm strip of the grade's width.
-Prints a markdown table of median times, lines per second and the ratio to the marker.
+The cases run in alternating blocks (:mod:`blocks`; a block is ``repeats`` lines of one case,
+each with its own seed); prints a markdown table of the medians of the blocks' median times,
+lines per second and the ratio to the marker, with the load average beside it.
 """
 
 from __future__ import annotations
 
 import argparse
-import statistics
+import itertools
 import time
 
 import numpy as np
+from blocks import interleave, load_line
 
 from inkarm.ink.canvas import Canvas, MarkerInk, PencilInk
 from inkarm.ink.pencil_synthesis import synthesize_line
@@ -52,30 +55,36 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats")
     args = parser.parse_args()
-    repeats = 3 if args.quick else 9
+    blocks, repeats = (2, 2) if args.quick else (5, 3)
     points = wave()
-    cases = [
-        ("marker (reference)", lambda ppm, s: draw(MarkerInk(), ppm, points)),
-        ("pencil, no texture", lambda ppm, s: draw(PencilInk(texture=False), ppm, points)),
-        ("pencil HB, textured at the lift", lambda ppm, s: draw(PencilInk(seed=s), ppm, points)),
-        ("pencil 8B, textured at the lift",
-         lambda ppm, s: draw(PencilInk(grade="8B", seed=s), ppm, points)),
-        ("synthesis alone, HB strip", lambda ppm, s: synthesis("HB", ppm, s)),
-        ("synthesis alone, 8B strip", lambda ppm, s: synthesis("8B", ppm, s)),
-    ]
-    for _, run in cases:  # warm up: imports, profile files, caches
-        run(10.0, 0)
+    seeds = itertools.count()
+    cases = {
+        "marker (reference)": lambda ppm: draw(MarkerInk(), ppm, points),
+        "pencil, no texture": lambda ppm: draw(PencilInk(texture=False), ppm, points),
+        "pencil HB, textured at the lift":
+            lambda ppm: draw(PencilInk(seed=next(seeds)), ppm, points),
+        "pencil 8B, textured at the lift":
+            lambda ppm: draw(PencilInk(grade="8B", seed=next(seeds)), ppm, points),
+        "synthesis alone, HB strip": lambda ppm: synthesis("HB", ppm, next(seeds)),
+        "synthesis alone, 8B strip": lambda ppm: synthesis("8B", ppm, next(seeds)),
+    }
     print("## Pencil texture (seed 002 ch. 4)\n")
-    print(f"One {LENGTH_MM:g} mm line, {TOUCHES} touches at 1 N; median of {repeats} runs. "
-          "Ratio: time over the marker's at the same resolution.\n")
+    print(f"One {LENGTH_MM:g} mm line, {TOUCHES} touches at 1 N; the cases in {blocks} "
+          f"alternating blocks of {repeats} lines, medians of the blocks' medians. Ratio: time "
+          "over the marker's at the same resolution.\n")
     print("| case | px/mm | median [ms] | lines/s | ratio to marker |")
     print("|---|---|---|---|---|")
+    loads = []
     for ppm in (10.0, 20.0):
-        medians = [statistics.median(run(ppm, s) for s in range(repeats)) for _, run in cases]
-        for (name, _), median in zip(cases, medians):
+        result = interleave({name: (lambda run=run, ppm=ppm: run(ppm)) for name, run in cases.items()},
+                            blocks=blocks, repeats=repeats, clock=None)
+        loads.append(result)
+        reference = next(iter(cases))
+        for name in cases:
+            median = result.median(name)
             print(f"| {name} | {ppm:g} | {1e3 * median:.1f} | {1.0 / median:.1f} | "
-                  f"{median / medians[0]:.1f} |")
-    print()
+                  f"{result.ratio(name, reference):.1f} |")
+    print(f"\n{load_line(loads[0].load_before, loads[-1].load_after)}\n")
 
 
 if __name__ == "__main__":

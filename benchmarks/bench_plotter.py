@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from blocks import interleave, timed
 
 from inkarm.hardware.plotter.emulator import EmulatorConfig, GrblEmulator
 from inkarm.hardware.plotter.gcode import drawing_to_gcode
@@ -39,15 +40,6 @@ def random_walk(n: int) -> list[str]:
             + [f"G1 X{x:.3f} Y{y:.3f}" for x, y in pts] + ["M5"])
 
 
-def median_time(fn, repeats: int) -> tuple[float, object]:
-    times, result = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), result
-
-
 def stream_once(lines: list[str], speedup: float) -> tuple[float, float, int]:
     """Wall time [s], emulator execution time [s] and bytes lost of one streamed job."""
     with GrblEmulator(EmulatorConfig(speedup=speedup)) as emu:
@@ -64,38 +56,51 @@ def stream_once(lines: list[str], speedup: float) -> tuple[float, float, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    parser.add_argument("--quick", action="store_true", help="fewer blocks")
     args = parser.parse_args()
-    repeats = 1 if args.quick else 3
+    blocks = 2 if args.quick else 3
     scenario = load_scenario(ROOT / "scenarios" / "text_inkarm.toml")
     drawing = placed_on_sheet(scenario, page_size_mm(scenario))
     profile = load_profile("servo")
-    gen_s, job = median_time(lambda: drawing_to_gcode(drawing, profile, optimise=True), repeats)
-    word = job.lines
+    word = drawing_to_gcode(drawing, profile, optimise=True).lines
     walk = random_walk(2000)
+    jobs = {"2,000-line walk": (walk, 10.0), "word 'inkarm'": (word, 2.0)}
+    streamed: dict[str, list] = {name: [] for name in jobs}
+    cases = {"gcode": timed(lambda: drawing_to_gcode(drawing, profile, optimise=True))}
+    for name, (lines, speedup) in jobs.items():
+        cases[f"estimate {name}"] = timed(lambda lines=lines: estimate_seconds(lines))
+
+        def stream(name=name, lines=lines, speedup=speedup):
+            streamed[name].append(stream_once(lines, speedup))
+            return streamed[name][-1][0]
+
+        cases[f"stream {name}"] = stream
+    result = interleave(cases, blocks=blocks, warmup=0, clock=None,
+                        repeats={n: 1 if n.startswith("stream") else 3 for n in cases})
     rows = []
-    for name, lines, speedup in (("2,000-line walk", walk, 10.0), ("word 'inkarm'", word, 2.0)):
-        est_s, machine = median_time(lambda lines=lines: estimate_seconds(lines), repeats)
-        runs = [stream_once(lines, speedup) for _ in range(repeats)]
-        wall = statistics.median(r[0] for r in runs)
+    for name, (lines, speedup) in jobs.items():
+        machine = estimate_seconds(lines)
+        if name.startswith("word"):
+            rows.append((f"G-code of {name} ({len(lines)} lines)", result.median("gcode"), machine))
+        rows.append((f"estimate of {name}", result.median(f"estimate {name}"), machine))
+        runs = streamed[name]
+        wall = result.median(f"stream {name}")
         executed = statistics.median(r[1] for r in runs)
         lost = max(r[2] for r in runs)
-        if name.startswith("word"):
-            rows.append((f"G-code of {name} ({len(lines)} lines)", gen_s, machine))
-        rows.append((f"estimate of {name}", est_s, machine))
         rows.append(((f"stream of {name} to the emulator at speed-up {speedup:g} "
                      f"({len(lines) / wall:.0f} lines/s wall; executed {executed:.2f} s, "
                      f"{100 * (executed / machine - 1):+.2f}% vs estimate; {lost} bytes lost)"),
                      wall, machine))
     print("## plotter: G-code, planner model and streaming to the GRBL emulator\n")
-    print("Medians of wall time; the reference is each job's machine time on GRBL's planner "
-          "(the estimate); ratio = machine time / wall time. GRBL executes about 400 lines/s "
-          "at most.\n")
+    print(f"The steps run in {blocks} alternating blocks (3 calls a block, one stream); wall "
+          "times are medians of the blocks' medians. The reference is each job's machine time "
+          "on GRBL's planner (the estimate, computed, not timed); ratio = machine time / wall "
+          "time. GRBL executes about 400 lines/s at most.\n")
     print("| step | wall [s] | job machine time [s] | ratio |")
     print("|---|---|---|---|")
     for label, wall, machine in rows:
         print(f"| {label} | {wall:.3f} | {machine:.2f} | {machine / wall:.1f} |")
-    print()
+    print(f"\n{result.load_line()}\n")
 
 
 if __name__ == "__main__":

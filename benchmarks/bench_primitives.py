@@ -1,86 +1,134 @@
-"""EM iteration of the motor-primitive fHMM (seed 004) against a plain-loop implementation.
+"""Motor primitives (seed 004): one E-step sweep against the scaled forward-backward floor.
 
-Run: ``python benchmarks/bench_primitives.py`` (``--quick``: one repeat, and the loops on 20 of
-the 200 sequences, their time scaled by 10: the loops' cost is linear in the number of
-sequences, every sequence being the same length; the models are then compared on those 20).
-Prints one markdown
-table: the median wall time of one EM iteration (E-step of ``--sweeps`` Gauss-Seidel sweeps over
-the chains, then the M-step) for 200 sequences of 100 samples, M = 20 chains of K = 10 states,
-D = 3, with :mod:`inkarm.models.primitives` (forward-backward vectorised over the sequences)
-and with :func:`inkarm.models.primitives.reference.em_iteration_loops` (one sequence and one
-chain at a time; the same numbers), in the same process on the same data, and their ratio.
-Both start from the same model and the same all-silent posterior.
+Run: ``python benchmarks/bench_primitives.py`` (``--quick``: 2 blocks of 1 call, the plain loops
+on 5 sequences). Prints one markdown section. The problem has the README's training sizes: 200
+sequences of 260 samples, M = 12 chains of K = 16 states, D = 3, no self loops, data drawn
+from a random model of that size; the model is the paper's initialisation, warmed by two sweeps.
+
+* subject: one Gauss-Seidel sweep of :func:`inkarm.models.primitives.e_step` (for each chain:
+  its residual and responsibilities, eq. 7-9, its scaled forward-backward, the residual update
+  and the convergence test);
+* reference, the floor: for each chain, the textbook scaled forward-backward
+  (:func:`inkarm.models.primitives.reference.scaled_forward_backward`, Rabiner's, vectorised
+  over the sequences) on that chain's responsibilities (eq. 7-9 given the warm posterior),
+  giving the same posteriors: the E-step cannot cost less than its forward-backward passes;
+* info, in the same blocks: inkarm's own scaled forward-backward of each chain alone, and the
+  log-domain one (inkarm's before, now its fallback where the scaled one underflows;
+  :func:`inkarm.models.primitives.inference.log_forward_backward`);
+* info: one EM iteration of one sweep as plain loops (one sequence and one chain at a time,
+  log-domain; :func:`inkarm.models.primitives.reference.em_iteration_loops`) on a few sequences,
+  its time scaled to all 200 (the cost is linear in the sequences, all the same length).
+
+Subject and reference run in alternating blocks (``benchmarks/blocks.py``); each row is the
+median of the block medians; the load average is printed beside the table.
 """
 
 from __future__ import annotations
 
 import argparse
-import statistics
 import time
 
 import numpy as np
+from blocks import interleave
 
-from inkarm.models.primitives import Batch, PrimitivesConfig, e_step, initial_model, m_step
+from inkarm.models.primitives import Batch, PrimitivesConfig, e_step, initial_model
 from inkarm.models.primitives.generate import sample
-from inkarm.models.primitives.reference import em_iteration_loops
+from inkarm.models.primitives.inference import (
+    forward_backward,
+    log_forward_backward,
+    log_responsibility,
+)
+from inkarm.models.primitives.reference import em_iteration_loops, scaled_forward_backward
 
-N_SEQ, T, M, K, D = 200, 100, 20, 10, 3
+N_SEQ, T, M, K, D = 200, 260, 12, 16, 3
 
 
 def problem(seed: int = 0):
+    """(sequences, batch, config, model, warm posterior) of the README's training sizes."""
     rng = np.random.default_rng(seed)
-    config = PrimitivesConfig(n_chains=M, n_states=K)
+    config = PrimitivesConfig(n_chains=M, n_states=K, self_loops=False)
     truth = initial_model(Batch.of(rng.normal(size=(N_SEQ, T, D))), config, rng)
     seqs = [sample(truth, T, rng)[0] for _ in range(N_SEQ)]
     batch = Batch.of(seqs)
-    return seqs, batch, config, initial_model(batch, config, rng)
+    model = initial_model(batch, config, rng)
+    return seqs, batch, config, model, e_step(model, batch, max_sweeps=2, tol=0.0)
 
 
-def vectorised(model, batch, config, sweeps):
-    post = e_step(model, batch, None, max_sweeps=sweeps, tol=0.0)
-    return m_step(model, batch, post, config)
-
-
-def loops(model, seqs, config, sweeps):
-    silent = [[np.eye(K)[np.zeros(len(Y), int)] for _ in range(M)] for Y in seqs]
-    return em_iteration_loops(model, seqs, silent, config, sweeps)[0]
-
-
-def timed(fn, repeats):
-    times, out = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), out
+def responsibilities(model, batch, post) -> list[np.ndarray]:
+    """Each chain's (T, B, K) log h (eq. 7-9) given the other chains' <S> in ``post``."""
+    P = np.linalg.inv(model.C)
+    own = [c.gamma @ model.W[m] for m, c in enumerate(post.chains)]
+    residual = batch.Y - sum(own)
+    mask = batch.mask[..., None].astype(float)
+    return [log_responsibility(model, m, np.concatenate([residual + own[m], mask], axis=-1), P)
+            for m in range(model.n_chains)]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one repeat of each")
-    parser.add_argument("--sweeps", type=int, default=2, help="E-step sweeps (default 2)")
+    parser.add_argument("--quick", action="store_true", help="2 blocks of 1 call")
     args = parser.parse_args()
-    seqs, batch, config, model = problem()
-    repeats = 1 if args.quick else 3
-    t_vec, new = timed(lambda: vectorised(model, batch, config, args.sweeps), repeats)
-    n_loop = 20 if args.quick else N_SEQ
-    t_loop, ref = timed(lambda: loops(model, seqs[:n_loop], config, args.sweeps), 1)
-    t_loop *= N_SEQ / n_loop
-    if n_loop < N_SEQ:
-        new = vectorised(model, Batch.of(seqs[:n_loop]), config, args.sweeps)
-    same = max(float(np.max(np.abs(getattr(new, n) - getattr(ref, n))))
-               for n in ("W", "C", "start", "advance"))
-    scaled = f" (measured on {n_loop} sequences, x {N_SEQ // n_loop})" if n_loop < N_SEQ else ""
-    print(f"## Motor primitives (seed 004): one EM iteration\n\n"
-          f"{N_SEQ} sequences x {T} samples, M = {M} chains x K = {K} states, D = {D}; "
-          f"E-step of {args.sweeps} sweeps over the chains, then the M-step. Median of "
-          f"{repeats} (vectorised), 1 (loops). Largest difference between the two models: "
-          f"{same:.1e}.\n")
-    print("| implementation | EM iteration [s] | per sweep [s] | ratio to loops |")
-    print("|---|---:|---:|---:|")
-    print(f"| plain loops (reference){scaled} | {t_loop:.2f} | {t_loop / args.sweeps:.2f} | 1.0 |")
-    print(f"| inkarm.models.primitives | {t_vec:.2f} | {t_vec / args.sweeps:.2f} | "
-          f"{t_loop / t_vec:.1f}x faster |")
+    seqs, batch, config, model, warm = problem()
+    transitions = [model.transition_matrix(m) for m in range(M)]
+    log_h = responsibilities(model, batch, warm)
+
+    def sweep():
+        e_step(model, batch, warm, max_sweeps=1, tol=0.0)
+
+    def floor():
+        for m in range(M):
+            scaled_forward_backward(log_h[m], transitions[m], model.start[m], batch.mask)
+
+    def ours():
+        for m in range(M):
+            forward_backward(log_h[m], transitions[m], model.start[m], batch.mask)
+
+    log_stay, log_advance = model.log_transitions()
+    with np.errstate(divide="ignore"):
+        log_start = np.log(model.start)
+
+    def in_logs():
+        for m in range(M):
+            log_forward_backward(log_h[m], log_stay[m], log_advance[m], log_start[m],
+                                 batch.mask)
+
+    same = 0.0
+    for m in range(M):
+        gamma, log_z, _ = scaled_forward_backward(log_h[m], transitions[m], model.start[m],
+                                                  batch.mask)
+        post = forward_backward(log_h[m], transitions[m], model.start[m], batch.mask)
+        same = max(same, float(np.max(np.abs(gamma - post.gamma))),
+                   float(np.max(np.abs(log_z - post.log_z) / np.abs(log_z))))
+    blocks, repeats = (2, 1) if args.quick else (7, 3)
+    result = interleave({"sweep": sweep, "floor": floor, "ours": ours, "logs": in_logs},
+                        blocks=blocks,
+                        repeats={"sweep": repeats, "floor": repeats, "ours": 1, "logs": 1})
+    n_loop = 5 if args.quick else 20
+    silent = [[np.eye(K)[np.zeros(len(Y), int)] for _ in range(M)] for Y in seqs[:n_loop]]
+    start = time.perf_counter()
+    em_iteration_loops(model, seqs[:n_loop], silent, config, 1)
+    t_loop = (time.perf_counter() - start) * N_SEQ / n_loop
+    t_sweep, t_floor = result.median("sweep"), result.median("floor")
+    print(f"## Motor primitives (seed 004): one E-step sweep against the forward-backward "
+          f"floor\n\n"
+          f"{N_SEQ} sequences x {T} samples, M = {M} chains x K = {K} states, D = {D}, no self "
+          f"loops (the README's training sizes). {blocks} alternating blocks of {repeats} "
+          f"call(s) (1 for the info rows), median of the block medians. The floor is the textbook scaled "
+          f"forward-backward of every chain on the same responsibilities; its posteriors equal "
+          f"the E-step's to {same:.0e} (largest difference of <S>, relative of log Z). "
+          f"{result.load_line()}\n")
+    print("| implementation | one sweep [s] | ratio to the floor |")
+    print("|---|---:|---:|")
+    print(f"| inkarm E-step sweep (responsibilities, scaled forward-backward, residual) | "
+          f"{t_sweep:.3f} | {t_sweep / t_floor:.2f} |")
+    print(f"| scaled forward-backward of each chain (reference, the floor) | {t_floor:.3f} | "
+          f"1.00 |")
+    print(f"| inkarm's scaled forward-backward of each chain alone (info) | "
+          f"{result.median('ours'):.3f} | {result.median('ours') / t_floor:.2f} |")
+    print(f"| log-domain forward-backward of each chain (info: the fallback) | "
+          f"{result.median('logs'):.3f} | {result.median('logs') / t_floor:.2f} |")
+    print(f"| plain loops, log domain, one sequence at a time (info; {n_loop} sequences x "
+          f"{N_SEQ // n_loop}, with the M-step) | {t_loop:.2f} | {t_loop / t_floor:.0f} |")
 
 
 if __name__ == "__main__":

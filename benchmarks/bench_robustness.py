@@ -31,6 +31,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from blocks import load_average, load_line
 
 from inkarm.jobs.robustness import (
     ALL_AT_ONCE,
@@ -140,7 +141,7 @@ def main() -> int:
     parser.add_argument("--figure", type=Path, default=None, help="ensemble ink figure (PNG)")
     args = parser.parse_args()
     members = 8 if args.quick else args.members
-    t0 = time.perf_counter()
+    t0, load_before = time.perf_counter(), load_average()
     plants = {"exact twin": {}, **ONE_AT_A_TIME, "all of the above at once": ALL_AT_ONCE,
               "all at once but the elasticity": ALL_BUT_ELASTIC}
     careful = {**plants, "all at once, masses +20 % instead": {**ALL_AT_ONCE, "mass_scale": 1.2},
@@ -198,7 +199,8 @@ def main() -> int:
         print(f"| {name} | {r['status']} | {r['watchdog']} ({r['expected']}) | "
               f"{fmt(r['stopped_after_s'])} | {fmt(r['final_force_n'], 2)} | "
               f"{'yes' if r['meets'] else 'no'} |")
-    print(f"\n({time.perf_counter() - t0:.0f} s on {args.workers} workers.)\n")
+    print(f"\n({time.perf_counter() - t0:.0f} s on {args.workers} workers; no timed reference: "
+          f"the figures above are quality, not speed.) {load_line(load_before)}\n")
     if args.figure is not None:
         import matplotlib
 

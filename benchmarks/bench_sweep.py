@@ -6,16 +6,22 @@ Run: ``python benchmarks/bench_sweep.py [--runs N] [--scenario FILE] [--quick]``
 markdown table: wall time, runs per second, the aggregate real-time factor (simulated seconds
 of all runs over the wall time) and the throughput ratio against the serial loop. The pool's
 time includes starting its workers and writing the table (what a user waits for); the serial
-loop only runs. Default: 32 runs of the embedded default letter (``--quick``: 8).
+loop only runs. The executors run in alternating blocks (:mod:`blocks`), one sweep a block;
+times are the medians of the blocks. Default: 32 runs of the embedded default letter, 3 blocks
+(``--quick``: 8 runs, 2 blocks).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
+import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from blocks import interleave
 
 from inkarm.jobs.ensemble.workers import available_cpus
 from inkarm.jobs.run import run
@@ -63,21 +69,37 @@ def main() -> int:
     scenario = load_scenario(args.scenario)
     points = make_points([{}], tuple(range(n)))
     workers = available_cpus()
-    rows = [("serial loop (reference)", *serial(scenario, points))]
-    rows.append((f"process pool, {workers} workers", *pooled(scenario, points, "process", workers)))
+    blocks = 2 if args.quick else 3
+    runners = {"serial loop (reference)": lambda: serial(scenario, points),
+               f"process pool, {workers} workers": lambda: pooled(scenario, points, "process",
+                                                                  workers)}
     try:
         import ray  # noqa: F401
 
-        rows.append((f"Ray, local, {workers} CPUs", *pooled(scenario, points, "ray", workers)))
+        runners[f"Ray, local, {workers} CPUs"] = lambda: pooled(scenario, points, "ray", workers)
     except ImportError:
         print("(Ray not installed: its row left out)", file=sys.stderr)
-    reference = n / rows[0][1]
+    simulated: dict[str, list[float]] = {name: [] for name in runners}
+
+    def case(name):
+        wall, sim = runners[name]()
+        simulated[name].append(sim)
+        return wall
+
+    result = interleave({name: functools.partial(case, name) for name in runners},
+                        blocks=blocks, repeats=1, warmup=0, clock=None)
+    reference = next(iter(runners))
     print(f"## Sweeps: {n} runs of {scenario.title!r}\n")
+    print(f"The executors in {blocks} alternating blocks of one sweep each; wall times are the "
+          "medians of the blocks.\n")
     print("| executor | wall [s] | runs/s | aggregate real-time factor | throughput ratio |")
     print("|---|---|---|---|---|")
-    for name, wall, simulated in rows:
-        print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
-              f"{n / wall / reference:.2f}x |")
+    for name in runners:
+        wall = result.median(name)
+        sim = statistics.median(simulated[name])
+        print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {sim / wall:.1f} | "
+              f"{1 / result.ratio(name, reference):.2f}x |")
+    print(f"\n{result.load_line()}\n")
     return 0
 
 

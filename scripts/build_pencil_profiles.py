@@ -13,9 +13,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from inkarm.ink.graphite import GRAPHITE_GRADES, REFERENCE_FORCE_N, render_scan
+from inkarm.ink.graphite import REFERENCE_FORCE_N, reference_scan
 from inkarm.ink.pencil_extract import SCAN_PX_PER_MM, extract_profile
 from inkarm.ink.pencil_profile import GRADES, save_profile
 
@@ -24,10 +22,8 @@ LENGTH_MM = 40.0
 
 def main(out_dir: Path) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
-    for index, grade in enumerate(GRADES):
-        scan = render_scan(GRAPHITE_GRADES[grade], length_mm=LENGTH_MM,
-                           force_n=REFERENCE_FORCE_N, px_per_mm=SCAN_PX_PER_MM,
-                           rng=np.random.default_rng(1000 + index))
+    for grade in GRADES:
+        scan = reference_scan(grade, LENGTH_MM)
         profile = extract_profile(
             scan, name=grade, px_per_mm=SCAN_PX_PER_MM, reference_force_n=REFERENCE_FORCE_N,
             source=f"synthetic scan of the graphite model (inkarm.ink.graphite), grade {grade}, "

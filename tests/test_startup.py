@@ -1,6 +1,6 @@
-"""What starting inkarm costs: `import inkarm`, the CLI's parser (`inkarm --help`) and a
-plotter's `inkarm gcode` load none of the heavy libraries they do not use (each in a fresh
-process: what is imported is what a user waits for)."""
+"""What starting inkarm costs: `import inkarm`, the CLI's parser (`inkarm --help`), a
+plotter's `inkarm gcode` and the arm's `inkarm draw` load none of the heavy libraries they do
+not use (each in a fresh process: what is imported is what a user waits for)."""
 
 from __future__ import annotations
 
@@ -31,6 +31,10 @@ def test_import_inkarm_loads_no_heavy_library():
     assert loaded_after("import inkarm") == set()
 
 
+def test_the_report_module_loads_no_matplotlib():
+    assert "matplotlib" not in loaded_after("import inkarm.plots.report, inkarm.jobs.outputs")
+
+
 def test_the_clis_help_loads_no_heavy_library():
     assert loaded_after("""
         from inkarm.cli import build_parser
@@ -49,3 +53,17 @@ def test_gcode_for_a_plotter_loads_no_simulator_and_no_figures(tmp_path):
                      {str(tmp_path / "job.gcode")!r}]) == 0
     """)
     assert not loaded & {"mujoco", "matplotlib", "pyarrow", "ray", "glfw", "dynamixel_sdk"}
+
+
+@pytest.mark.sim
+def test_draw_writes_its_report_without_matplotlib(tmp_path):
+    """`inkarm draw` (report.png included) loads MuJoCo, which drawing uses, and none of
+    matplotlib (report.png is drawn with Pillow) nor the other backends' libraries."""
+    loaded = loaded_after(f"""
+        from inkarm.cli import main
+        assert main(["draw", "scenarios/quick_stroke.toml", "--quiet", "--out",
+                     {str(tmp_path / "out")!r}]) == 0
+    """)
+    assert (tmp_path / "out" / "report.png").is_file()
+    assert "mujoco" in loaded
+    assert not loaded & {"matplotlib", "pyarrow", "ray", "dynamixel_sdk", "skimage"}

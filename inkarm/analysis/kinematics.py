@@ -14,6 +14,7 @@ Units: positions in [mm], times in [s]; speed in [mm/s], curvature in [1/mm], je
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from scipy.signal import find_peaks
@@ -107,19 +108,119 @@ def jerk_cost(traj: Trajectory) -> float:
     return cost
 
 
+PEAK_PROMINENCE = 1e-6
+"""Smallest prominence of a speed peak, as a fraction of the top speed."""
+
+
 def speed_peaks(traj: Trajectory, threshold: float = 0.1) -> int:
     """Number of local maxima of the speed higher than ``threshold`` times its maximum.
 
-    A plateau counts once; a maximum at the first or last sample does not count.
+    A plateau counts once; a maximum at the first or last sample does not count, nor one that
+    stands out by less than :data:`PEAK_PROMINENCE` of the maximum (rounding noise on a
+    constant speed).
     """
+    return int(speed_peak_indices(traj, threshold).size)
+
+
+def speed_peak_indices(traj: Trajectory, threshold: float = 0.1,
+                       prominence: float = PEAK_PROMINENCE) -> np.ndarray:
+    """Sample indices (int, increasing) of the speed peaks that :func:`speed_peaks` counts,
+    or, with a larger ``prominence`` (a fraction of the top speed), of those that stand out
+    of the speed minima on both sides by that much (scipy.signal.peak_prominences)."""
     if not 0.0 <= threshold < 1.0:
-        raise InputError(f"speed_peaks threshold: expected a fraction in [0, 1), got {threshold}")
+        raise InputError(f"speed_peaks threshold: expected a fraction in [0, 1), got {threshold}",
+                         key="threshold", value=threshold)
     v = speed(traj)
     vmax = float(np.max(v)) if v.size else 0.0
     if vmax <= 0:
-        return 0
-    peaks, _ = find_peaks(v, height=threshold * vmax)
-    return int(peaks.size)
+        return np.zeros(0, dtype=int)
+    if not 0.0 <= prominence < 1.0:
+        raise InputError(f"speed peak prominence: expected a fraction in [0, 1), got "
+                         f"{prominence}", key="prominence", value=prominence)
+    peaks, _ = find_peaks(v, height=threshold * vmax, prominence=max(prominence, PEAK_PROMINENCE)
+                          * vmax)
+    return peaks.astype(int)
+
+
+@dataclass(frozen=True)
+class SpeedPulse:
+    """One speed pulse: sample indices of its start, peak and end.
+
+    The pulse around a speed peak runs from the speed minimum between it and the previous peak
+    (or the stroke's first sample) to the minimum before the next peak (or the last sample).
+    """
+
+    start: int
+    peak: int
+    end: int
+
+    def asymmetry(self, t: np.ndarray) -> float:
+        """(t_peak - t_start) / (t_end - t_start): 0.5 for a symmetric pulse (minimum jerk),
+        below 0.5 when the pulse rises faster than it falls (a lognormal)."""
+        return float((t[self.peak] - t[self.start]) / (t[self.end] - t[self.start]))
+
+
+def speed_pulses(traj: Trajectory, threshold: float = 0.1,
+                 prominence: float = PEAK_PROMINENCE) -> list[SpeedPulse]:
+    """The pulses around the speed peaks of :func:`speed_peak_indices`, in time order;
+    consecutive pulses share their boundary sample."""
+    peaks = speed_peak_indices(traj, threshold, prominence)
+    if peaks.size == 0:
+        return []
+    v = speed(traj)
+    bounds = [0] + [int(a + np.argmin(v[a:b])) for a, b in pairwise(peaks)]
+    bounds.append(traj.n - 1)
+    return [SpeedPulse(bounds[i], int(p), bounds[i + 1]) for i, p in enumerate(peaks)]
+
+
+def path_length(traj: Trajectory) -> float:
+    """Length of the polyline through the samples, in [mm]."""
+    return float(np.sum(np.linalg.norm(np.diff(traj.pos, axis=0), axis=1)))
+
+
+def normalised_jerk(traj: Trajectory) -> float:
+    """Dimensionless jerk sqrt(1/2 * integral |d^3x/dt^3|^2 dt * T^5 / L^2), T the duration
+    [s] and L the path length [mm] (Teulings et al. 1997, with L the amplitude).
+
+    Independent of size and duration; a minimum-jerk point-to-point movement has sqrt(360)
+    = 18.97 (its cost is 720 L^2 / T^5, :func:`jerk_cost`).
+    """
+    length = path_length(traj)
+    if length <= 0:
+        raise InputError("normalised_jerk: the pen does not move (path length 0 mm)")
+    duration = float(traj.t[-1] - traj.t[0])
+    return float(np.sqrt(0.5 * jerk_cost(traj) * duration**5 / length**2))
+
+
+def lowpass(traj: Trajectory, cutoff_hz: float, order: int = 2) -> Trajectory:
+    """The positions low-pass filtered forwards and backwards (zero phase) by a Butterworth
+    filter of ``order`` with its -3 dB point at ``cutoff_hz`` [Hz] (the filtfilt'ed response
+    is -6 dB there), on the mean sampling rate; velocities and pressure are dropped (the
+    derivatives then come from the filtered positions). The ends are padded by point
+    reflection (odd extension) over the stroke's length, so a line at constant speed is kept.
+
+    Returned unchanged when the cutoff is at or above the Nyquist frequency (nothing to
+    remove) or the stroke is too short for the filter's padding (3 (order + 1) samples).
+    """
+    if not (np.isfinite(cutoff_hz) and cutoff_hz > 0):
+        raise InputError(f"lowpass cutoff: expected a positive frequency in Hz, got {cutoff_hz}",
+                         key="cutoff_hz", value=cutoff_hz)
+    if order not in range(1, 9):
+        raise InputError(f"lowpass order: expected 1 to 8, got {order}", key="order", value=order)
+    if traj.n <= 3 * (order + 1):
+        return traj
+    dt = float(traj.t[-1] - traj.t[0]) / (traj.n - 1)
+    wn = 2.0 * cutoff_hz * dt  # fraction of the Nyquist frequency
+    if wn >= 1.0:
+        return traj
+    from scipy.signal import butter, filtfilt
+
+    b, a = butter(order, wn)
+    # Padded by point reflection about each end over the whole stroke: a straight line at
+    # constant speed comes out exact (the default 3 (order + 1) samples leave the filter's
+    # start-up transient in the first and last tenths of a second: false speed peaks).
+    return Trajectory(t=traj.t, pos=filtfilt(b, a, traj.pos, axis=0, padtype="odd",
+                                             padlen=traj.n - 1))
 
 
 @dataclass(frozen=True)
@@ -151,6 +252,14 @@ def power_law_fit(
     starting or stopping) or where the path is nearly straight, r > ``max_radius`` [mm]
     (inflections, where log r blows up).
     """
+    return fit_log_log(*power_law_samples(traj, min_speed, max_radius))
+
+
+def power_law_samples(
+    traj: Trajectory, min_speed: float = 0.05, max_radius: float = 1e3
+) -> tuple[np.ndarray, np.ndarray]:
+    """(log r, log v) of the samples :func:`power_law_fit` keeps, r in [mm], v in [mm/s]; the
+    samples of several strokes are pooled by concatenating them before :func:`fit_log_log`."""
     if not 0.0 <= min_speed < 1.0:
         raise InputError(f"power_law_fit min_speed: expected a fraction in [0, 1), got {min_speed}")
     if not max_radius > 0:
@@ -160,13 +269,16 @@ def power_law_fit(
     v = speed(traj)
     kappa = np.abs(curvature(traj))
     keep = np.isfinite(kappa) & (v > min_speed * np.max(v)) & (kappa > 1.0 / max_radius)
-    if np.count_nonzero(keep) < 3:
+    return np.log(1.0 / kappa[keep]), np.log(v[keep])
+
+
+def fit_log_log(x: np.ndarray, y: np.ndarray) -> PowerLawFit:
+    """Ordinary least squares y = log k + beta x of log speeds ``y`` on log radii ``x``."""
+    if x.size < 3:
         raise InputError(
-            f"power_law_fit: only {np.count_nonzero(keep)} samples are curved and moving enough "
+            f"power_law_fit: only {x.size} samples are curved and moving enough "
             "to fit; need at least 3"
         )
-    x = np.log(1.0 / kappa[keep])
-    y = np.log(v[keep])
     if np.ptp(x) < 1e-4:
         raise InputError(
             "power_law_fit: the radius of curvature is constant (within 0.01 %); beta is undefined"
@@ -176,4 +288,4 @@ def power_law_fit(
     residual = y - design @ np.array([log_k, beta])
     total = np.sum((y - y.mean()) ** 2)
     r2 = 1.0 - float(residual @ residual) / float(total) if total > 0 else 1.0
-    return PowerLawFit(k=float(np.exp(log_k)), beta=float(beta), r2=r2, n=int(keep.sum()))
+    return PowerLawFit(k=float(np.exp(log_k)), beta=float(beta), r2=r2, n=int(x.size))

@@ -1,5 +1,10 @@
 """``inkarm analyse TRACE``: DPPLA target density against curvature, and the target-based
-power law (seed 001, sec. 5)."""
+power law (seed 001, sec. 5); with ``--human``, the human-likeness statistics of the trace
+against the human ranges (:mod:`inkarm.analysis.humanlike`, issue 25).
+
+TRACE is a CSV trace ``t,x,y[,z][,stroke]``, an SVG, a tablet recording (a CSV with a
+``pressure`` column, or any CSV read with ``--time-unit``/``--scale``: :mod:`inkarm.io.human`)
+or ``lasa:SHAPE[:DEMO]``, a LASA demonstration (every one of the shape without DEMO)."""
 
 from __future__ import annotations
 
@@ -19,7 +24,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "prints the correlation of target density with curvature and the exponent gamma of "
         "V_T = K (1/D_s)^gamma, per stroke and pooled over all strokes.",
     )
-    p.add_argument("trace", type=Path, help="trace file: CSV (t,x,y[,z][,stroke]) or SVG")
+    p.add_argument("trace", type=Path,
+                   help="trace: CSV (t,x,y[,z][,stroke]), SVG, tablet CSV (t,x,y,pressure) or "
+                        "lasa:SHAPE[:DEMO] (the LASA handwriting dataset; needs inkarm[lasa])")
+    p.add_argument("--human", action="store_true",
+                   help="print the human-likeness statistics (power law, speed peaks, jerk, "
+                        "pulse asymmetry, lognormality) and where they fall against the human "
+                        "ranges (LASA), instead of the DPPLA analysis")
+    p.add_argument("--no-lognormal", action="store_true",
+                   help="with --human: skip the sigma-lognormal fit (faster; no SNR)")
+    p.add_argument("--time-unit", choices=("s", "ms"), default="s",
+                   help="tablet CSV: unit of the t column (default s)")
+    p.add_argument("--scale", type=float, default=1.0,
+                   help="tablet CSV: millimetres per device unit of x and y (default 1)")
     p.add_argument(
         "--compression",
         type=float,
@@ -41,9 +58,12 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < args.compression < 1:
         raise InputError(f"must lie in (0, 1), got {args.compression:g}", key="--compression",
                          value=args.compression)
+    if args.human:
+        return _human(args)
     if args.out is not None:
         check_out_dir(args.out)
-    drawing = load_trace_for(args)
+    drawings = _drawings(args)
+    drawing = drawings[0] if len(drawings) == 1 else _as_one(drawings)
     try:
         result = analyse_drawing(drawing, args.compression, banded=args.banded)
     except BudgetError as e:
@@ -70,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         if args.out is not None:
             from inkarm.plots.density import plot_density_curvature, plot_power_law
 
-            stem = f"{args.trace.stem}_stroke{i}"
+            stem = f"{args.trace.stem.replace(':', '_')}_stroke{i}"
             figures[f"{stem}_density_curvature.png"] = plot_density_curvature(a)
             if a.power_law is not None:
                 figures[f"{stem}_power_law.png"] = plot_power_law(a)
@@ -85,4 +105,75 @@ def run(args: argparse.Namespace) -> int:
             for name, fig in figures.items():
                 save_figure(fig, stage / name, dpi=120)
         print(f"figures written to {args.out}")
+    return 0
+
+
+def _drawings(args: argparse.Namespace) -> list:
+    """The drawings TRACE names (module docstring): several for ``lasa:SHAPE``, else one."""
+    from inkarm.commands import options_named
+    from inkarm.io.human import LASA_PREFIX, is_tablet_csv, read_lasa_trace, read_tablet_csv
+
+    name = str(args.trace)
+    tablet_options = args.time_unit != "s" or args.scale != 1.0
+    if name.startswith(LASA_PREFIX):
+        if tablet_options:
+            raise InputError("only for a tablet CSV, not a LASA trace", key="--time-unit"
+                             if args.time_unit != "s" else "--scale")
+        with options_named(shape="TRACE", demo="TRACE"):
+            return read_lasa_trace(name)
+    if args.trace.suffix.lower() == ".csv" and (tablet_options or is_tablet_csv(args.trace)):
+        with options_named(time_unit="--time-unit", scale_mm="--scale"):
+            return [read_tablet_csv(args.trace, args.time_unit, args.scale)]
+    if tablet_options:
+        raise InputError("only for a tablet CSV", key="--time-unit" if args.time_unit != "s"
+                         else "--scale", file=name)
+    return [load_trace_for(args)]
+
+
+def _as_one(drawings: list):
+    """The single-stroke drawings of a LASA shape's demonstrations as one drawing, a stroke
+    each."""
+    from inkarm.core.trajectory import Drawing
+
+    page = tuple(max(d.page_size[i] for d in drawings) for i in (0, 1))
+    return Drawing([s for d in drawings for s in d.strokes], page_size=page)
+
+
+def _human(args: argparse.Namespace) -> int:
+    from inkarm.analysis.humanlike import HUMAN_RANGES, human_likeness, human_stats
+
+    if args.out is not None:
+        raise InputError("figures are not drawn with --human yet", key="--out")
+    drawings = _drawings(args)
+    for k, drawing in enumerate(drawings):
+        label = str(args.trace)
+        if "demo" in drawing.meta and len(drawings) > 1:
+            label = f"lasa:{drawing.meta['shape']}:{drawing.meta['demo']}"
+        try:
+            stats = human_stats(drawing, lognormal=not args.no_lognormal)
+        except InputError as e:
+            raise e.within(file=label) from None
+        if k:
+            print()
+        print(f"{label}:")
+        for i, s in zip((i for i in range(len(drawing.strokes)) if i not in stats.skipped),
+                        stats.strokes):
+            print(f"  stroke {i}: {s.duration_s:.2f} s, {s.length_mm:.1f} mm, beta {s.beta:.3f} "
+                  f"(r2 {s.r2:.2f}), {s.peaks} speed peaks ({s.peaks_per_second:.2f}/s), "
+                  f"jerk/peak {s.jerk_per_peak:.1f}, asymmetry {s.asymmetry:.2f}, lognormal "
+                  f"SNR {s.lognormal_snr_db:.1f} dB")
+        if stats.skipped:
+            print(f"  skipped strokes too short to measure: {list(stats.skipped)}")
+        verdict = human_likeness(stats, HUMAN_RANGES)
+        print(f"  {'measure':<18} {'value':>8}   human median [IQR]")
+        for name, value in stats.measures().items():
+            r = HUMAN_RANGES.measures.get(name)
+            if r is None:
+                print(f"  {name:<18} {value:8.3g}")
+                continue
+            where = {True: "inside", False: "OUTSIDE", None: "undefined"}[verdict.inside[name]]
+            judged = "" if r.judged else " (not judged)"
+            print(f"  {name:<18} {value:8.3g}   {r.median:.3g} [{r.q25:.3g}, {r.q75:.3g}]  "
+                  f"{where}{judged}")
+        print(f"  human-like: {'yes' if verdict.human_like else 'no'}")
     return 0

@@ -20,7 +20,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Pencil texture of the Human Line Algorithm (Al-Meraj 2008, ch. 4): 'extract' reads a greyscale scan of one "
         "straight pencil line and writes its profile (mid-line and whole-line histograms, "
         "co-occurrence matrices) for [ink] grade = \"PROFILE.npz\"; 'show' draws a profile "
-        "(a shipped grade or a file) and a line synthesized from it.",
+        "(a shipped grade or a file) and a line synthesized from it beside its target scan.",
     )
     sub = p.add_subparsers(dest="action", required=True, metavar="{extract,show}")
     ex = sub.add_parser("extract", help="a profile from a scanned pencil line")
@@ -44,6 +44,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     show.add_argument("--px-per-mm", type=float, default=None,
                       help="resolution of the synthesized line (default: the scan's)")
     show.add_argument("--seed", type=int, default=0, help="seed of the synthesis (default 0)")
+    show.add_argument("--scan", type=Path, default=None,
+                      help="the scanned line the profile was extracted from, shown beside the "
+                      "synthesis as its target (default: a shipped grade's synthetic scan; "
+                      "none for a profile file)")
     return p
 
 
@@ -82,13 +86,14 @@ def _show(args: argparse.Namespace) -> int:
     import numpy as np
     from PIL import Image
 
-    from inkarm.ink.pencil_profile import resolve_profile
+    from inkarm.ink.pencil_profile import GRADES, resolve_profile
     from inkarm.ink.pencil_synthesis import synthesize_line
     from inkarm.ink.png import png_pixels
     from inkarm.plots.figure import save_figure
-    from inkarm.plots.pencil import plot_pencil_profile
+    from inkarm.plots.pencil import crop_line, plot_pencil_profile
 
-    check_out_dir(args.out, inputs=[args.profile], names=SHOW_FILES)
+    check_out_dir(args.out, inputs=[args.profile] + ([args.scan] if args.scan else []),
+                  names=SHOW_FILES)
     if not 0 < args.length_mm <= 1000:
         raise InputError(f"expected a length in (0, 1000] mm, got {args.length_mm:g}",
                          key="--length-mm", value=args.length_mm)
@@ -102,13 +107,32 @@ def _show(args: argparse.Namespace) -> int:
         profile = resolve_profile(args.profile)
     ppm = args.px_per_mm or profile.px_per_mm
     rows = max(2, round(args.length_mm * ppm))
+    scan = _target_scan(args.scan, args.profile, GRADES)
     texture = synthesize_line(profile, np.full(rows, profile.width_mm * ppm),
                               np.random.default_rng(args.seed))
+    target = None if scan is None else crop_line(
+        scan, rows / ppm, texture.mask.shape[1] / ppm, profile.px_per_mm)
     with staged(args.out, owned=SHOW_FILES) as stage:
-        save_figure(plot_pencil_profile(profile, texture), stage / "profile.png", dpi=120)
+        save_figure(plot_pencil_profile(profile, texture, target=target),
+                    stage / "profile.png", dpi=120)
         Image.fromarray(png_pixels(texture.darkness.T)).save(stage / "line.png")
     print(f"{profile.name}: repair sweeps changed {list(texture.changes)} pixels; figures "
           f"written to {args.out}")
     return 0
 
 
+def _target_scan(scan: Path | None, name: str, grades: tuple[str, ...]):
+    """The upright scan to show beside the synthesis: ``scan`` when given (read and turned
+    upright as extraction does), else a shipped grade's synthetic scan, else None."""
+    from inkarm.ink.pencil_extract import read_scan, upright_line
+
+    if scan is not None:
+        try:
+            return upright_line(read_scan(scan))
+        except InputError as e:
+            raise e.within(file=str(scan)) from None
+    if name.upper() in grades:
+        from inkarm.ink.graphite import reference_scan
+
+        return upright_line(reference_scan(name.upper()))
+    return None

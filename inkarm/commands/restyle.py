@@ -19,6 +19,7 @@ from inkarm.commands._layout import (
 )
 from inkarm.errors import InputError
 from inkarm.io.outputs import check_out_dir, out_path, staged
+from inkarm.plans.handstyles import TIMINGS, get_handstyle, load_handstyles
 from inkarm.plans.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
@@ -74,6 +75,21 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="target covariances (default geometric)",
     )
     p.add_argument(
+        "--timing",
+        choices=TIMINGS,
+        default=None,
+        help="isochronous: DPPLA targets held alike (default); pulses: key-points at the "
+        "trace's own speed minima and peaks, at its times and velocities (a human recording's "
+        "timing)",
+    )
+    p.add_argument(
+        "--hand",
+        metavar="NAME",
+        help="a handstyle's covariances, order, d and timing (a preset, e.g. human, or one of "
+        "--styles) instead of --style, --order and --d",
+    )
+    p.add_argument("--styles", type=Path, help="TOML file with extra [styles.NAME] handstyles")
+    p.add_argument(
         "--along",
         type=float,
         default=_DEFAULTS.along,
@@ -91,7 +107,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 _OPTIONS = {name: "--" + name.replace("_", "-") for name in
-            ("compression", "order", "d", "dt", "segment_time", "style", "along", "across")}
+            ("compression", "order", "d", "dt", "segment_time", "style", "along", "across",
+             "timing")}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,16 +117,16 @@ def run(args: argparse.Namespace) -> int:
     from inkarm.plots.restyle import plot_restyle
 
     with options_named(**_OPTIONS):
-        cfg = RestyleConfig(
-            compression=args.compression,
-            order=args.order,
-            d=args.d,
-            dt=args.dt,
-            segment_time=args.segment_time,
-            style=args.style,
-            along=args.along,
-            across=args.across,
-        )
+        common = {"compression": args.compression, "dt": args.dt,
+                  "segment_time": args.segment_time}
+        if args.timing is not None:
+            common["timing"] = args.timing
+        if args.hand is not None:
+            extra = load_handstyles(args.styles) if args.styles else None
+            cfg = RestyleConfig.from_handstyle(get_handstyle(args.hand, extra), **common)
+        else:
+            cfg = RestyleConfig(order=args.order, d=args.d, style=args.style,
+                                along=args.along, across=args.across, **common)
     stem = args.trace.stem
     names = [f"{stem}_restyled.csv", f"{stem}_restyled.svg", f"{stem}_restyle.png"]
     out = check_out_dir(args.out, inputs=[args.trace], names=names)
@@ -129,7 +146,8 @@ def run(args: argparse.Namespace) -> int:
     targets = sum(r.k + 1 for r in result.targets)
     print(
         f"{len(result.drawing.strokes)} strokes, {targets} targets "
-        f"(compression {cfg.compression}){kept}, written to {args.out}"
+        f"({'at the speed minima and peaks' if cfg.timing == 'pulses' else f'compression {cfg.compression}'})"
+        f"{kept}, written to {args.out}"
     )
     return 0
 

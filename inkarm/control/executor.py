@@ -67,6 +67,32 @@ class _Shared:
     drawing_starts: int
     notes: tuple[str, ...]
     wall0: float
+    # The plan's columns as each period reads them (Python lists: cheaper per period than numpy's
+    # items), made once for every member.
+    phases: list[int]
+    hold_at: list[bool]  # rows where a descent waits for the force (if sensed)
+    page_x: list[float]
+    page_y: list[float]
+    lookahead_rows: int
+    lookahead_frac: float
+    # the goal's share of the next row, only read with a fraction of a period to look ahead
+    lookahead_step: np.ndarray | None
+    senses_force: bool
+
+
+def _plan_columns(ref: JointReference, config: LoopConfig, dt: float,
+                  senses_force: bool) -> dict:
+    """What every member's periods read of the plan (the :class:`_Shared` fields above)."""
+    hold_at = [False] * len(ref)
+    for r in ref.settle:
+        hold_at[r] = senses_force
+    rows, frac = divmod(config.lookahead_s / dt, 1.0)
+    q_ref = ref.q
+    return {"phases": ref.phase.tolist(), "hold_at": hold_at,
+            "page_x": ref.page_mm[:, 0].tolist(), "page_y": ref.page_mm[:, 1].tolist(),
+            "lookahead_rows": int(rows), "lookahead_frac": frac,
+            "lookahead_step": frac * (q_ref[1:] - q_ref[:-1]) if frac else None,
+            "senses_force": senses_force}
 
 
 def execute(
@@ -129,7 +155,8 @@ def execute(
         watch_context=WatchContext(config, dt, tuple(kin.joint_names), gains.torque_limit,
                                    speed_limits, np.column_stack([kin.lower, kin.upper])),
         watchdogs=tuple(watchdogs), probes=probes,
-        drawing_starts=first_drawing_row(ref.stroke, probes), notes=notes, wall0=wall0)
+        drawing_starts=first_drawing_row(ref.stroke, probes), notes=notes, wall0=wall0,
+        **_plan_columns(ref, config, dt, "force" in senses))
     laws = [law.make() for _ in plants_]
     board = _Board(len(plants_))
     t_first = members.now()
@@ -299,11 +326,11 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     # Local names and Python lists: this loop runs once per control period and its Python cost
     # is the budget. The plan's columns of the log are filled from ``ref_row`` afterwards.
     q_ref, qd_ref, qdd_ref, normal_q = ref.q, ref.qd, ref.qdd, ref.normal_q
-    page_ref = ref.page_mm
-    phases = ref.phase.tolist()
-    hold_at = [False] * len(ref)  # rows where a descent waits for the force (if sensed)
-    for r in ref.settle:
-        hold_at[r] = senses_force
+    phases, hold_at, page_x, page_y = shared.phases, shared.hold_at, shared.page_x, shared.page_y
+    if senses_force != shared.senses_force:  # (a member that senses otherwise than the first)
+        hold_at = _plan_columns(ref, config, dt, senses_force)["hold_at"]
+    lookahead_rows, lookahead_frac = shared.lookahead_rows, shared.lookahead_frac
+    lookahead_step = shared.lookahead_step
     check, read, command, to_law = watchdog.check, plant.read, plant.command, law.command
     log_time, log_q, log_qd, log_torque = log.time, log.q, log.qd, log.torque
     log_tip, log_force = log.tip, log.force
@@ -311,13 +338,8 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     nan_torque = np.full(kin.n, np.nan)
 
     force_f = 0.0  # low-passed sensed force [N] (0 where not sensed)
-    lookahead_rows, lookahead_frac = divmod(config.lookahead_s / dt, 1.0)
-    lookahead_rows = int(lookahead_rows)
-    # the goal's share of the next row, only read with a fraction of a period to look ahead
-    lookahead_step = lookahead_frac * (q_ref[1:] - q_ref[:-1]) if lookahead_frac else None
     commanded = [0] * len(log)  # reference row commanded at each log row
     ref_blend = [0.0] * len(log)  # fraction of the way to the next commanded row
-    page_x, page_y = page_ref[:, 0].tolist(), page_ref[:, 1].tolist()
     row, i, waited, settled_for = 0, 0, 0, 0
     n_ref = len(ref)
     state, fresh, logged = None, False, False  # fresh: read and not commanded yet; logged

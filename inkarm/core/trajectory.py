@@ -6,12 +6,12 @@ page's lower-left corner; D = 2, or 3 with z the height above the paper).
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from inkarm.core.csvrows import CSV_MAX_LINE, CSV_ROW_BYTES, read_rows  # noqa: F401 (re-exported)
 from inkarm.core.equality import same
 from inkarm.core.npz import read_npz
 from inkarm.errors import InputError
@@ -24,74 +24,6 @@ MAX_COORD_MM = 1e6
 bigger is a unit or data error, and would overflow lengths, speeds and squared errors."""
 MAX_TIME_S = 1e10
 """Largest |t| in [s] read from a CSV trace (about 300 years: Unix times in seconds pass)."""
-CSV_ROW_BYTES = 256
-"""Bytes per CSV row assumed when bounding the rows of a file from its size."""
-CSV_MAX_LINE = 4096
-"""Longest line of a CSV trace, in characters."""
-
-
-def _csv_lines(f, path: Path, counter: list[int]):
-    """The lines of ``f``, each at most :data:`CSV_MAX_LINE` characters; ``counter[0]`` sums
-    the characters read."""
-    lineno = 0
-    while True:
-        line = f.readline(CSV_MAX_LINE + 1)
-        if not line:
-            return
-        lineno += 1
-        if len(line) > CSV_MAX_LINE and not line.endswith("\n"):
-            raise InputError(f"{path}:{lineno}: line longer than {CSV_MAX_LINE} characters; "
-                             "expected CSV rows t,x,y[,z][,stroke]")
-        counter[0] += len(line)
-        yield line
-
-
-def _read_csv_rows(f, path: Path, size: int) -> tuple[list[str], np.ndarray, list[int]]:
-    """(header, (rows, columns) values, line number of each row) of a CSV trace, counting the
-    rows against ``INKARM_MAX_STEPS`` as they are read."""
-    from array import array
-
-    from inkarm.core.budget import STEPS, require
-
-    counter = [0]
-    reader = csv.reader(_csv_lines(f, path, counter))
-    limit = STEPS.value
-    try:
-        first = next(reader, None)
-        if first is None:
-            raise InputError(f"{path}: empty file; expected a header t,x,y[,z][,stroke]")
-        header = [h.strip().lower() for h in first]
-        allowed = (["t", "x", "y"], ["t", "x", "y", "z"])
-        if [h for h in header if h != "stroke"] not in allowed:
-            raise InputError(
-                f"{path}: header {','.join(first)[:80]!r}; expected t,x,y or t,x,y,z "
-                "(optionally with a stroke column)"
-            )
-        values, linenos = array("d"), []
-        for row in reader:
-            lineno = reader.line_num
-            if not row or all(not c.strip() for c in row):
-                continue
-            if len(row) != len(header):
-                raise InputError(f"{path}:{lineno}: expected {len(header)} fields, got {len(row)}")
-            try:
-                values.extend(float(c) for c in row)
-            except ValueError:
-                raise InputError(f"{path}:{lineno}: non-numeric field in {row}") from None
-            linenos.append(lineno)
-            if len(linenos) > limit:
-                rows = len(linenos) * size / max(counter[0], 1)
-                require(rows, STEPS, f"{path}: rows of samples (line {lineno} and more to read)",
-                        value=size)
-    except csv.Error as e:
-        raise InputError(f"{path}:{reader.line_num}: not CSV ({e})") from None
-    if not linenos:
-        raise InputError(f"{path}: no data rows")
-    arr = np.frombuffer(values, dtype=float).reshape(len(linenos), len(header))
-    if not np.all(np.isfinite(arr)):
-        lineno = linenos[int(np.argwhere(~np.isfinite(arr))[0][0])]
-        raise InputError(f"{path}:{lineno}: NaN or inf value")
-    return header, arr, linenos
 
 
 def _as_array(name: str, value, ndim: int) -> np.ndarray:
@@ -356,15 +288,16 @@ class Drawing:
     # -- files -----------------------------------------------------------------------------
 
     def to_csv(self, path: str | Path, stroke_column: bool = True) -> None:
-        """Write ``t,x,y[,z][,stroke]`` rows, strokes concatenated in order."""
+        """Write ``t,x,y[,z][,stroke]`` rows, strokes in order, as the csv module writes them
+        (CRLF ends): each value is ``repr`` of its float, the shortest text that reads back to
+        the same double; one block of text per stroke."""
         names = ["t", "x", "y", "z"][: 1 + self.dim]
         with open(path, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(names + (["stroke"] if stroke_column else []))
+            f.write(",".join(names + (["stroke"] if stroke_column else [])) + "\r\n")
             for k, s in enumerate(self.strokes):
-                for ti, p in zip(s.t, s.pos):
-                    row = [repr(float(ti))] + [repr(float(v)) for v in p]
-                    w.writerow(row + ([k] if stroke_column else []))
+                end = f",{k}\r\n" if stroke_column else "\r\n"
+                columns = (map(repr, c.tolist()) for c in (s.t, *s.pos.T))
+                f.write(end.join(map(",".join, zip(*columns))) + end)
 
     @staticmethod
     def from_csv(path: str | Path, page_size: tuple[float, float] = A4_MM) -> Drawing:
@@ -384,11 +317,7 @@ class Drawing:
         require(size / CSV_ROW_BYTES, STEPS,
                 f"{path}: rows of a {size / 1e6:.3g} MB CSV file (at {CSV_ROW_BYTES} bytes a row)",
                 value=size)
-        try:
-            with open(path, newline="", encoding="utf-8-sig") as f:
-                header, arr, linenos = _read_csv_rows(f, path, size)
-        except UnicodeDecodeError:
-            raise InputError(f"{path}: not a UTF-8 text file; expected CSV t,x,y[,z][,stroke]") from None
+        header, arr, linenos = read_rows(path, size)
         cols = [h for h in header if h != "stroke"]
         pos_idx = [header.index(c) for c in cols[1:]]
         t_idx = header.index("t")
@@ -460,7 +389,8 @@ class Drawing:
                 lines.append(f'<g inkscape:groupmode="layer" inkscape:label="{layer}" '
                              f'id="layer{layer}" {style}>')
             for k in indices:
-                pts = " ".join(f"{x:.3f},{h - y:.3f}" for x, y in self.strokes[k].pos[:, :2])
+                x, y = self.strokes[k].pos[:, :2].T
+                pts = " ".join(map("{:.3f},{:.3f}".format, x.tolist(), (h - y).tolist()))
                 lines.append(f'<polyline points="{pts}"/>')
             lines.append("</g>")
         lines.append("</svg>")

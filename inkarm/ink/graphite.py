@@ -22,7 +22,11 @@ Model, in the page plane, the line running along y (rows) at a constant force F:
   grey = paper (1 - darkness) plus scanner noise, quantised to 8 bits.
 
 The constants are chosen so that the grades order as real ones do (2H thin and light, 8B wide
-and dark, grain showing through on hard leads); they are not fitted to measurements.
+and dark, grain showing through on hard leads); they are not fitted to measurements. D_g is
+spaced so that the extracted profiles' mean darkness grows strictly and by at least 0.05 a
+grade (0.19, 0.25, 0.35, 0.45, 0.51, 0.65, 0.74, 0.83 from 2H to 8B; a wider line holds more
+of its light edge, so an evenly spaced D_g left H, F and HB within 0.03), wider than the
+synthesis's drift from its profile (up to 0.04).
 """
 
 from __future__ import annotations
@@ -53,14 +57,14 @@ class GraphiteGrade:
 
 
 GRAPHITE_GRADES = {g.name: g for g in (
-    GraphiteGrade("2H", 0.15, 0.30, 0.42),
-    GraphiteGrade("H", 0.22, 0.33, 0.50),
-    GraphiteGrade("F", 0.30, 0.36, 0.57),
-    GraphiteGrade("HB", 0.38, 0.40, 0.64),
-    GraphiteGrade("B", 0.48, 0.46, 0.71),
-    GraphiteGrade("3B", 0.62, 0.55, 0.79),
-    GraphiteGrade("6B", 0.82, 0.70, 0.88),
-    GraphiteGrade("8B", 1.00, 0.80, 0.93),
+    GraphiteGrade("2H", 0.15, 0.30, 0.34),
+    GraphiteGrade("H", 0.22, 0.33, 0.41),
+    GraphiteGrade("F", 0.34, 0.34, 0.70),
+    GraphiteGrade("HB", 0.38, 0.38, 0.80),
+    GraphiteGrade("B", 0.48, 0.45, 0.85),
+    GraphiteGrade("3B", 0.62, 0.55, 0.89),
+    GraphiteGrade("6B", 0.82, 0.70, 0.92),
+    GraphiteGrade("8B", 1.00, 0.80, 0.95),
 )}
 REFERENCE_FORCE_N = 1.0
 _Z_TOP = 1.0
@@ -125,3 +129,15 @@ def render_scan(grade: str | GraphiteGrade, *, length_mm: float = 40.0,
     darkness = grade.max_darkness * (1.0 - np.exp(-_KAPPA * deposit))
     grey = _PAPER_GREY * (1.0 - darkness) + _SCANNER_NOISE * rng.standard_normal(darkness.shape)
     return np.clip(np.round(grey), 0, 255).astype(np.uint8)
+
+
+def reference_scan(grade: str, length_mm: float = 40.0) -> np.ndarray:
+    """The synthetic scan the shipped profile of ``grade`` is extracted from
+    (``scripts/build_pencil_profiles.py``): ``length_mm`` [mm] at the reference force, 600
+    dpi, its draws seeded by the grade's place in :data:`GRAPHITE_GRADES` (the shipped files
+    use 40 mm; a shorter scan is another line of the same statistics)."""
+    if grade not in GRAPHITE_GRADES:
+        raise unknown_name("pencil grade", grade, GRAPHITE_GRADES, key="grade")
+    index = list(GRAPHITE_GRADES).index(grade)
+    return render_scan(GRAPHITE_GRADES[grade], length_mm=length_mm, force_n=REFERENCE_FORCE_N,
+                       px_per_mm=SCAN_PX_PER_MM, rng=np.random.default_rng(1000 + index))

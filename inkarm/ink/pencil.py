@@ -12,10 +12,14 @@ the force along it: the strip has one row per pixel of arc length (positions and
 interpolated along the path); a row's texture darkness is scaled by a(F) / a(F_ref), F_ref
 the force the profile's scan was drawn with (so a stroke at F_ref has the profile's own
 statistics, a lighter press a lighter line), and rows where a(F) = 0 stay blank. Each page
-pixel the plain stroke covered takes the texel of the nearest path sample at its signed
-distance across the path; the thesis's final 3x3 Gaussian blur (Fig. 4.6) is applied on the
-page, where it also smooths the resampling's staircase. The texture is synthesized once per
-stroke, at the lift, not at every physics step.
+pixel the plain stroke covered takes the texel of the nearest path sample k at its signed
+distance across the path, times the plain mark's anti-aliased edge there, c / a(F_k) (c the
+plain coverage, clipped to [0, 1]: 1 inside the line, the pixel's area inside the capsule at
+its edge). The thesis's final 3x3 Gaussian blur (Fig. 4.6) is the synthesis's step 3, in the
+strip, where it keeps the repaired co-occurrence statistics
+(:func:`inkarm.ink.pencil_synthesis.smooth`); blurring again on the page would undo them,
+and the line's aliasing is filtered by that edge instead. The texture is synthesized once
+per stroke, at the lift, not at every physics step.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ import numpy as np
 from inkarm.errors import InkarmError, InputError
 from inkarm.ink.checks import FORCE_SCALE_RANGE_N, WIDTH_RANGE_MM, require_opacity, require_range
 from inkarm.ink.pencil_profile import PencilProfile, resolve_profile
-from inkarm.ink.pencil_synthesis import RepairConfig, gaussian_blur3, initial_fill, repair
+from inkarm.ink.pencil_synthesis import RepairConfig, initial_fill, repair, smooth
 
 
 @dataclass(frozen=True)
@@ -98,7 +102,7 @@ class PencilInk:
                 (u along columns, v along rows, pixel centres at integers), in touch order.
             forces_n: (N,) contact forces in [N].
             coverage: (H, W) the plain stroke's darkness on the box; the texture lands on its
-                inked pixels (and the blur one pixel around).
+                inked pixels, faded by its anti-aliased edge.
             origin: (row, column) of the box's first pixel on the page.
             px_per_mm: Page resolution [px/mm].
             stroke_index: Which stroke of the page (seeds its draws).
@@ -111,19 +115,22 @@ class PencilInk:
         profile = self.profile
         centres, forces, tangents = _resample(np.asarray(points_px, float),
                                               np.asarray(forces_n, float))
-        gain = np.array([self.opacity(f) for f in forces]) / self.opacity(
-            profile.reference_force_n)
+        plain = np.array([self.opacity(f) for f in forces])  # a(F) along the path
+        gain = plain / self.opacity(profile.reference_force_n)
         widths = np.where(gain > 0, self.line_width_mm * px_per_mm, 0.0)
         rng = np.random.default_rng([int(self.seed), int(stroke_index)])
         grey, mask = initial_fill(profile, widths, rng)
         grey, _ = repair(grey, mask, profile, rng, RepairConfig())
+        grey = smooth(grey, mask, profile)
         strip = np.where(mask, (1.0 - grey / 255.0) * gain[:, None], 0.0)
         out = np.zeros(coverage.shape)
         rows, cols = np.nonzero(coverage > 0)
         if rows.size:
-            out[rows, cols] = _texels(strip, centres, tangents,
+            values, nearest = _texels(strip, centres, tangents,
                                       np.column_stack([cols + origin[1], rows + origin[0]]))
-        return np.clip(gaussian_blur3(out), 0.0, 1.0)
+            edge = np.clip(coverage[rows, cols] / np.maximum(plain[nearest], 1e-12), 0.0, 1.0)
+            out[rows, cols] = values * edge
+        return np.clip(out, 0.0, 1.0)
 
 
 def _resample(points: np.ndarray, forces: np.ndarray):
@@ -143,9 +150,10 @@ def _resample(points: np.ndarray, forces: np.ndarray):
 
 
 def _texels(strip: np.ndarray, centres: np.ndarray, tangents: np.ndarray,
-            pixels: np.ndarray) -> np.ndarray:
+            pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The strip's value for each page pixel (u, v): row = the nearest path sample, column =
-    the pixel's signed distance across the path there, rounded (0 beyond the strip)."""
+    the pixel's signed distance across the path there, rounded (0 beyond the strip); and the
+    index of that sample."""
     from scipy.spatial import cKDTree
 
     _, k = cKDTree(centres).query(pixels)
@@ -156,4 +164,4 @@ def _texels(strip: np.ndarray, centres: np.ndarray, tangents: np.ndarray,
     inside = (col >= 0) & (col < strip.shape[1])
     values = np.zeros(len(pixels))
     values[inside] = strip[k[inside], col[inside]]
-    return values
+    return values, k

@@ -126,12 +126,7 @@ def extract_profile(
     if not (px_per_mm > 0 and math.isfinite(px_per_mm)):
         raise InputError(f"expected a positive resolution [px/mm], got {px_per_mm!r}",
                          key="px_per_mm", value=px_per_mm)
-    paper = float(np.median(grey))
-    if paper < 128:
-        raise InputError(f"the page is dark (median grey {paper:.0f} of 255): expected a dark "
-                         "pencil line on light paper")
-    norm = np.clip(np.round(grey.astype(np.float64) * (255.0 / paper)), 0, 255).astype(np.uint8)
-    norm = _upright(norm, norm < 255 - ink_margin)
+    norm = upright_line(grey, ink_margin)
     line = _line_mask(norm < 255 - ink_margin)
     if line.sum() < MIN_LINE_PIXELS or np.count_nonzero(line.any(axis=1)) < MIN_LINE_ROWS:
         raise InputError(f"no pencil line found: {int(line.sum())} pixels darker than the "
@@ -152,6 +147,19 @@ def extract_profile(
         reference_force_n=float(reference_force_n),
         source=source,
     )
+
+
+def upright_line(grey: np.ndarray, ink_margin: int = INK_MARGIN) -> np.ndarray:
+    """Steps 1 and 2 of the module docstring: the 8-bit scan ``grey`` with its paper
+    normalised to white and turned so that its line runs along the rows. Refuses (InputError)
+    a page darker than mid-grey."""
+    grey = np.asarray(grey)
+    paper = float(np.median(grey))
+    if paper < 128:
+        raise InputError(f"the page is dark (median grey {paper:.0f} of 255): expected a dark "
+                         "pencil line on light paper")
+    norm = np.clip(np.round(grey.astype(np.float64) * (255.0 / paper)), 0, 255).astype(np.uint8)
+    return _upright(norm, norm < 255 - ink_margin)
 
 
 def line_glcm(grey: np.ndarray, line: np.ndarray, levels: int, *,

@@ -27,8 +27,23 @@ Table 4.1:
    neighbours change together. Sweeps repeat "until the amount of pixel changes reach a
    minimum": here until fewer than ``tol`` of the line's pixels changed in a sweep, or
    ``max_sweeps``.
-3. One 3x3 Gaussian blur (Fig. 4.6, "a 3x3 single-pass Gaussian filter"): the binomial kernel
-   [1 2 1]^T [1 2 1] / 16 (:func:`gaussian_blur3`).
+3. One 3x3 Gaussian blur (Fig. 4.6, "a 3x3 single-pass Gaussian filter", "to reduce tone
+   differences"), made to keep what step 2 repaired (:func:`smooth`). The plain blur of the
+   repaired strip, with the binomial kernel G = [1 2 1]^T [1 2 1] / 16
+   (:func:`gaussian_blur3`), undoes the repair: the profile's matrices are those of the scan's
+   own pixels, which already hold whatever blur the pencil, the paper and the scanner put
+   there, so a second blur pulls every pair towards the diagonal (L1 distance to the profile,
+   measured at the scan's resolution on the grades shipped before issue 25: 0.77-1.15 after
+   it, 0.11-0.45 after the repair, 0.58-1.06 after the random fill). Here the blur's value b = G * (d m) / G * m (d the darkness, m the line's
+   mask: the paper does not lighten the edge) is the target of every line pixel; a colour at a
+   time (as in step 2), a pixel takes b where b stays in its level (no co-occurrence matrix sees
+   that), and where b's level lowers, or keeps, the L1 distance between the strip's pair counts
+   and the model's (to first order: each of its pairs moves a count from one cell to another);
+   else it keeps its grey. A colour whose moves together raised the distance
+   (:func:`glcm_distance`, measured) keeps only the best half of them, then the best quarter,
+   ...: the distance after step 3 is at most the one after step 2, by construction. The page's
+   own aliasing (a curved stroke resampled onto pixels) is the canvas's anti-aliased edge
+   (:mod:`inkarm.ink.pencil`).
 
 Grey levels g in [0, 255] become darkness 1 - g / 255 (paper white).
 """
@@ -90,7 +105,9 @@ class LineTexture:
     Attributes:
         filled: (N, W) uint8 grey levels after step 1 (the random fill).
         repaired: (N, W) uint8 grey levels after step 2.
-        darkness: (N, W) float darkness in [0, 1] after step 3 (the blur), 0 off the line.
+        darkness: (N, W) float darkness in [0, 1] after step 3 (the smoothing), 0 off the
+            line (grey g = 255 (1 - darkness) exactly: the smoothing keeps whole grey
+            levels).
         mask: (N, W) bool, the line's pixels.
         changes: Pixels changed by each repair sweep.
     """
@@ -153,24 +170,14 @@ def repair(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile,
                                                    _TINY), axis=2)
     marginal_cdf = np.cumsum(_level_marginal(profile.full_hist, levels))
     grey_table, grey_cdf = _greys_per_level(profile.full_hist, levels)
-    padded_mask = np.pad(mask, 1)
     offset_of = _NEIGHBOUR_OFFSET[:, None]
     n_line = int(mask.sum())
-    rows, cols = np.indices(mask.shape)
-    # each colour's pixels and which of their neighbours lie on the line: fixed over sweeps
-    colours = []
-    for a in (0, 1):
-        for b in (0, 1):
-            r, c = np.nonzero(mask & (rows % 2 == a) & (cols % 2 == b))
-            if r.size:
-                colours.append((r, c, np.stack([padded_mask[r + 1 + dr, c + 1 + dc]
-                                                for dr, dc, _ in _NEIGHBOURS])))
+    colours = _colours(mask)  # fixed over sweeps
     changes: list[int] = []
     for _ in range(config.max_sweeps):
         changed = 0
         for r, c, ni in colours:
-            padded = np.pad(level, 1)
-            nl = np.stack([padded[r + 1 + dr, c + 1 + dc] for dr, dc, _ in _NEIGHBOURS])
+            nl = _neighbour_levels(level, r, c)
             current = level[r, c]
             bad = (~exists[offset_of, current[None, :], nl] & ni).any(axis=0)
             if not np.any(bad):
@@ -203,6 +210,29 @@ def repair(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile,
         if changed <= config.tol * n_line:
             break
     return grey, tuple(changes)
+
+
+def _colours(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The line's pixels in four colours by (row mod 2, column mod 2), no two of a colour
+    neighbours: per colour its rows, columns and (8, M) which of their neighbours
+    (:data:`_NEIGHBOURS`) lie on the line."""
+    padded_mask = np.pad(mask, 1)
+    rows, cols = np.indices(mask.shape)
+    colours = []
+    for a in (0, 1):
+        for b in (0, 1):
+            r, c = np.nonzero(mask & (rows % 2 == a) & (cols % 2 == b))
+            if r.size:
+                colours.append((r, c, np.stack([padded_mask[r + 1 + dr, c + 1 + dc]
+                                                for dr, dc, _ in _NEIGHBOURS])))
+    return colours
+
+
+def _neighbour_levels(level: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(8, M) the levels of the neighbours (:data:`_NEIGHBOURS`) of pixels (r, c), 0 off the
+    strip."""
+    padded = np.pad(level, 1)
+    return np.stack([padded[r + 1 + dr, c + 1 + dc] for dr, dc, _ in _NEIGHBOURS])
 
 
 def pair_counts(level: np.ndarray, mask: np.ndarray, levels: int) -> np.ndarray:
@@ -239,8 +269,64 @@ def existing_pairs(prob: np.ndarray, rare_mass: float) -> np.ndarray:
     return exists
 
 
+def smooth(grey: np.ndarray, mask: np.ndarray, profile: PencilProfile) -> np.ndarray:
+    """Step 3: the thesis's 3x3 Gaussian blur made to keep the repaired statistics: grey
+    levels (N, W) uint8, 255 off the line (see the module docstring)."""
+    levels = profile.levels
+    grey = np.array(grey, dtype=np.uint8)
+    weight = gaussian_blur3(mask.astype(float))
+    blurred = gaussian_blur3(np.where(mask, 1.0 - grey / 255.0, 0.0)) / np.maximum(weight,
+                                                                                   _TINY)
+    target = np.clip(np.round(255.0 * (1.0 - blurred)), 0, 255).astype(np.intp)
+    level = grey.astype(np.intp) * levels // 256
+    target_level = target * levels // 256
+    # b where it stays in the pixel's level: no co-occurrence matrix sees the change
+    grey = np.where(mask, np.where(target_level == level, target, grey), 255).astype(np.uint8)
+    offset_of = _NEIGHBOUR_OFFSET[:, None]
+    distance = _level_distance(level, mask, profile)
+    for r, c, ni in _colours(mask):
+        move = target_level[r, c] != level[r, c]
+        r, c, ni = r[move], c[move], ni[:, move]
+        if r.size == 0:
+            continue
+        counts = pair_counts(level, mask, levels)
+        n_pairs = np.maximum(counts.sum(axis=(1, 2)), 1.0)
+        excess = counts - profile.glcm * n_pairs[:, None, None]
+        nl, old, new = _neighbour_levels(level, r, c), level[r, c], target_level[r, c]
+        # L1 change of the normalised matrices when this pixel alone moves (each pair: two
+        # symmetric cells leave (old, l), two enter (new, l))
+        leave = np.abs(excess[offset_of, old[None, :], nl] - 1.0) \
+            - np.abs(excess[offset_of, old[None, :], nl])
+        enter = np.abs(excess[offset_of, new[None, :], nl] + 1.0) \
+            - np.abs(excess[offset_of, new[None, :], nl])
+        gain = np.where(ni, 2.0 * (leave + enter) / n_pairs[offset_of], 0.0).sum(axis=0)
+        order = np.flatnonzero(gain <= 0.0)
+        order = order[np.argsort(gain[order], kind="stable")]
+        keep = order.size
+        while keep:  # the colour's moves together: halved until the distance does not grow
+            rr, cc = r[order[:keep]], c[order[:keep]]
+            level[rr, cc] = new[order[:keep]]
+            after = _level_distance(level, mask, profile)
+            if after <= distance:
+                grey[rr, cc] = target[rr, cc]
+                distance = after
+                break
+            level[rr, cc] = old[order[:keep]]
+            keep //= 2
+    return grey
+
+
+def _level_distance(level: np.ndarray, mask: np.ndarray, profile: PencilProfile) -> float:
+    """:func:`glcm_distance` of the strip's levels to the profile (offsets without a pair
+    counted as all zero, as :func:`strip_glcm` does)."""
+    counts = pair_counts(level, mask, profile.levels)
+    return glcm_distance(counts / np.maximum(counts.sum(axis=(1, 2), keepdims=True), 1.0),
+                         profile.glcm)
+
+
 def gaussian_blur3(darkness: np.ndarray) -> np.ndarray:
-    """Step 3: one pass of the 3x3 Gaussian :data:`GAUSS3` (zero beyond the edges)."""
+    """One pass of the 3x3 Gaussian :data:`GAUSS3` (zero beyond the edges): the blur of step 3,
+    before :func:`smooth` keeps it to the moves the statistics allow."""
     from scipy.ndimage import convolve
 
     return convolve(np.asarray(darkness, dtype=float), GAUSS3, mode="constant", cval=0.0)
@@ -251,8 +337,8 @@ def synthesize_line(profile: PencilProfile, widths_px: np.ndarray, rng: np.rando
     """The three steps for a straight strip with one row per entry of ``widths_px`` [px]."""
     filled, mask = initial_fill(profile, widths_px, rng)
     repaired, changes = repair(filled, mask, profile, rng, config)
-    darkness = np.where(mask, 1.0 - repaired / 255.0, 0.0)
-    return LineTexture(filled, repaired, np.clip(gaussian_blur3(darkness), 0.0, 1.0), mask,
+    smoothed = smooth(repaired, mask, profile)
+    return LineTexture(filled, repaired, np.where(mask, 1.0 - smoothed / 255.0, 0.0), mask,
                        changes)
 
 

@@ -57,6 +57,10 @@ def slanted_basis(slant_deg: float, stretch: float = 1.0) -> np.ndarray:
 
 
 
+TIMINGS = ("isochronous", "pulses")
+"""How a restyle times its targets: DPPLA targets held alike (seed 000's local isochrony), or
+key-points at the trace's speed minima and peaks, at its own times and velocities
+(:mod:`inkarm.plans.pulses`)."""
 MIN_SPACING = 0.01  # [fraction of the letter height]: 100 targets a letter height at most
 
 @dataclass(frozen=True)
@@ -86,6 +90,10 @@ class Handstyle:
             letter (a cursive retrace written as an eyelet), as a fraction of the letter
             height; 0 = seed 000's rule instead, which drops sharp junction targets, letter
             targets included.
+        timing: How a restyle with this style times its targets: "isochronous" (DPPLA
+            targets, each held alike) or "pulses" (key-points at the trace's own speed minima
+            and peaks, at its times and velocities: :mod:`inkarm.plans.pulses`). Text is always
+            isochronous (a font has no timing of its own).
         description: One line for ``--help`` and listings.
     """
 
@@ -100,6 +108,7 @@ class Handstyle:
     max_spacing: float | None = None
     ligature_angle: float = 100.0
     eyelet: float = 0.1
+    timing: str = "isochronous"
     description: str = ""
 
     def __post_init__(self) -> None:
@@ -131,6 +140,9 @@ class Handstyle:
         if not (np.isfinite(self.eyelet) and 0.0 <= self.eyelet <= 1.0):
             self._fail(f"eyelet must be in [0, 1] (a fraction of the letter height), got "
                        f"{self.eyelet}", self.eyelet)
+        if self.timing not in TIMINGS:
+            self._fail(f"timing must be one of {', '.join(TIMINGS)}, got {self.timing!r}",
+                       self.timing)
         for key in ("thin_angle", "ligature_angle"):
             value = getattr(self, key)
             if not (np.isfinite(value) and 0.0 <= value <= 180.0):
@@ -171,7 +183,16 @@ class Handstyle:
 
     def motor_plan(self, sequences, rng: np.random.Generator, unit: str) -> MotorPlan:
         """One stroke per joined target sequence (``means``, ``letters``, ``connectors``), each
-        stroke's meta naming the ``unit`` (e.g. "letters", "glyphs") its targets come from."""
+        stroke's meta naming the ``unit`` (e.g. "letters", "glyphs") its targets come from.
+        Refused for a style with timing "pulses": a font's targets have no timing of their own
+        to keep."""
+        if self.timing != "isochronous":
+            text_styles = sorted(PRESETS)
+            raise ScenarioError(
+                f"handstyle {self.name!r} re-times recordings (timing {self.timing!r}); "
+                f"{unit} have no recording to take a timing from: choose one of "
+                f"{', '.join(text_styles)}, or use it with `inkarm restyle --hand {self.name}`",
+                key="style", value=self.name, choices=text_styles)
         return MotorPlan(tuple(
             self.stroke_plan(
                 seq.means,
@@ -218,6 +239,8 @@ def _unperturbed_covariance(basis: tuple[float, ...], h: float) -> np.ndarray:
 
 PRESETS_FILE = Path(__file__).parents[1] / "data" / "handstyles.toml"
 """The preset handstyles, read with :func:`load_handstyles` like a user's file."""
+FITTED_FILE = PRESETS_FILE.with_name("handstyles_fitted.toml")
+"""The fitted handstyles (:data:`FITTED`), made by ``inkarm fit-style``."""
 
 _KEYS = {f.name for f in fields(Handstyle)} - {"name"}
 _NUMBERS = (
@@ -265,9 +288,9 @@ def handstyle_from_mapping(
     for key in _NUMBERS:
         if key in values:
             values[key] = _number(error, key, values[key])
-    if not isinstance(values.get("description", ""), str):
-        raise error(f"description must be a string, got {values['description']!r}",
-                    values["description"])
+    for key in ("description", "timing"):
+        if not isinstance(values.get(key, ""), str):
+            raise error(f"{key} must be a string, got {values[key]!r}", values[key])
     if "order" in values and (
         isinstance(values["order"], bool) or not isinstance(values["order"], int)
     ):
@@ -344,11 +367,17 @@ def _lookup(name: str, styles: Mapping[str, Handstyle]) -> Handstyle:
 
 
 def get_handstyle(name: str, extra: Mapping[str, Handstyle] | None = None) -> Handstyle:
-    """The style called ``name`` among ``extra`` (user styles, first) and the presets."""
-    return _lookup(name, {**PRESETS, **(extra or {})})
+    """The style called ``name`` among ``extra`` (user styles, first), the presets and the
+    fitted styles."""
+    return _lookup(name, {**PRESETS, **FITTED, **(extra or {})})
 
 
 PRESETS: Mapping[str, Handstyle] = MappingProxyType(
     _read_styles(PRESETS_FILE, {}, default_base=None)
 )
 """The preset handstyles by name (read-only), read from ``inkarm/data/handstyles.toml``."""
+FITTED: Mapping[str, Handstyle] = MappingProxyType(
+    _read_styles(FITTED_FILE, {}, default_base=None)
+)
+"""The handstyles fitted to people (``human``), read from ``inkarm/data/handstyles_fitted.toml``:
+they restyle recordings with their own timing (``timing = "pulses"``), not text."""

@@ -227,7 +227,7 @@ def _drop_sharp(seq: TargetSequence, candidates: list[int], max_turn: float) -> 
 def _turn_at(means, i: int, keep: np.ndarray | None = None) -> float | None:
     """Turning angle in [deg] at target ``i``, between the nearest (kept) targets before and
     after it at another point (a target repeated in place turns where the path turns); None
-    at an end of the path. ``means``: (m, D) array, or its ``tolist()`` (faster when asked
+    at an end of the path. ``means``: (m, 2) array, or its ``tolist()`` (faster when asked
     at several targets)."""
     pts = means.tolist() if isinstance(means, np.ndarray) else means
     a = _distinct_index(pts, i, -1, keep)
@@ -241,28 +241,27 @@ def _turn_angle(p: list[float], q: list[float], r: list[float]) -> float:
     """Turning angle in [deg] at q of the path p, q, r (three points apart): the value of
     :func:`inkarm.analysis.density.turning_angles` (Kahan's angle between the steps) at q,
     in the same floating-point operations, on Python floats."""
-    u = [b - a for a, b in zip(p, q)]
-    v = [b - a for a, b in zip(q, r)]
-    nu = math.sqrt(sum(c * c for c in u))
-    nv = math.sqrt(sum(c * c for c in v))
-    a = [c * nv for c in u]
-    b = [c * nu for c in v]
-    minus = math.sqrt(sum((x - y) * (x - y) for x, y in zip(a, b)))
-    plus = math.sqrt(sum((x + y) * (x + y) for x, y in zip(a, b)))
+    (p0, p1), (q0, q1), (r0, r1) = p, q, r  # (points in the plane)
+    u0, u1, v0, v1 = q0 - p0, q1 - p1, r0 - q0, r1 - q1
+    nu = math.sqrt(u0 * u0 + u1 * u1)
+    nv = math.sqrt(v0 * v0 + v1 * v1)
+    a0, a1, b0, b1 = u0 * nv, u1 * nv, v0 * nu, v1 * nu
+    minus = math.sqrt((a0 - b0) * (a0 - b0) + (a1 - b1) * (a1 - b1))
+    plus = math.sqrt((a0 + b0) * (a0 + b0) + (a1 + b1) * (a1 + b1))
     return math.degrees(2.0 * math.atan2(minus, plus))
 
 
 def _distinct_index(means, i: int, step: int, keep=None) -> int | None:
     """The nearest (kept) target from ``i`` in direction ``step`` at another point (more than
-    ``SAME_POINT`` away); ``means`` an (m, D) array or its ``tolist()``."""
+    ``SAME_POINT`` away); ``means`` an (m, 2) array or its ``tolist()``."""
     pts = means.tolist() if isinstance(means, np.ndarray) else means
-    here = pts[i]
+    x, y = pts[i]
     j = i + step
     while 0 <= j < len(pts):
-        if (keep is None or keep[j]) and math.sqrt(
-            sum((a - b) * (a - b) for a, b in zip(pts[j], here))
-        ) > SAME_POINT:
-            return j
+        if keep is None or keep[j]:
+            dx, dy = pts[j][0] - x, pts[j][1] - y
+            if math.sqrt(dx * dx + dy * dy) > SAME_POINT:
+                return j
         j += step
     return None
 

@@ -41,7 +41,6 @@ of the longest stroke's solve (the strokes are solved one after the other), abou
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -56,9 +55,7 @@ from inkarm.core.budget import STEPS, require, require_memory
 from inkarm.core.plan import MotorPlan, StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
-
-if TYPE_CHECKING:
-    from inkarm.plans.handstyles import Handstyle
+from inkarm.plans.handstyles import TIMINGS, Handstyle
 
 STYLES = ("geometric", "semi-tied")
 """Covariances a restyle chooses by name (``"handstyle"`` comes with :attr:`RestyleConfig.hand`)."""
@@ -104,6 +101,10 @@ class RestyleConfig:
         seed: Random seed of the semi-tied magnitudes h_i (and of a handstyle's, rho > 0).
         hand: The handstyle whose covariances style "handstyle" uses (set both with
             :meth:`from_handstyle`); None otherwise.
+        timing: "isochronous" (DPPLA targets at ``compression``, each held ``segment_time``)
+            or "pulses" (key-points at the trace's speed minima and peaks and at its ends, at
+            its own times and velocities: :mod:`inkarm.plans.pulses`;
+            ``compression`` and ``segment_time`` are then unused).
     """
 
     compression: float = 0.95
@@ -119,19 +120,24 @@ class RestyleConfig:
     banded: bool | None = None
     seed: int | None = 0
     hand: Handstyle | None = None
+    timing: str = "isochronous"
 
     @classmethod
     def from_handstyle(cls, hand: Handstyle, **overrides) -> RestyleConfig:
-        """The restyle of handstyle ``hand``: its covariances, order and d (module docstring);
-        ``overrides`` set any other field (compression, dt, segment_time, seed, ...)."""
+        """The restyle of handstyle ``hand``: its covariances, order, d and timing (module
+        docstring); ``overrides`` set any other field (compression, dt, segment_time, seed,
+        ...)."""
+        settings = {"timing": hand.timing, **overrides}
         return replace(cls(), style="handstyle", hand=hand, order=hand.order, d=hand.d,
-                       **overrides)
+                       **settings)
 
     def __post_init__(self) -> None:
         from inkarm.models.lqt.config import MAX_ORDER
 
         if not (isinstance(self.compression, (int, float)) and 0 < self.compression < 1):
             self._fail("compression", f"must lie in (0, 1), got {self.compression!r}")
+        if self.timing not in TIMINGS:
+            self._fail("timing", f"expected one of {TIMINGS}, got {self.timing!r}")
         if self.style == "handstyle" or self.hand is not None:
             self._check_hand()
         elif self.style not in STYLES:
@@ -158,8 +164,6 @@ class RestyleConfig:
                        f"got {self.segment_time!r}")
 
     def _check_hand(self) -> None:
-        from inkarm.plans.handstyles import Handstyle
-
         if not isinstance(self.hand, Handstyle):
             self._fail("hand", "style 'handstyle' needs hand, a Handstyle (use "
                        f"RestyleConfig.from_handstyle), got {self.hand!r}")
@@ -221,25 +225,60 @@ def stroke_plan(traj: Trajectory, result: DPPLAResult, cfg: RestyleConfig,
     """Gaussian targets at the DPPLA break points of ``traj``; ``rng`` draws a handstyle's
     magnitudes h_i (rho > 0; default a generator seeded with ``cfg.seed``)."""
     means = traj.pos[result.breakpoints]
-    if cfg.hand is not None:
-        if traj.dim != 2:
-            raise InputError(f"restyle: a handstyle's covariances are 2 x 2; the stroke has "
-                             f"{traj.dim} coordinates", key="style", value=cfg.hand.name)
-        covs = cfg.hand.covariances(len(means), rng or np.random.default_rng(cfg.seed))
-    elif cfg.style == "geometric":
-        covs = geometric_covariances(means, cfg.along, cfg.across, cfg.min_std)
-    else:
-        from inkarm.models.lqt import semi_tied_covariances
+    covs = _covariances(traj, means, cfg, rng)
+    if cfg.timing == "pulses":
+        from inkarm.plans.pulses import pulse_plan
 
-        scale = max(float(np.mean(np.linalg.norm(np.diff(means, axis=0), axis=1))), cfg.min_std)
-        basis = cfg.along * scale * np.eye(traj.dim)
-        if traj.dim > 1:
-            basis[0, 1] = cfg.along * scale * cfg.shear
-        covs = semi_tied_covariances(len(means), basis, 1.0, seed=cfg.seed)
+        return pulse_plan(traj, result.breakpoints, covs, cfg.dt)
     if not (cfg.segment_time or traj.duration / len(means)) > 0:
         raise InputError(f"restyle: stroke of duration {traj.duration} s; give segment_time")
     per = _steps_per_target(traj, len(means), cfg)
     return StrokePlan.from_arrays(means, covs, segment_time=per * cfg.dt)
+
+
+def _covariances(traj: Trajectory, means: np.ndarray, cfg: RestyleConfig,
+                 rng: np.random.Generator | None) -> np.ndarray:
+    """(m, D, D) covariances of the targets ``means`` [mm^2] (module docstring)."""
+    if cfg.hand is not None:
+        if traj.dim != 2:
+            raise InputError(f"restyle: a handstyle's covariances are 2 x 2; the stroke has "
+                             f"{traj.dim} coordinates", key="style", value=cfg.hand.name)
+        return cfg.hand.covariances(len(means), rng or np.random.default_rng(cfg.seed))
+    if cfg.style == "geometric":
+        return geometric_covariances(means, cfg.along, cfg.across, cfg.min_std)
+    from inkarm.models.lqt import semi_tied_covariances
+
+    scale = max(float(np.mean(np.linalg.norm(np.diff(means, axis=0), axis=1))), cfg.min_std)
+    basis = cfg.along * scale * np.eye(traj.dim)
+    if traj.dim > 1:
+        basis[0, 1] = cfg.along * scale * cfg.shear
+    return semi_tied_covariances(len(means), basis, 1.0, seed=cfg.seed)
+
+
+def pulse_targets(traj: Trajectory) -> DPPLAResult:
+    """The targets of timing "pulses" (:func:`inkarm.plans.pulses.pulse_breakpoints`) as a
+    :class:`DPPLAResult`: its cost and rms those of the polyline through them, linear in time
+    between them (DPPLA's chord parameter); not an optimum (``optimal_in_band`` None)."""
+    from inkarm.plans.pulses import pulse_breakpoints
+
+    cuts = pulse_breakpoints(traj)
+    chord = np.column_stack([np.interp(traj.t, traj.t[cuts], traj.pos[cuts, k])
+                             for k in range(traj.dim)])
+    cost = float(np.sum((traj.pos - chord) ** 2))
+    return DPPLAResult(cuts, cost, float(np.sqrt(cost / traj.n)), optimal_in_band=None)
+
+
+def _lqt_config(traj: Trajectory, targets: int, cfg: RestyleConfig):
+    """The LQT settings of one stroke: the restyle's, with timing "pulses" the control weight
+    of its targets' mean hold (:func:`inkarm.plans.pulses.control_weight`)."""
+    from inkarm.models.lqt import LQTConfig
+
+    if cfg.timing != "pulses":
+        return LQTConfig(order=cfg.order, dt=cfg.dt, d=cfg.d)
+    from inkarm.plans.pulses import control_weight
+
+    return LQTConfig(order=cfg.order, dt=cfg.dt, d=None,
+                     r=control_weight(cfg.order, cfg.d, traj.duration, targets))
 
 
 def _steps_per_target(traj: Trajectory, targets: int, cfg: RestyleConfig) -> int:
@@ -252,7 +291,11 @@ def _steps_per_target(traj: Trajectory, targets: int, cfg: RestyleConfig) -> int
 
 
 def _lqt_steps(traj: Trajectory, targets: int, cfg: RestyleConfig) -> float:
-    """Time steps of the LQT that re-draws ``traj`` through ``targets`` targets."""
+    """Time steps of the LQT that re-draws ``traj`` through ``targets`` targets (with timing
+    "pulses", at most the trace's duration in steps plus one a sample: key-points closer than a
+    step apart are moved a step on)."""
+    if cfg.timing == "pulses":
+        return float(round(traj.duration / cfg.dt) + traj.n)
     return float(targets * _steps_per_target(traj, targets, cfg))
 
 
@@ -263,10 +306,11 @@ def check_restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Non
         if traj.n < MIN_SAMPLES:
             continue
         k = stroke_segments(traj, cfg.compression)
-        try:
-            check_budget(k, traj.n, traj.dim, banded=_banded(cfg.banded, k, traj.n))
-        except InputError as e:
-            raise e.within(key=f"stroke {i}") from None
+        if cfg.timing != "pulses":
+            try:
+                check_budget(k, traj.n, traj.dim, banded=_banded(cfg.banded, k, traj.n))
+            except InputError as e:
+                raise e.within(key=f"stroke {i}") from None
         stroke_steps = _lqt_steps(traj, k + 1, cfg)
         steps += stroke_steps
         longest = max(longest, stroke_steps)
@@ -286,19 +330,19 @@ def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
     """Restyle every stroke of ``drawing`` (strokes too short for two targets are dropped:
     fewer than :data:`MIN_SAMPLES` samples, listed in ``meta["restyle_dropped"]``), layers
     kept (module docstring); the whole job is checked against the budgets first."""
-    from inkarm.models.lqt import LQTConfig, solve
+    from inkarm.models.lqt import solve
 
     layers = drawing.layer_ids() if "layers" in drawing.meta else None
     check_restyle(drawing, cfg)
-    lqt = LQTConfig(order=cfg.order, dt=cfg.dt, d=cfg.d)
     rng = np.random.default_rng(cfg.seed)
     strokes, plans, results, kept = [], [], [], []
     for i, traj in enumerate(drawing.strokes):
         if traj.n < MIN_SAMPLES:
             continue
-        result = stroke_targets(traj, cfg.compression, cfg.banded)
+        result = (pulse_targets(traj) if cfg.timing == "pulses" else
+                  stroke_targets(traj, cfg.compression, cfg.banded))
         plan = stroke_plan(traj, result, cfg, rng)
-        strokes.append(solve(plan, lqt))
+        strokes.append(solve(plan, _lqt_config(traj, len(result.breakpoints), cfg)))
         plans.append(plan)
         results.append(result)
         kept.append(i)

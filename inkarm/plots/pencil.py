@@ -1,5 +1,7 @@
 """Figures of a pencil profile (seed 002 ch. 4): its histograms, its co-occurrence matrices,
-and a line synthesized from it step by step (the thesis's Table 4.1)."""
+and, beside the scanned line it was extracted from (the target texture), a line synthesized
+from it step by step (the thesis's Table 4.1), each step with its co-occurrence distance to the
+profile."""
 
 from __future__ import annotations
 
@@ -8,20 +10,22 @@ import textwrap
 import numpy as np
 
 from inkarm.ink.pencil_profile import OFFSETS, PencilProfile
-from inkarm.ink.pencil_synthesis import LineTexture
+from inkarm.ink.pencil_synthesis import LineTexture, glcm_distance, strip_glcm
 from inkarm.plots.figure import Figure, new_figure
 
-_STEP_TITLES = ("1 fill", "2 repair", "3 blur")
+_STEP_TITLES = ("1 fill", "2 repair", "3 smooth")
 
 
 def plot_pencil_profile(profile: PencilProfile, texture: LineTexture | None = None,
-                        fig: Figure | None = None) -> Figure:
+                        fig: Figure | None = None, target: np.ndarray | None = None) -> Figure:
     """The profile's mid-line and full-line histograms, its four co-occurrence matrices
     (log scale, grey levels binned to L levels) and, when given, ``texture`` (a straight line
-    synthesized from it) after each of the three synthesis steps; on ``fig`` (a new 12 x 6 in
-    figure when None); returns the figure."""
-    fig = new_figure((12, 6), layout="constrained") if fig is None else fig
-    grid = fig.add_gridspec(2, 6, width_ratios=[2.2, 1, 1, 1, 1, 1.5])
+    synthesized from it) after each of the three synthesis steps, titled with the L1
+    co-occurrence distance d to the profile, beside ``target`` (an 8-bit grey image of a piece
+    of the scanned line as long and as wide as the texture's strip, :func:`crop_line`); on
+    ``fig`` (a new 13 x 6 in figure when None); returns the figure."""
+    fig = new_figure((13, 6), layout="constrained") if fig is None else fig
+    grid = fig.add_gridspec(2, 6, width_ratios=[2.2, 1, 1, 1, 1, 2.0])
     ax = fig.add_subplot(grid[0, 0])
     greys = np.arange(256)
     ax.fill_between(greys, profile.full_hist, step="mid", color="0.7", label="whole line")
@@ -48,13 +52,36 @@ def plot_pencil_profile(profile: PencilProfile, texture: LineTexture | None = No
             f"{profile.reference_force_n:g} N, {profile.levels} levels", fontsize=7,
             va="top").set_in_layout(False)
     if texture is not None:
-        images = (texture.filled / 255.0, texture.repaired / 255.0, 1.0 - texture.darkness)
-        sub = grid[:, 5].subgridspec(1, 3)
-        for k, (image, title) in enumerate(zip(images, _STEP_TITLES)):
+        greys = (texture.filled, texture.repaired,
+                 np.round(255.0 * (1.0 - texture.darkness)).astype(np.uint8))
+        panels = []
+        for grey, title in zip(greys, _STEP_TITLES):
+            d = glcm_distance(strip_glcm(grey, texture.mask, profile.levels), profile.glcm)
+            panels.append((np.where(texture.mask, grey, 255) / 255.0, f"{title}\nd = {d:.2f}"))
+        if target is not None:
+            panels.insert(0, (np.asarray(target) / 255.0, "scan\n(target)"))
+        sub = grid[:, 5].subgridspec(1, len(panels))
+        for k, (image, title) in enumerate(panels):
             ax = fig.add_subplot(sub[0, k])
-            ax.imshow(np.where(texture.mask | (k == 2), image, 1.0), cmap="gray", vmin=0,
-                      vmax=1, aspect="auto", interpolation="nearest")
+            ax.imshow(image, cmap="gray", vmin=0, vmax=1, aspect="auto",
+                      interpolation="nearest")
             ax.set_title(title, fontsize=7)
             ax.set_xticks([])
             ax.set_yticks([])
     return fig
+
+
+def crop_line(scan: np.ndarray, length_mm: float, width_mm: float,
+              px_per_mm: float) -> np.ndarray:
+    """The middle ``length_mm`` x ``width_mm`` [mm] of the upright scanned line ``scan``
+    (8-bit grey at ``px_per_mm`` [px/mm]), centred on the line's darkness-weighted centre
+    column (paper beyond the scan's edges)."""
+    scan = np.asarray(scan, dtype=np.uint8)
+    rows = max(1, min(round(length_mm * px_per_mm), scan.shape[0]))
+    half = max(1, round(width_mm * px_per_mm / 2.0))
+    ink = 255.0 - scan.astype(float)
+    centre = round(float(ink.sum(axis=0) @ np.arange(scan.shape[1])
+                             / max(float(ink.sum()), 1e-12)))
+    top = (scan.shape[0] - rows) // 2
+    padded = np.pad(scan, ((0, 0), (half, half)), constant_values=255)
+    return padded[top : top + rows, centre : centre + 2 * half + 1]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from inkarm.core.plan import StrokePlan
-from inkarm.models.lqt import LQT, LQTConfig, covariance, oracle, sample, solve
+from inkarm.models.lqt import LQT, LQTConfig, covariance, oracle, sample, solve, structure
 from inkarm.models.lqt import model as lqt_model
 from inkarm.models.lqt.solvers import Factor
 
@@ -142,6 +142,7 @@ def test_lqt_builds_and_factorises_once(solver, monkeypatch):
 
         return wrapper
 
+    structure.clear()  # a stroke of a kept shape is neither built nor factorised again
     monkeypatch.setattr(lqt_model, "build_problem", counted_build)
     monkeypatch.setattr(Factor, "_factor_cholesky", counted(Factor._factor_cholesky))
     monkeypatch.setattr(Factor, "_factor_augmented", counted(Factor._factor_augmented))

@@ -6,6 +6,7 @@ replace."""
 
 from __future__ import annotations
 
+import math
 from itertools import pairwise
 
 import numpy as np
@@ -160,3 +161,42 @@ def test_a_bad_mean_raises_the_targets_own_error():
         PRESETS["cursive"].stroke_plan(
             np.array([[0.0, 0.0], [np.nan, 1.0]]), np.random.default_rng(0)
         )
+
+
+def _reference_turn_angle(p, q, r):
+    """_turn_angle before it was written out for the plane (any dimension, generator sums)."""
+    u = [b - a for a, b in zip(p, q)]
+    v = [b - a for a, b in zip(q, r)]
+    nu = math.sqrt(sum(c * c for c in u))
+    nv = math.sqrt(sum(c * c for c in v))
+    a = [c * nv for c in u]
+    b = [c * nu for c in v]
+    minus = math.sqrt(sum((x - y) * (x - y) for x, y in zip(a, b)))
+    plus = math.sqrt(sum((x + y) * (x + y) for x, y in zip(a, b)))
+    return math.degrees(2.0 * math.atan2(minus, plus))
+
+
+def _reference_distinct_index(pts, i, step, keep=None):
+    here = pts[i]
+    j = i + step
+    while 0 <= j < len(pts):
+        if (keep is None or keep[j]) and math.sqrt(
+            sum((a - b) * (a - b) for a, b in zip(pts[j], here))
+        ) > ligatures.SAME_POINT:
+            return j
+        j += step
+    return None
+
+
+def test_plane_turn_angle_and_distinct_index_equal_the_general_ones_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for _ in range(2000):
+        pts = (rng.normal(size=(3, 2)) * 10.0 ** rng.uniform(-8, 3, (3, 1))).tolist()
+        assert ligatures._turn_angle(*pts) == _reference_turn_angle(*pts)
+        path = (np.cumsum(rng.normal(size=(8, 2)), axis=0)
+                * 10.0 ** rng.uniform(-7, 0, (8, 1)) * ligatures.SAME_POINT * 1e6).tolist()
+        keep = rng.random(8) < 0.7
+        i, step = int(rng.integers(8)), int(rng.choice([-1, 1]))
+        for k in (None, keep):
+            assert (ligatures._distinct_index(path, i, step, k)
+                    == _reference_distinct_index(path, i, step, k))

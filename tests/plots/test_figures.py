@@ -91,7 +91,7 @@ def figure_calls():
     from inkarm.plots.density import plot_density_curvature, plot_power_law
     from inkarm.plots.drawing import plot_ink
     from inkarm.plots.plans import plan_figure
-    from inkarm.plots.report import canvas_figure, plot_canvas, report_figure
+    from inkarm.plots.report import canvas_figure, plot_canvas
     from inkarm.plots.restyle import plot_restyle
     from inkarm.plots.tag import tag_figure
     from inkarm.plots.text import plot_text
@@ -99,7 +99,6 @@ def figure_calls():
     x = inputs()
     return [
         ("plot_canvas", lambda ax: plot_canvas(x["run"]["canvas"], ax), "ax"),
-        ("report_figure", lambda fig: report_figure(fig=fig, **x["run"]), "fig"),
         ("plan_figure", lambda fig: plan_figure(x["plan"], fig=fig), "fig"),
         ("plot_density_curvature", lambda ax: plot_density_curvature(x["analysis"], ax), "ax"),
         ("plot_power_law", lambda ax: plot_power_law(x["analysis"], ax), "ax"),
@@ -112,7 +111,7 @@ def figure_calls():
 
 
 NAMES = [
-    "plot_canvas", "report_figure", "plan_figure", "plot_density_curvature", "plot_power_law",
+    "plot_canvas", "plan_figure", "plot_density_curvature", "plot_power_law",
     "plot_restyle", "plot_text", "tag_figure", "plot_ink", "canvas_figure",
 ]
 

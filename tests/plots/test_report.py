@@ -1,15 +1,29 @@
-"""Report figures: the canvas plot's geometry, the report PNG, input errors."""
+"""The run's report: the ink panel's geometry and pixels, the time panels, the report PNG,
+input errors; the matplotlib canvas plot's geometry."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from inkarm.errors import InputError
 from inkarm.ink.canvas import Canvas
+from inkarm.ink.png import png_pixels
 from inkarm.plots import save_figure
 from inkarm.plots.figure import Figure
-from inkarm.plots.report import canvas_figure, plot_canvas, report_figure, write_report
+from inkarm.plots.report import (
+    BLUE,
+    GREEN,
+    RED,
+    REPORT_PX,
+    canvas_figure,
+    ink_panel,
+    plot_canvas,
+    report_image,
+    time_panels,
+    write_report,
+)
 
 
 def _run():
@@ -100,27 +114,6 @@ def test_plot_canvas_draws_on_the_given_axes():
     assert right.images and not left.images
 
 
-def test_report_figure_has_the_four_panels():
-    fig = report_figure(metrics={"tracking_rms_mm": 0.1}, title="run", **_run())
-    assert isinstance(fig, Figure) and len(fig.axes) == 4
-    assert "tracking_rms_mm = 0.1" in fig.get_suptitle()
-
-
-def test_write_report_saves_the_report_png(tmp_path):
-    from matplotlib.image import imread
-
-    path = write_report(tmp_path / "report.png", metrics={"tracking_rms_mm": 0.1}, **_run())
-    assert path == tmp_path / "report.png"
-    pixels = imread(path)
-    assert pixels.shape[:2] == (975, 1650)  # 11 x 6.5 in at 150 dpi
-    assert pixels[..., :3].std() > 0.05  # not a blank image
-
-
-def test_report_figure_draws_on_a_given_figure():
-    fig = Figure(figsize=(8, 5))
-    assert report_figure(fig=fig, **_run()) is fig and len(fig.axes) == 4
-
-
 def test_canvas_figure_saves_as_an_image(tmp_path):
     from matplotlib.image import imread
 
@@ -129,14 +122,112 @@ def test_canvas_figure_saves_as_an_image(tmp_path):
     assert imread(path).shape[1] == 300  # 6 in at 50 dpi
 
 
-def test_report_figure_names_the_mismatched_input(tmp_path):
+def _blank(size=(800, 700)):
+    return Image.new("RGB", size, (255, 255, 255))
+
+
+def _rgb(image, u, v):
+    return tuple(int(c) for c in np.asarray(image)[round(float(v)), round(float(u))])
+
+
+def test_ink_panel_puts_ink_and_plan_at_their_page_positions_at_one_scale():
+    run = _run()
+    plan = [run["reference_mm"][run["drawing"]]]
+    image = _blank()
+    panel = ink_panel(image, (80, 20, 780, 640), run["canvas"], plan, margin_mm=5.0)
+    x0, x1, y0, y1 = panel.limits  # the ink (y = 50.1 mm, 0.4 mm wide) and plan, 5 mm around
+    assert x0 == pytest.approx(20.0 - 0.4 - 5.0, abs=0.2) and x1 == pytest.approx(65.4, abs=0.2)
+    assert y0 == pytest.approx(45.0 - 0.4, abs=0.2) and y1 == pytest.approx(55.4, abs=0.2)
+    left, top, right, bottom = panel.box
+    assert (right - left) / (x1 - x0) == pytest.approx((bottom - top) / (y1 - y0), rel=0.01)
+    assert right - left == 700 and top >= 20 and bottom <= 640  # as wide as the region allows
+    u, v = panel.pixels(30.0, 50.1)[0]
+    assert _rgb(image, u, v) == (0, 0, 0)  # ink under the tip's path ...
+    assert _rgb(image, u, v - 3 * (right - left) / (x1 - x0)) == (255, 255, 255)  # not 3 mm up
+    assert _rgb(image, *panel.pixels(40.0, 50.0)[0]) == RED  # the plan drawn over it
+
+
+def test_ink_panel_resamples_the_ink_keeping_its_mean_darkness():
+    """Enlarged by Pillow's filter, the ink keeps the mean grey level of canvas.png's pixels
+    under the view (to a grey level)."""
+    run = _run()
+    canvas = run["canvas"]
+    image = _blank()
+    panel = ink_panel(image, (80, 20, 780, 640), canvas, margin_mm=5.0)
+    x0, x1, y0, y1 = panel.limits
+    n_rows = canvas.image.shape[0]
+    crop = png_pixels(canvas.image[round(n_rows - y1 * 10) : round(n_rows - y0 * 10),
+                                   round(x0 * 10) : round(x1 * 10)])
+    left, top, right, bottom = panel.box
+    shown = np.asarray(image)[top + 1 : bottom - 1, left + 1 : right - 1, 0]
+    assert shown.mean() == pytest.approx(crop.mean(), abs=1.0)
+
+
+def test_the_ink_panel_does_not_depend_on_the_page_around_the_ink():
+    """The same ink on a page four times as large gives the same view and the same pixels."""
+    small, large = Canvas(size_mm=(100.0, 120.0)), Canvas(size_mm=(400.0, 480.0))
+    for canvas, offset in ((small, 0.0), (large, 200.0)):
+        for k, x in enumerate(np.linspace(20.0, 60.0, 400)):
+            canvas.touch([x + offset, 50.0 + offset + 5 * np.sin(x / 5)], 1.0, 0.001 * k)
+        canvas.lift()
+    a, b = _blank(), _blank()
+    pa = ink_panel(a, (80, 20, 780, 640), small)
+    pb = ink_panel(b, (80, 20, 780, 640), large)
+    assert np.allclose(np.add(pa.limits, 200.0), pb.limits) and pa.box == pb.box
+    left, top, right, bottom = pa.box
+    np.testing.assert_array_equal(np.asarray(a)[top:bottom, left:right],
+                                  np.asarray(b)[top:bottom, left:right])
+
+
+def test_the_ink_panel_of_a_blank_page_shows_the_page():
+    panel = ink_panel(_blank(), (80, 20, 780, 640), Canvas(size_mm=(30.0, 40.0)))
+    assert panel.limits == (0.0, 30.0, 0.0, 40.0)
+
+
+def test_time_panels_share_the_time_axis_and_draw_each_series():
+    run = _run()
+    times, mask = run["times_s"], run["drawing"]
+    image = _blank((900, 700))
+    force = np.where(mask, 1.2, 0.0)
+    error = np.full(times.shape, 0.1)
+    panels = time_panels(image, (100, 20, 880, 640), times, [
+        ("tracking error [mm]", [(error, BLUE, 2, None)]),
+        ("contact force [N]", [(force, GREEN, 2, "force")]),
+    ], mask)
+    assert [p.limits[:2] for p in panels] == [(0.0, times[-1])] * 2
+    assert panels[0].box[3] < panels[1].box[1]  # stacked, the first above
+    assert _rgb(image, *panels[1].pixels(0.5, 1.2)[0]) == GREEN  # while drawing: 1.2 N
+    assert _rgb(image, *panels[1].pixels(1.5, 0.0)[0]) == GREEN  # after: 0 N
+    assert _rgb(image, *panels[0].pixels(1.5, 0.1)[0]) == BLUE
+    assert _rgb(image, *panels[1].pixels(0.55, 0.7)[0]) == (230, 230, 230)  # shaded: drawing
+    assert _rgb(image, *panels[1].pixels(1.55, 0.7)[0]) == (255, 255, 255)  # not drawing
+
+
+def test_write_report_saves_the_report_png(tmp_path):
+    path = write_report(tmp_path / "report.png", metrics={"tracking_rms_mm": 0.1}, **_run())
+    assert path == tmp_path / "report.png"
+    with Image.open(path) as png:
+        assert png.format == "PNG" and png.size == REPORT_PX == (1650, 975)
+        assert np.asarray(png.convert("L")).std() > 10  # not a blank image
+
+
+def test_report_image_of_a_backend_that_senses_no_force():
+    """A plotter's run: force NaN throughout, metrics undefined; the force panel stays empty."""
+    run = {**_run(), "force_n": np.full(1000, np.nan)}
+    image = report_image(metrics={"tracking_rms_mm": 0.1, "contact_force_mean_n": np.nan},
+                         title="run", **run)
+    assert image.size == REPORT_PX and image.mode == "RGB"
+    assert not (np.asarray(image) == GREEN).all(axis=2).any()
+
+
+def test_report_image_names_the_mismatched_input(tmp_path):
     run = _run()
     run["force_n"] = run["force_n"][:-1]
     with pytest.raises(
-        InputError, match=r"report_figure: force_n has 999 samples, times_s has 1000"
+        InputError, match=r"report_image: force_n has 999 samples, times_s has 1000"
     ):
         write_report(tmp_path / "r.png", **run)
     assert not (tmp_path / "r.png").exists()
     run = _run()
-    with pytest.raises(InputError, match=r"report_figure: need at least 2 samples, got 1"):
-        report_figure(**{k: (v[:1] if k != "canvas" else v) for k, v in run.items()})
+    with pytest.raises(InputError, match=r"report_image: need at least 2 samples, got 1"):
+        report_image(**{k: (v[:1] if k != "canvas" else v) for k, v in run.items()})

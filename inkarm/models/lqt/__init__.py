@@ -19,6 +19,9 @@ Modules:
 * :mod:`.oracle`: the dense eq. 10-15 as printed, O(N^3), the test oracle (``solver="batch"``).
 * :mod:`.model`: :class:`LQT`, which builds and factorises once, and :func:`solve`,
   :func:`sample`, :func:`covariance` over it.
+* :mod:`.structure`: what strokes of one shape (configuration, timing, covariances) share,
+  kept between calls: the structure of the problem and its factorisation, so that a stroke
+  of a known shape costs its means' checks, A^T b and the back-substitutions.
 
 Timing of the two discretisations, measured against the same plan solved with zero-order hold
 on a 20x finer grid, which stands for the continuous-time optimum (least-squares time shift of

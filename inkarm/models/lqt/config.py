@@ -88,11 +88,12 @@ def _covariance_errors(covs: np.ndarray) -> tuple[int, str | None]:
     return -1, None
 
 
-def check_stroke_ranges(stroke: StrokePlan) -> None:
+def check_stroke_ranges(stroke: StrokePlan, means_only: bool = False) -> None:
     """Refuse means, covariances and velocities of ``stroke`` outside the valid ranges (see
     the module docstring); errors name ``targets[i].mean``, ``targets[i].cov``,
     ``velocities``. A stroke plan is immutable, so a stroke that passed is not checked again
-    (realising a plan sizes each stroke before solving it)."""
+    (realising a plan sizes each stroke before solving it). ``means_only``: the rest is known
+    to pass (covariances equal to a checked stroke's, no velocities, :mod:`.structure`)."""
     if stroke.__dict__.get("_ranges_checked"):
         return
     means = stroke.means
@@ -100,6 +101,9 @@ def check_stroke_ranges(stroke: StrokePlan) -> None:
     if far.any():
         i = int(np.argwhere(far)[0, 0])
         raise PlanError(coordinate_error(means[i]), key=f"targets[{i}].mean", value=means[i])
+    if means_only:
+        object.__setattr__(stroke, "_ranges_checked", True)
+        return
     i, message = _covariance_errors(stroke.covs)
     if message:
         raise PlanError(message, key=f"targets[{i}].cov", value=stroke.covs[i])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from functools import cached_property, lru_cache
 
 import numpy as np
@@ -9,7 +10,7 @@ import numpy as np
 from inkarm.core.plan import StrokePlan
 from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError, SolverError
-from inkarm.models.lqt import cost, oracle
+from inkarm.models.lqt import cost, oracle, structure
 from inkarm.models.lqt.config import DEFAULT_CONFIG, LQTConfig
 from inkarm.models.lqt.problem import Problem, build_problem, extend, positions
 from inkarm.models.lqt.solvers import Factor, eigen_draws
@@ -23,7 +24,10 @@ class LQT:
     The banded problem is built (and every input checked, the time steps and the memory of
     the solve against their budgets, :mod:`.cost`) at construction; it is factorised
     at most once, on first use, and the mean, every call to :meth:`sample` and
-    :meth:`covariance` reuse that factorisation. With ``config.solver == "batch"`` the mean
+    :meth:`covariance` reuse that factorisation. A stroke of a shape solved before (same
+    configuration, timing and covariances, :mod:`.structure`) reuses that shape's problem
+    structure and factorisation: only its means are checked and assembled. With
+    ``config.solver == "batch"`` the mean
     and covariance come from the dense oracle (:mod:`.oracle`) and draws from the ``"auto"``
     factorisation.
 
@@ -39,7 +43,15 @@ class LQT:
         self.stroke = stroke
         self.config = config
         self.references = tuple(references)
-        self.problem: Problem = build_problem(stroke, config, self.references)
+        self._factor: Factor | None = None
+        self._c: np.ndarray | None = None
+        key = structure.shape_key(stroke, config, self.references)
+        self._structure = structure.find(key, stroke)
+        if self._structure is None:
+            self.problem: Problem = build_problem(stroke, config, self.references)
+            self._structure = structure.remember(key, self.problem)
+        else:
+            self.problem = self._structure.problem(stroke)
         if config.solver == "batch":
             prob = self.problem
             cost.require(
@@ -56,22 +68,30 @@ class LQT:
     @property
     def method(self) -> str:
         """``"cholesky"`` or ``"augmented"``: the factorisation used (or that will be)."""
-        if "factor" in self.__dict__:
-            return self.factor.method
+        if self._factor is not None:
+            return self._factor.method
         prob = self.problem
         solver = "auto" if self.config.solver == "batch" else self.config.solver
         return cost.expected_method(solver, prob.n, prob.control, prob.floor, prob.ceiling)
 
-    @cached_property
+    @property
     def factor(self) -> Factor:
-        """The banded factorisation (computed on first use, then kept)."""
-        solver = "auto" if self.config.solver == "batch" else self.config.solver
-        return Factor(self.problem, solver)
+        """The banded factorisation (computed on first use, then kept, with the shape's
+        structure where it is kept)."""
+        if self._factor is None:
+            solver = "auto" if self.config.solver == "batch" else self.config.solver
+            if self._structure is None:
+                self._factor = Factor(self.problem, solver)
+            else:
+                self._factor = self._structure.factor(solver)
+        return self._factor
 
-    @cached_property
+    @property
     def _coefficients(self) -> np.ndarray:
-        """Free coefficients (n_free, D) of the optimum."""
-        return self.factor.mean()
+        """Free coefficients (n_free, D) of the optimum (computed once)."""
+        if self._c is None:
+            self._c = self.factor.mean(self.problem)
+        return self._c
 
     @cached_property
     def _batch_states(self) -> np.ndarray:
@@ -100,11 +120,11 @@ class LQT:
             states = self._batch_states
             pos = states[:, : prob.dim].copy()
             vel = states[:, prob.dim : 2 * prob.dim].copy() if prob.n > 1 else _control(prob, pos)
+            _check_finite(pos)
+            _check_finite(vel)
         else:
             pos, vel = _outputs(prob, self._coefficients)
-        _check_finite(pos)
-        _check_finite(vel)
-        return Trajectory.from_checked(self.times, pos, vel)
+        return Trajectory.from_checked(_times(prob.n_steps, prob.dt), pos, vel)
 
     def sample(
         self, k: int = 100, seed=None, method: str = "exact", components: int | None = 9
@@ -163,7 +183,7 @@ class LQT:
             )
         rng = np.random.default_rng(seed)
         if method == "exact":
-            c = self.factor.samples(int(k), rng, self._coefficients)
+            c = self.factor.samples(int(k), rng, self._coefficients, self.problem)
         else:
             c = eigen_draws(self.factor, self._coefficients, int(k), components, rng)
         out = positions(self.problem, c)
@@ -239,15 +259,22 @@ def _times(n_steps: int, dt: float) -> np.ndarray:
 
 
 def _outputs(prob: Problem, c_free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions [mm] and velocities [mm/s] (N, D) from the free coefficients."""
+    """Positions [mm] and velocities [mm/s] (N, D) from the free coefficients, checked
+    finite (SolverError)."""
     if prob.discretisation == "zoh":
         pos = positions(prob, c_free)
-        return pos, (positions(prob, c_free, 1) if prob.n > 1 else _control(prob, pos))
+        vel = positions(prob, c_free, 1) if prob.n > 1 else _control(prob, pos)
+        _check_finite(pos)
+        _check_finite(vel)
+        return pos, vel
     ext = extend(prob, c_free, with_start=True)  # Euler: c is the position
-    vel = np.diff(ext[: prob.n_steps + 1] if prob.n > 1 else ext[: prob.n_steps], axis=0) / prob.dt
+    n_steps = prob.n_steps
     if prob.n == 1:  # first-order chain: the velocity is the control, 0 after the last step
-        vel = np.vstack([vel, np.zeros((1, prob.dim))])
-    return ext[: prob.n_steps] + prob.origin, vel
+        ext = np.vstack([ext, ext[-1:]])
+    vel = ext[1 : n_steps + 1] - ext[:n_steps]
+    vel /= prob.dt
+    _check_finite(vel)  # every position enters a velocity: non-finite ones show there
+    return ext[:n_steps] + prob.origin, vel
 
 
 def _control(prob: Problem, pos: np.ndarray) -> np.ndarray:
@@ -258,5 +285,5 @@ def _control(prob: Problem, pos: np.ndarray) -> np.ndarray:
 
 
 def _check_finite(arr: np.ndarray) -> None:
-    if not np.isfinite(arr.sum()):  # NaN and inf propagate into the sum
+    if not math.isfinite(arr.sum()):  # NaN and inf propagate into the sum
         raise SolverError("LQT produced non-finite values (ill-posed plan or overflow)")

@@ -102,8 +102,10 @@ def obs_band(prob: Problem) -> np.ndarray:
 
 
 def normal_band(prob: Problem, obs: np.ndarray) -> np.ndarray:
-    """Lower band of the normal matrix H = control^2 (Delta^n)^T Delta^n + tracking part."""
-    band = prob.control**2 * _control_band(prob.n, prob.dim, prob.n_steps, prob.n_coef)
+    """Lower band of the normal matrix H = control^2 (Delta^n)^T Delta^n + tracking part, in
+    Fortran order (as LAPACK takes it, no copy)."""
+    control = _control_band(prob.n, prob.dim, prob.n_steps, prob.n_coef)
+    band = np.multiply(prob.control**2, control, order="F")
     band[: obs.shape[0]] += obs
     return band
 
@@ -129,37 +131,76 @@ def rhs(prob: Problem, noise: tuple | None = None) -> np.ndarray:
 
 
 def control_adjoint(prob: Problem, e: np.ndarray) -> np.ndarray:
-    """control * (Delta^n)^T e for rows e (..., N-1, D) -> (..., n_free, D).
-
-    The adjoint of the forward difference is minus the backward difference with zero padding.
-    """
-    n = prob.n
-    full = np.zeros((*e.shape[:-2], e.shape[-2] + 2 * n, e.shape[-1]))
-    full[..., n:-n, :] = e
-    full = differences(full, n)  # on c_0 .. c_{N+n-2}
-    out = full[..., n : prob.n_coef, :]
-    if prob.n_coef < full.shape[-2]:  # tied tail c_{N-1} = ... = c_{N+n-2}
-        out[..., -1, :] += full[..., prob.n_coef :, :].sum(axis=-2)
-    return out * (prob.control if n % 2 == 0 else -prob.control)
+    """control * (Delta^n)^T e for rows e (N-1, D) -> (n_free, D)."""
+    return (prob.control if prob.n % 2 == 0 else -prob.control) * _backward(prob, e)
 
 
-def normal_residual(prob: Problem, obs: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+def _backward(prob: Problem, e: np.ndarray) -> np.ndarray:
+    """(-1)^n (Delta^n)^T e, (N-1, D) -> (n_free, D): the adjoint of the forward difference is
+    minus the backward difference with zero padding; the rows of the fixed c_0 .. c_{n-1} are
+    dropped, those of the tied tail c_{N-1} = ... = c_{N+n-2} summed onto c_{N-1}."""
+    n, n_free = prob.n, prob.n_coef - prob.n
+    full = np.zeros((e.shape[0] + n, e.shape[1]))
+    full[: e.shape[0]] = e
+    full = differences(full, n)  # on c_n .. c_{N+n-2}
+    out = full[:n_free]
+    if full.shape[0] > n_free:
+        out[-1] += full[n_free:].sum(axis=0)
+    return out
+
+
+def couplings(obs: np.ndarray) -> tuple[tuple[int, np.ndarray], ...]:
+    """The non-zero sub-diagonals (off, ab[off, :-off]) of the tracking band ``obs`` (none for
+    diagonal precisions held at every step, Euler): what :func:`normal_residual` multiplies."""
+    return tuple((off, obs[off, :-off]) for off in range(1, obs.shape[0]) if obs[off].any())
+
+
+def normal_residual(prob: Problem, obs: np.ndarray, b: np.ndarray, c: np.ndarray,
+                    coupled: tuple | None = None) -> np.ndarray:
     """b - H c, with the control part computed as (Delta^n)^T (Delta^n c) from differences.
 
     The differences of the solution are accurate to their own size, whereas the rounded normal
     matrix loses the tracking precisions next to its control entries of size ~4^n control^2.
+    b, c: (n_free, D); ``coupled``: :func:`couplings` of ``obs``, if known.
     """
-    flat = c.reshape(*c.shape[:-2], -1)
-    hc = obs[0] * flat
-    for off in range(1, obs.shape[0]):
-        hc[..., off:] += obs[off, :-off] * flat[..., :-off]
-        hc[..., :-off] += obs[off, :-off] * flat[..., off:]
-    e = differences(extend(prob, c), prob.n)
-    return b - hc.reshape(c.shape) - prob.control * control_adjoint(prob, e)
+    r = b - obs[0].reshape(c.shape) * c
+    coupled = couplings(obs) if coupled is None else coupled
+    if coupled:
+        flat, hc = c.reshape(-1), np.zeros(c.size)
+        for off, w in coupled:
+            hc[off:] += w * flat[:-off]
+            hc[:-off] += w * flat[off:]
+        r -= hc.reshape(c.shape)
+    gram = _gram(prob, c)
+    gram *= prob.control**2 if prob.n % 2 == 0 else -(prob.control**2)
+    r -= gram
+    return r
+
+
+def _gram(prob: Problem, c: np.ndarray) -> np.ndarray:
+    """(-1)^n (Delta^n)^T Delta^n c (n_free, D) by repeated differences.
+
+    At rest the coefficients stay at c_{N-1} beyond the tied tail, so Delta^n of them is 0
+    there and the zero padding of :func:`_backward` comes for free: the rows are
+    Delta^2n of c_0 .. c_{N+2n-2}, and the tail rows c_{N-1} .. c_{N+n-2} telescope into
+    -Delta^(2n-1) at c_{N-1}."""
+    n, n_free, n_steps = prob.n, prob.n_coef - prob.n, prob.n_steps
+    if prob.n_coef != n_steps:
+        return _backward(prob, differences(extend(prob, c), n))
+    ext = np.zeros((n_steps + 2 * n - 1, c.shape[1]))
+    ext[n:n_steps] = c
+    ext[n_steps:] = c[-1]
+    d = differences(ext, 2 * n - 1)[: n_free + 1]
+    d[-1] = 0.0
+    return d[1:] - d[:-1]
 
 
 def differences(a: np.ndarray, n: int) -> np.ndarray:
     """Delta^n along axis -2 by repeated differences (each exact to its own rounding)."""
+    if a.ndim == 2:
+        for _ in range(n):
+            a = a[1:] - a[:-1]
+        return a
     for _ in range(n):
         a = a[..., 1:, :] - a[..., :-1, :]
     return a

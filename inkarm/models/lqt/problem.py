@@ -58,7 +58,7 @@ class Block:
         self._weighted = weighted
 
     def _expand(self, a: np.ndarray) -> np.ndarray:
-        return a if self.repeat == 1 else np.repeat(a, self.repeat, axis=0)
+        return a if self.repeat == 1 else a.repeat(self.repeat, axis=0)
 
     @cached_property
     def precision(self) -> np.ndarray | None:
@@ -85,6 +85,19 @@ class Block:
         """steps[0] when the steps are consecutive (slices instead of fancy indexing), else -1."""
         t = self.steps
         return int(t[0]) if t[-1] - t[0] == t.size - 1 else -1
+
+    def with_values(self, value: np.ndarray, weighted: np.ndarray) -> Block:
+        """The same rows (steps, stencil, precisions) towards other targets ``value`` (T /
+        repeat, D), with ``weighted`` = P v (expanded at once: every solve reads it); what was
+        derived from the structure is shared."""
+        block = Block(self.derivative, self.steps, self.coef, self.targets_precision, value,
+                      weighted, self.repeat)
+        cached = block.__dict__
+        cached["weighted"] = block._expand(weighted)
+        for name in ("start", "precision"):
+            if name in self.__dict__:
+                cached[name] = self.__dict__[name]
+        return block
 
 
 @dataclass(frozen=True)
@@ -308,11 +321,18 @@ def _shift_block(block: Block, start: np.ndarray, n: int) -> Block:
 def extend(prob: Problem, c: np.ndarray, with_start: bool = False) -> np.ndarray:
     """All coefficients c_0 .. c_{N+n-2} (..., N+n-1, D) from the free ones; the fixed ones are 0
     (as in the shifted right-hand sides) or, with_start, their values."""
-    ext = np.zeros((*c.shape[:-2], prob.n_steps + prob.n - 1, prob.dim))
+    n, n_coef = prob.n, prob.n_coef
+    ext = np.zeros(c.shape[:-2] + (prob.n_steps + n - 1, prob.dim))
+    if c.ndim == 2:
+        if with_start:
+            ext[:n] = prob.start
+        ext[n:n_coef] = c
+        ext[n_coef:] = c[-1]
+        return ext
     if with_start:
-        ext[..., : prob.n, :] = prob.start
-    ext[..., prob.n : prob.n_coef, :] = c
-    ext[..., prob.n_coef :, :] = c[..., -1:, :]
+        ext[..., :n, :] = prob.start
+    ext[..., n:n_coef, :] = c
+    ext[..., n_coef:, :] = c[..., -1:, :]
     return ext
 
 
@@ -322,8 +342,10 @@ def positions(prob: Problem, c_free: np.ndarray, derivative: int = 0, affine: bo
     ``affine=False`` gives the linear part only (fixed start and origin left out), the map
     whose covariance image is the position covariance.
     """
-    ext = extend(prob, c_free, with_start=affine)
     stencil = state_stencils(prob.n, prob.discretisation)[derivative]
+    if derivative == 0 and stencil.size == 1 and stencil[0] == 1.0:  # Euler: x_t = c_t
+        return _euler_positions(prob, c_free, affine)
+    ext = extend(prob, c_free, with_start=affine)
     if stencil.size == 1:
         out = ext[..., : prob.n_steps, :] * stencil[0]
     else:
@@ -335,6 +357,20 @@ def positions(prob: Problem, c_free: np.ndarray, derivative: int = 0, affine: bo
         out /= prob.dt**derivative
     if derivative == 0 and affine:
         out += prob.origin
+    return out
+
+
+def _euler_positions(prob: Problem, c_free: np.ndarray, affine: bool) -> np.ndarray:
+    """x_t = c_t (..., N, D): the fixed start then the free coefficients (the tied tail lies
+    beyond step N - 1), plus the origin when ``affine``; written in place, one pass."""
+    n, n_steps = prob.n, prob.n_steps
+    out = np.empty(c_free.shape[:-2] + (n_steps, prob.dim))
+    out[..., :n, :] = prob.start + prob.origin if affine else 0.0
+    free = c_free[..., : n_steps - n, :]
+    if affine:
+        np.add(free, prob.origin, out=out[..., n:, :])
+    else:
+        out[..., n:, :] = free
     return out
 
 

@@ -28,6 +28,7 @@ from inkarm.errors import SolverError
 from inkarm.models.lqt.normal import (
     control_adjoint,
     control_rows,
+    couplings,
     normal_band,
     normal_residual,
     obs_band,
@@ -54,6 +55,7 @@ class Factor:
             # one refinement step squares the relative error (measured: < 1e-8 up to loss 1e-3)
             method = "cholesky" if loss < 1e-4 else "augmented"
         self.refine = loss > 1e-9
+        self.coupled = couplings(self.obs) if self.refine else ()
         self.method = method
         if method == "cholesky":
             self._factor_cholesky()
@@ -63,7 +65,7 @@ class Factor:
     # normal equations ------------------------------------------------------------------------
     def _factor_cholesky(self) -> None:
         """H = L L^T in band storage."""
-        chol, info = lapack.dpbtrf(normal_band(self.prob, self.obs), lower=1)
+        chol, info = lapack.dpbtrf(normal_band(self.prob, self.obs), lower=1, overwrite_ab=1)
         if info != 0:
             raise SolverError(
                 f"LQT normal equations not positive definite (pbtrf info {info}): too "
@@ -73,9 +75,10 @@ class Factor:
             )
         self.chol = chol
 
-    def _chol_solve(self, b: np.ndarray) -> np.ndarray:
+    def _chol_solve(self, b: np.ndarray, overwrite: bool = True) -> np.ndarray:
+        """H^-1 b for b (n_free, D) or (K, n_free, D); b may be overwritten."""
         flat = b.reshape(b.shape[0], -1).T if b.ndim == 3 else b.reshape(-1)
-        x, info = lapack.dpbtrs(self.chol, flat, lower=1)
+        x, info = lapack.dpbtrs(self.chol, flat, lower=1, overwrite_b=overwrite)
         if info != 0:
             raise SolverError(f"LQT banded solve failed (pbtrs info {info})")
         return x.T.reshape(b.shape) if b.ndim == 3 else x.reshape(b.shape)
@@ -120,20 +123,23 @@ class Factor:
         return out if many else out[0]
 
     # public ----------------------------------------------------------------------------------
-    def mean(self) -> np.ndarray:
-        """Free coefficients (n_free, D) of the optimum: c_hat = H^-1 A^T b."""
-        b = rhs(self.prob)
+    def mean(self, prob: Problem) -> np.ndarray:
+        """Free coefficients (n_free, D) of the optimum of ``prob`` (this factor's problem, or
+        one of the same structure with other means, :mod:`.structure`): c_hat = H^-1 A^T b."""
+        b = rhs(prob)
         if self.method == "augmented":
-            return self._aug_solve(b, self.prob.control_target)
-        if self.prob.control_target is not None:
-            b += control_adjoint(self.prob, self.prob.control_target)
-        c = self._chol_solve(b)
+            return self._aug_solve(b, prob.control_target)
+        if prob.control_target is not None:
+            b += control_adjoint(prob, prob.control_target)
+        c = self._chol_solve(b, overwrite=not self.refine)
         if self.refine:  # one step of iterative refinement with an accurately computed residual
-            c += self._chol_solve(normal_residual(self.prob, self.obs, b, c))
+            c += self._chol_solve(normal_residual(prob, self.obs, b, c, self.coupled))
         return c
 
-    def samples(self, k: int, rng: np.random.Generator, mean: np.ndarray) -> np.ndarray:
-        """K exact draws (K, n_free, D) of the coefficients around ``mean`` (= :meth:`mean`).
+    def samples(self, k: int, rng: np.random.Generator, mean: np.ndarray,
+                prob: Problem) -> np.ndarray:
+        """K exact draws (K, n_free, D) of the coefficients of ``prob`` (as for :meth:`mean`)
+        around ``mean`` (= :meth:`mean`).
 
         Cholesky (H = L L^T): c = c_hat + L^-T z, z ~ N(0, I), whose covariance is H^-1, the
         posterior covariance of the coefficients. Augmented: perturbation sampling, re-solving
@@ -142,13 +148,15 @@ class Factor:
         linear in (y, u0), its mean is the optimum and its covariance
         Sigma_u (S_u^T Q S_u + R) Sigma_u = Sigma_u, mapped through S_u.
         """
-        p = self.prob
+        p = prob
         if self.method == "cholesky":
             z = rng.standard_normal((k, p.n_free * p.dim)).T
-            dev, info = lapack.dtbtrs(self.chol, z, uplo="L", trans="T")
+            dev, info = lapack.dtbtrs(self.chol, z, uplo="L", trans="T", overwrite_b=1)
             if info != 0:
                 raise SolverError(f"LQT banded triangular solve failed (tbtrs info {info})")
-            return mean + dev.T.reshape(k, p.n_free, p.dim)
+            dev = dev.T.reshape(k, p.n_free, p.dim)
+            dev += mean
+            return dev
         b = rhs(p, noise=(rng, k))
         zc = rng.standard_normal((k, p.n_steps - 1, p.dim))
         if p.control_target is not None:

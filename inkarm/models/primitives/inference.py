@@ -8,8 +8,11 @@ observation likelihood is the responsibility
     Delta^m = diag(W^m C^-1 W^mT)                                   (eq. 8)
     Y~_t^m = Y_t - sum_{l != m} W^lT <S_t^l>                        (eq. 9)
 
-and one forward-backward pass per chain, in the log domain, gives its <S_t^m>. The band of
-Fig. 3 makes each step O(K): a state is reached only from itself and from the state before it.
+and one forward-backward pass per chain gives its <S_t^m>: scaled (Rabiner's normalisation of
+alpha at every step, :func:`forward_backward`), not in the log domain, which gives the same
+posteriors to rounding (tests/models/test_primitives.py) at a fraction of the cost. Each step is
+one (B, K) x (K, K) product with the chain's transition matrix (Fig. 3's band, stored dense: at
+K = 16 one BLAS call beats two shifted views).
 
 Choices where the paper is loose (stated here and in the README):
 
@@ -94,22 +97,105 @@ class ChainPosterior:
 
     Attributes:
         gamma: (T, B, K) marginals <S_t> (zero at padded steps).
-        log_h: (T, B, K) the log responsibilities it used (zero at padded steps).
         log_z: (B,) log normaliser of each sequence.
         advance_counts: (K,) expected number of i -> i+1 transitions, summed over sequences.
         occupancy: (K,) expected time in each state before a sequence's last sample.
+        expected_log_h: sum over samples of <S_t> . log h_t, with the log responsibilities
+            log h it used (the bound's entropy term; the (T, B, K) log h itself is not kept).
     """
 
     gamma: np.ndarray
-    log_h: np.ndarray
     log_z: np.ndarray
     advance_counts: np.ndarray
     occupancy: np.ndarray
+    expected_log_h: float = 0.0
 
 
-def forward_backward(log_h: np.ndarray, log_stay: np.ndarray, log_advance: np.ndarray,
-                     log_start: np.ndarray, mask: np.ndarray) -> ChainPosterior:
-    """Log-domain forward-backward of one left-to-right chain over B sequences at once.
+def forward_backward(log_h: np.ndarray, transition: np.ndarray, start: np.ndarray,
+                     mask: np.ndarray, out: np.ndarray | None = None) -> ChainPosterior:
+    """Scaled forward-backward of one chain over B sequences at once (Rabiner 1989 sec. V-A).
+
+    With h_t = exp(log h_t - s_t), s_t = max_k log h_t,k (so that h_t <= 1 cannot overflow),
+    and P the chain's (K, K) transition matrix (rows = from):
+
+        a~_1 = pi * h_1,  a~_t = (a_t-1 P) * h_t,  c_t = sum_k a~_t,  a_t = a~_t / c_t   (1)
+        b_T = 1,          b_t-1 = P (h_t * b_t) / c_t                                   (2)
+        <S_t> = a_t * b_t,   log Z = sum_t (log c_t + s_t)                               (3)
+        sum_t xi_t(i -> j) = P_ij sum_t a_t-1,i h_t,j b_t,j / c_t                         (4)
+
+    A padded step has log h = 0: h = 1 there, c = 1 and b = 1 (up to rounding), so it changes
+    no posterior and no normaliser; (3) and (4) leave it out by the mask. Where some c_t
+    underflows to 0 (the states alpha reaches all have log h_t more than ~745 below the best
+    one), or b overflows, the chain is done by :func:`log_forward_backward` instead.
+
+    Args:
+        log_h: (T, B, K) log observation likelihoods, zero at padded steps.
+        transition: (K, K) P of the chain (Fig. 3's band: stay or advance to the next).
+        start: (K,) pi.
+        mask: (T, B) real samples.
+        out: (T, B, K) array to hold <S> (default: a new one).
+    """
+    T, B, K = log_h.shape
+    shift = log_h.max(axis=-1, keepdims=True)                      # s_t, (T, B, 1)
+    h = np.subtract(log_h, shift)
+    np.exp(h, out=h)
+    alpha = np.empty_like(h) if out is None else out
+    beta = np.empty_like(h)
+    c = np.empty((T, B, 1))
+    ones = np.ones((K, 1))
+    multiply, divide, matmul = np.multiply, np.divide, np.matmul
+    with np.errstate(invalid="ignore"):                             # 0 / 0: see below
+        multiply(start, h[0], out=alpha[0])
+        matmul(alpha[0], ones, out=c[0])
+        divide(alpha[0], c[0], out=alpha[0])
+        for t in range(1, T):                                      # (1)
+            a = alpha[t]
+            matmul(alpha[t - 1], transition, out=a)
+            multiply(a, h[t], out=a)
+            matmul(a, ones, out=c[t])
+            divide(a, c[t], out=a)
+    if not c.min() > 0:                    # every state left has h_t = 0 to double precision
+        return _in_log_domain(log_h, transition, start, mask)
+    hb = divide(h, c, out=h)                                       # h_t / c_t, then * b_t
+    beta[T - 1] = 1.0
+    to = transition.T
+    with np.errstate(over="ignore", invalid="ignore"):  # b may overflow: caught below
+        for t in range(T - 1, 0, -1):                              # (2)
+            multiply(hb[t], beta[t], out=hb[t])
+            matmul(hb[t], to, out=beta[t - 1])
+    log_z = np.log(c[..., 0]).sum(axis=0) + shift[..., 0].sum(axis=0)
+    if T > 1:                                                      # (4), inside the sequences
+        with np.errstate(over="ignore", invalid="ignore"):
+            multiply(hb[1:], mask[1:, :, None], out=hb[1:])
+            pairs = transition * np.matmul(alpha[:-1].transpose(0, 2, 1), hb[1:]).sum(axis=0)
+        if not np.all(np.isfinite(pairs)):        # b overflowed where alpha had underflowed
+            return _in_log_domain(log_h, transition, start, mask)
+        advance_counts = pairs[np.arange(K), (np.arange(K) + 1) % K]
+        occupancy = pairs.sum(axis=1)                              # = sum_t <S_t-1> inside
+    else:
+        advance_counts, occupancy = np.zeros(K), np.zeros(K)
+    gamma = multiply(alpha, beta, out=alpha)                       # (3)
+    multiply(gamma, mask[..., None], out=gamma)
+    return ChainPosterior(gamma, log_z, advance_counts, occupancy, _expected(gamma, log_h))
+
+
+def _expected(gamma: np.ndarray, log_h: np.ndarray) -> float:
+    """sum_t <S_t> . log h_t (one pass, no temporary)."""
+    return float(np.einsum("tbk,tbk->", gamma, log_h))
+
+
+def _in_log_domain(log_h, transition, start, mask) -> ChainPosterior:
+    K = len(start)
+    with np.errstate(divide="ignore"):
+        return log_forward_backward(log_h, np.log(np.diagonal(transition)),
+                                    np.log(transition[np.arange(K), (np.arange(K) + 1) % K]),
+                                    np.log(start), mask)
+
+
+def log_forward_backward(log_h: np.ndarray, log_stay: np.ndarray, log_advance: np.ndarray,
+                         log_start: np.ndarray, mask: np.ndarray) -> ChainPosterior:
+    """Log-domain forward-backward of one left-to-right chain over B sequences at once: what
+    :func:`forward_backward` falls back to where its scaled alpha underflows.
 
     Args:
         log_h: (T, B, K) log observation likelihoods, zero at padded steps.
@@ -162,7 +248,7 @@ def forward_backward(log_h: np.ndarray, log_stay: np.ndarray, log_advance: np.nd
     np.exp(gamma, out=gamma)
     gamma *= mask[..., None]
     occupancy = (gamma[:-1] * mask[1:, :, None]).sum(axis=(0, 1)) if T > 1 else np.zeros(K)
-    return ChainPosterior(gamma, log_h, log_z, advance_counts, occupancy)
+    return ChainPosterior(gamma, log_z, advance_counts, occupancy, _expected(gamma, log_h))
 
 
 @dataclass(eq=False)
@@ -186,8 +272,7 @@ class Posterior:
         for _ in range(model.n_chains):
             gamma = np.zeros((T, B, K))
             gamma[..., 0] = batch.mask
-            chains.append(ChainPosterior(gamma, np.zeros((T, B, K)), np.zeros(B), np.zeros(K),
-                                         np.zeros(K)))
+            chains.append(ChainPosterior(gamma, np.zeros(B), np.zeros(K), np.zeros(K)))
         return cls(chains)
 
 
@@ -204,19 +289,28 @@ def e_step(model: PrimitiveModel, batch: Batch, start: Posterior | None = None,
     """
     post = Posterior.silent(model, batch) if start is None else Posterior(list(start.chains))
     P = _precision(model)
-    log_stay, log_adv = model.log_transitions()
-    with np.errstate(divide="ignore"):
-        log_start = np.log(model.start)
-    mean = sum(c.gamma @ model.W[m] for m, c in enumerate(post.chains))
+    T, B, D = batch.Y.shape
+    # others = [Y~_t^m, 1]: eq. 9's residual of the chain being updated, with the mask as a last
+    # column that carries the constant term of eq. 7 (so that log h is exactly 0 where padded)
+    others = np.empty((T, B, D + 1))
+    others[..., D] = batch.mask
+    own = [c.gamma @ model.W[m] for m, c in enumerate(post.chains)]     # W^mT <S_t^m>
+    residual = batch.Y - sum(own)                                       # Y_t - mu_t
+    transitions = [model.transition_matrix(m) for m in range(model.n_chains)]
+    scratch = np.empty((min(T, _BLOCK), B, model.n_states))
+    log_h = np.empty((T, B, model.n_states))                            # one chain's at a time
+    spare = None                 # the <S> array of a posterior this E-step made, then replaced
     sweeps = 0
     for sweeps in range(1, max_sweeps + 1):
         change = 0.0
         for m in range(model.n_chains):
-            old = post.chains[m].gamma
-            new = update_chain(model, batch, m, old, mean, P, log_stay[m], log_adv[m],
-                               log_start[m])
-            mean += (new.gamma - old) @ model.W[m]
-            change = max(change, float(np.max(np.abs(new.gamma - old))))
+            np.add(residual, own[m], out=others[..., :D])                   # eq. 9
+            log_responsibility(model, m, others, P, out=log_h)
+            new = forward_backward(log_h, transitions[m], model.start[m], batch.mask, spare)
+            own[m] = new.gamma @ model.W[m]
+            np.subtract(others[..., :D], own[m], out=residual)
+            change = max(change, _largest_change(new.gamma, post.chains[m].gamma, scratch))
+            spare = post.chains[m].gamma if sweeps > 1 else None
             post.chains[m] = new
         if change <= tol:
             break
@@ -224,39 +318,47 @@ def e_step(model: PrimitiveModel, batch: Batch, start: Posterior | None = None,
     return post
 
 
-def log_responsibility(model: PrimitiveModel, batch: Batch, m: int, gamma: np.ndarray,
-                       mean: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """(T, B, K) log h_t^m of eq. 7, from the full mean ``mean`` = sum_l W^l <S^l> (eq. 9 adds
-    chain m's own part back)."""
+_BLOCK = 32
+"""Time steps of <S> compared at once by :func:`_largest_change` (a block stays in cache)."""
+
+
+def _largest_change(new: np.ndarray, old: np.ndarray, scratch: np.ndarray) -> float:
+    """max |new - old| over (T, B, K) arrays, a block of time steps at a time."""
+    largest = 0.0
+    for t in range(0, len(new), len(scratch)):
+        step = np.subtract(new[t:t + len(scratch)], old[t:t + len(scratch)],
+                           out=scratch[:len(new[t:t + len(scratch)])])
+        largest = max(largest, float(step.max()), -float(step.min()))
+    return largest
+
+
+def log_responsibility(model: PrimitiveModel, m: int, others: np.ndarray, P: np.ndarray,
+                       out: np.ndarray | None = None) -> np.ndarray:
+    """(T, B, K) log h_t^m of eq. 7-8 from ``others`` (T, B, D + 1) = [Y~_t^m, mask_t]: one
+    product with [C^-1 W^mT; -Delta^m / 2], zero at padded steps."""
     Wm = model.W[m]
-    PW = P @ Wm.T                                # (D, K)
-    Q = Wm @ PW                                  # (K, K) = W^m C^-1 W^mT
-    log_h = (batch.Y - mean) @ PW + gamma @ Q - 0.5 * np.diag(Q)
-    log_h *= batch.mask[..., None]
-    return log_h
-
-
-def update_chain(model, batch, m, gamma, mean, P, log_stay, log_adv, log_start) -> ChainPosterior:
-    """Chain m's new posterior given the others (one step of the Gauss-Seidel sweep)."""
-    log_h = log_responsibility(model, batch, m, gamma, mean, P)
-    return forward_backward(log_h, log_stay, log_adv, log_start, batch.mask)
+    PW = P @ Wm.T                                              # (D, K)
+    delta = (Wm * PW.T).sum(axis=1)                            # eq. 8
+    return np.matmul(others, np.vstack([PW, -0.5 * delta]), out=out)
 
 
 def lower_bound(model: PrimitiveModel, batch: Batch, post: Posterior) -> float:
-    """The variational lower bound F <= log p(Y) for the current q (exact for q; see module)."""
+    """The variational lower bound F <= log p(Y) for the current q (exact for q; see module).
+
+    Under q the chains are independent and each is in one state at a time, so with mu_t =
+    sum_m W^mT <S_t^m> and Q^m = W^m C^-1 W^mT, E_q[(Y_t - mu)^T C^-1 (Y_t - mu)] =
+    r_t^T C^-1 r_t + sum_m (<S_t^m> . diag Q^m - <S_t^m>^T Q^m <S_t^m>), r_t = Y_t - mu_t.
+    Every term is zero at a padded step (Y, <S> and log h are zero there).
+    """
     P = _precision(model)
-    S = post.expectations                                  # (M, T, B, K)
-    mask = batch.mask
-    mean = np.einsum("mtbk,mkd->tbd", S, model.W)
-    r = batch.Y - mean
-    quad = np.einsum("tbd,de,tbe->tb", r, P, r)
-    Q = np.einsum("mkd,de,mje->mkj", model.W, P, model.W)  # (M, K, K)
-    delta = np.einsum("mkk->mk", Q)
-    variance = (np.einsum("mtbk,mk->tb", S, delta)
-                - np.einsum("mtbk,mkj,mtbj->tb", S, Q, S))
-    D = model.dim
+    r = batch.Y - sum(c.gamma @ model.W[m] for m, c in enumerate(post.chains))
+    quad = float(np.sum((r @ P) * r))
+    variance = 0.0
+    for m, c in enumerate(post.chains):
+        Q = model.W[m] @ P @ model.W[m].T
+        variance += float(np.sum(c.gamma @ np.diag(Q)) - np.sum((c.gamma @ Q) * c.gamma))
     _, logdet = np.linalg.slogdet(model.C)
-    expected_loglik = (-0.5 * (D * np.log(2 * np.pi) + logdet) * mask
-                       - 0.5 * (quad + variance) * mask).sum()
-    entropy_terms = sum(float(c.log_z.sum() - (c.gamma * c.log_h).sum()) for c in post.chains)
+    expected_loglik = (-0.5 * (model.dim * np.log(2 * np.pi) + logdet) * batch.n_obs
+                       - 0.5 * (quad + variance))
+    entropy_terms = sum(float(c.log_z.sum()) - c.expected_log_h for c in post.chains)
     return float(expected_loglik + entropy_terms)

@@ -165,11 +165,11 @@ def fit(sequences, config: PrimitivesConfig | None = None, *, seed: int = 0,
 
 
 def em_bytes(batch: Batch, config: PrimitivesConfig) -> float:
-    """Bytes EM holds at once: per chain <S> and log h over the padded (T, B) grid, one chain's
-    forward-backward tables, the M-step's design matrix, the data."""
+    """Bytes EM holds at once: per chain <S> and W^mT <S^m> over the padded (T, B) grid, one
+    chain's log h and forward-backward tables, the M-step's design matrix, the data, residuals."""
     T, B, D = batch.Y.shape
     M, K = config.n_chains, config.n_states
-    return 8.0 * T * B * (2 * M * K + 6 * K + M * (K - 1) + 3 * D)
+    return 8.0 * T * B * (2 * M * K + 6 * K + M * (K - 1) + M * D + 4 * D)
 
 
 def _fit_once(batch, config, seed, model, scale, rate_hz, channels, progress) -> FitResult:
