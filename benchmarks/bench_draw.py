@@ -57,7 +57,6 @@ from inkarm.sim.cell import PEN_SLIDE, PEN_TIP, Cell, build_model, kinematic_mod
 from inkarm.sim.plant import MujocoPlant
 
 RTF_TARGET = 30.0
-LOOP_RATIO_TARGET = 0.5  # issue 22: the executor at >= 0.5x MuJoCo alone
 IK_RATIO_TARGET = 0.5
 QUALITY_BOUNDS = (  # metric key, bound, label
     ("tracking_rms_mm", 0.3, "tracking RMS [mm]"),
@@ -96,13 +95,12 @@ def default_job() -> Job:
 
 def draw_once(job: Job) -> tuple[dict, np.ndarray]:
     """One run of the scenario (:func:`inkarm.jobs.run.run`, as ``inkarm draw`` runs it): its
-    metrics (with ``wall_s``, the whole run's wall time, and ``loop_wall_s``, the executor's:
-    planning and the closed loop) and the logged torques (periods, n)."""
+    metrics (with ``wall_s``, the whole run's wall time) and the logged torques (periods, n)."""
     cpu0, wall0 = time.process_time(), time.perf_counter()
     result = run(job.scenario)
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     log, metrics = result.log, dict(result.metrics)
-    metrics["wall_s"], metrics["loop_wall_s"] = wall, log.wall_s
+    metrics["wall_s"] = wall
     metrics["sim_s"] = float(log.time[-1] - log.time[0])
     metrics["cpu_realtime_factor"] = metrics["sim_s"] / cpu
     return metrics, log.torque
@@ -146,24 +144,16 @@ def drawing_rows(job: Job, blocks: int, cpu: int | None) -> tuple[list[tuple[str
         runs.append(draw_once(job)[0])
         return runs[-1]["wall_s"]
 
-    def closed_loop() -> float:
-        runs.append(draw_once(job)[0])
-        return runs[-1]["loop_wall_s"]
-
-    timing = interleave({"run": whole_run, "loop": closed_loop,
-                         "mujoco": lambda: bare_mujoco_s(job, torques)},
+    timing = interleave({"run": whole_run, "mujoco": lambda: bare_mujoco_s(job, torques)},
                         blocks=blocks, repeats=3, clock=None)
     bare = sim / timing.median("mujoco")
-    rtf_run, rtf_loop = sim / timing.median("run"), sim / timing.median("loop")
+    rtf_run = sim / timing.median("run")
     rows = [
         (f"`inkarm draw`: first run of a fresh process (median of {len(fresh)})",
          f"{statistics.median(fresh):.1f}", "", "", "info", ""),
         ((f"whole run() in one process (sim {sim:.2f} s / wall {1e3 * timing.median('run'):.0f} "
          f"ms: planning, loop, canvas, metrics)"), f"{rtf_run:.1f}", f"MuJoCo alone {bare:.0f}",
          f"{rtf_run / bare:.2f}", f">= {RTF_TARGET:.0f}", _ok(rtf_run >= RTF_TARGET)),
-        ("`run_drawing` (the executor: planning and the closed loop, canvas included)",
-         f"{rtf_loop:.1f}", f"MuJoCo alone {bare:.0f}", f"{rtf_loop / bare:.2f}",
-         f">= {LOOP_RATIO_TARGET} x MuJoCo alone", _ok(rtf_loop / bare >= LOOP_RATIO_TARGET)),
         ("real-time factor on CPU time of the whole run()",
          f"{statistics.median(m['cpu_realtime_factor'] for m in runs):.1f}", "", "", "info", ""),
     ]
@@ -311,8 +301,9 @@ def section(quick: bool, cpu: int | None) -> str:
             f"Default scenario (60 mm letter N, marker, A4 at {job.px_per_mm:g} px/mm), "
             f"{where}. MuJoCo alone replays the run's torques open loop for the same physics "
             "steps (the pen pressed where the run pressed it); the ratio is the share of its "
-            "speed inkarm keeps. The three cases run in alternating blocks (3 calls a block); "
-            "real-time factors are simulated time over the median of the blocks' medians."
+            "speed inkarm keeps (the executor's own share: bench_period.py). The two cases run in "
+            "alternating blocks (3 calls a block); real-time factors are simulated time over the "
+            "median of the blocks' medians."
         ),
         "",
         "| measure | real-time factor | reference | ratio | target | |",

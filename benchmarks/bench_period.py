@@ -33,6 +33,7 @@ from contextlib import contextmanager
 
 import mujoco
 import numpy as np
+from bench_draw import Job, bare_mujoco_s
 from blocks import interleave
 from mujoco import rollout
 
@@ -94,19 +95,6 @@ def instrumented(timers: _Timers):
             setattr(owner, name, fn)
 
 
-def replay_s(cell: Cell, torques: np.ndarray, substeps: int = 3) -> float:
-    """Wall time [s] of MuJoCo alone: ``torques`` (periods, n) replayed open loop."""
-    model = build_model(cell)
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, 0)
-    mujoco.mj_forward(model, data)
-    start = time.perf_counter()
-    for tau in torques:
-        data.ctrl[:] = tau
-        mujoco.mj_step(model, data, substeps)
-    return time.perf_counter() - start
-
-
 def one_call_per_period(cell: Cell, torques: np.ndarray, substeps: int = 3
                         ) -> dict[str, float]:
     """Per period [us]: ``mj_step(m, d, substeps)``, and a persistent rollout of ``substeps``
@@ -148,6 +136,7 @@ def one_call_per_period(cell: Cell, torques: np.ndarray, substeps: int = 3
 def section(quick: bool) -> str:
     scenario = load_scenario()
     cell = Cell(scenario.cell, scenario.robot)
+    job = Job(scenario, cell, None, scenario.ink.px_per_mm)  # (what the replay reads: the cell)
     first = run(scenario)
     torques, periods = first.log.torque, len(first.log.time)
     shares: list[dict[str, float]] = []
@@ -160,7 +149,7 @@ def section(quick: bool) -> str:
         return timers.total["executor"]
 
     timing = interleave({"executor": lambda: run(scenario).log.wall_s, "split": split_run,
-                         "mujoco": lambda: replay_s(cell, torques)},
+                         "mujoco": lambda: bare_mujoco_s(job, torques)},
                         blocks=3 if quick else 7, repeats=3, clock=None)
     parts = {k: statistics.median(s[k] for s in shares) for k in shares[0]}
     plant_python = parts["plant step"] - parts["physics"] - parts["canvas"]

@@ -216,10 +216,67 @@ class PrimitivesSource:
         return Drawing([scribble(model, self.duration_s, seed=seed)[0]])
 
 
-Source = PlanSource | TrajectorySource | TextSource | TagSource | TraceSource | PrimitivesSource
+@dataclass(frozen=True)
+class HumanSource:
+    """A human recording (:mod:`inkarm.io.human`): one LASA demonstration (``recording =
+    "lasa:SHAPE:DEMO"``) or a pen-tablet CSV (``file``, with its ``time_unit`` "s" or "ms" and
+    ``scale_mm`` [mm per unit]), drawn as the hand drew it, or restyled by the handstyle ``hand``
+    (``"human"``: the LQT between key-points at the hand's speed minima and peaks,
+    :mod:`inkarm.plans.pulses`)."""
+
+    recording: str | None = None
+    file: Path | None = None
+    time_unit: str = "s"
+    scale_mm: float = 1.0
+    hand: str | None = None
+    kind: ClassVar[str] = "human"
+
+    @classmethod
+    def parse(cls, rd: TomlReader, table: dict, base_dir: Path) -> HumanSource:
+        from inkarm.io.human import LASA_PREFIX, TIME_UNITS
+        from inkarm.plans.handstyles import FITTED, PRESETS
+
+        if ("recording" in table) == ("file" in table):
+            raise rd.error("source", "give one of recording (lasa:SHAPE:DEMO) and file (a "
+                           "tablet CSV)")
+        kw: dict[str, Any] = {}
+        if "recording" in table:
+            name = rd.text(table["recording"], "source.recording")
+            if not name.startswith(LASA_PREFIX) or name.count(":") != 2 or "-" in name:
+                raise rd.error("source.recording", f"expected one demonstration, "
+                               f"{LASA_PREFIX}SHAPE:DEMO, got {name!r}", value=name)
+            kw["recording"] = name
+        else:
+            kw["file"] = _file(rd, table, base_dir)
+        if "time_unit" in table:
+            kw["time_unit"] = rd.choice(table["time_unit"], "source.time_unit", tuple(TIME_UNITS))
+        if "scale_mm" in table:
+            kw["scale_mm"] = rd.number(table["scale_mm"], "source.scale_mm", 0.0, strict=True)
+        if "hand" in table:
+            kw["hand"] = rd.choice(table["hand"], "source.hand", (*PRESETS, *FITTED))
+        return cls(**kw)
+
+    def drawing(self, seed: int, where: str) -> Drawing:
+        from inkarm.io.human import read_lasa_trace, read_tablet_csv
+
+        if self.recording is not None:
+            [drawing] = read_lasa_trace(self.recording)
+        else:
+            drawing = read_tablet_csv(self.file, self.time_unit, self.scale_mm)
+        if self.hand is None:
+            return drawing
+        from inkarm.plans.handstyles import get_handstyle
+        from inkarm.plans.restyle import RestyleConfig, restyle
+
+        cfg = RestyleConfig.from_handstyle(get_handstyle(self.hand), dt=0.01, seed=seed)
+        return restyle(drawing, cfg).drawing
+
+
+Source = (PlanSource | TrajectorySource | TextSource | TagSource | TraceSource | PrimitivesSource
+          | HumanSource)
 SOURCES: dict[str, type] = {
     cls.kind: cls for cls in (PlanSource, TrajectorySource, TextSource, TagSource, TraceSource,
-                              PrimitivesSource)
+                              PrimitivesSource, HumanSource)
 }
 
 

