@@ -210,8 +210,11 @@ class Metrics(Mapping):
     metric (e.g. the force of an arm that senses none); :meth:`to_dict` is what files get.
 
     Fields as :func:`inkarm.analysis.metrics.compute_metrics` names them (lengths [mm] in the
-    page frame, forces [N], angles [rad]), and ``bus_overruns``: control periods a Dynamixel
-    bus overran (that backend only).
+    page frame, forces [N], angles [rad]), ``bus_overruns``: control periods a Dynamixel bus
+    overran (that backend only), and the human-likeness of the planned drawing (the drawing
+    the controller was given, measured as :mod:`inkarm.analysis.humanlike` measures a human
+    recording; reported, never judged): ``plan_beta`` (the 2/3 power law's exponent),
+    ``plan_peaks_per_second`` [1/s] and ``plan_jerk_per_peak``.
     """
 
     tracking_rms_mm: float | None = None
@@ -225,6 +228,9 @@ class Metrics(Mapping):
     joint_limit_margin_rad: float | None = None
     realtime_factor: float | None = None
     bus_overruns: int | None = None
+    plan_beta: float | None = None
+    plan_peaks_per_second: float | None = None
+    plan_jerk_per_peak: float | None = None
 
     @classmethod
     def of(cls, values: Mapping | None) -> Metrics:

@@ -18,6 +18,7 @@ from inkarm.analysis.metrics import compute_metrics
 from inkarm.core.log import DrawLog
 from inkarm.core.run import Metrics, Senses, Shortfall, Status, judge
 from inkarm.core.trajectory import Drawing
+from inkarm.errors import InputError
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.scenario import Scenario
 from inkarm.sim.cell_config import Cell
@@ -141,7 +142,22 @@ def measured(log: DrawLog | None, drawing: Drawing, believed, canvas,
         joint_range=_joint_ranges(believed), wall_time_s=log.wall_s,
         canvas=canvas, plan_strokes=[s.pos[:, :2] for s in drawing.strokes],
     )
-    return undefined_unsensed(Metrics.of(metrics), senses)
+    return with_plan_measures(undefined_unsensed(Metrics.of(metrics), senses), drawing)
+
+
+def with_plan_measures(metrics: Metrics, drawing: Drawing) -> Metrics:
+    """``metrics`` with the human-likeness of the planned ``drawing`` (``plan_beta``,
+    ``plan_peaks_per_second``, ``plan_jerk_per_peak``), each left out where the drawing does
+    not define it (no stroke long enough to measure, a straight line has no power law)."""
+    from inkarm.analysis.humanlike import human_stats
+
+    try:
+        stats = human_stats(drawing, lognormal=False)
+    except InputError:
+        return metrics
+    values = {"plan_beta": stats.beta, "plan_peaks_per_second": stats.peaks_per_second,
+              "plan_jerk_per_peak": stats.jerk_per_peak}
+    return metrics.replace(**{k: float(v) for k, v in values.items() if np.isfinite(v)})
 
 
 def undefined_unsensed(metrics, senses: Senses) -> Metrics:

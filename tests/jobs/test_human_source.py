@@ -44,3 +44,21 @@ def test_a_lasa_demonstration_restyled_by_the_human_style(tmp_path):
 def test_human_source_errors_name_the_key(tmp_path, source, message):
     with pytest.raises(InputError, match=message):
         scenario(tmp_path, **source)
+
+
+def test_a_runs_metrics_carry_the_planned_drawings_human_measures(tmp_path):
+    from inkarm.analysis.humanlike import human_stats
+    from inkarm.core.run import Metrics
+    from inkarm.core.trajectory import Drawing, Trajectory
+    from inkarm.jobs.outcome import with_plan_measures
+
+    (tmp_path / "pen.csv").write_text(TABLET)
+    drawing = source_drawing(scenario(tmp_path, file="pen.csv"))
+    metrics = with_plan_measures(Metrics(tracking_rms_mm=0.1), drawing)
+    stats = human_stats(drawing, lognormal=False)
+    assert metrics["plan_peaks_per_second"] == stats.peaks_per_second
+    assert metrics["plan_jerk_per_peak"] == stats.jerk_per_peak
+    assert metrics["tracking_rms_mm"] == 0.1
+    t = np.linspace(0.0, 1.0, 50)
+    line = Drawing([Trajectory(t, np.column_stack([30 * t**2, 0 * t]))])
+    assert "plan_beta" not in with_plan_measures(Metrics(), line)  # a line has no power law

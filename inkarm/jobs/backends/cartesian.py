@@ -22,7 +22,7 @@ from inkarm.core.run import Metrics, Senses
 from inkarm.errors import InputError, RunFault
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.backends import BackendOptions, Progress
-from inkarm.jobs.outcome import undefined_unsensed
+from inkarm.jobs.outcome import undefined_unsensed, with_plan_measures
 from inkarm.jobs.scenario import Scenario, place, source_drawing
 from inkarm.sim.cell_config import Cell
 
@@ -160,7 +160,7 @@ class CartesianSession:
         # The arms' judge; a plotter's tracking error is its distance from its plant's own
         # plan at the readings' times (see inkarm.control.plotter), its force the nominal one
         # while the pen is down (undefined here: not sensed).
-        return undefined_unsensed(metrics, self.senses)
+        return with_plan_measures(undefined_unsensed(metrics, self.senses), self.drawing)
 
     def close(self) -> None:
         self.plant.close()
