@@ -12,6 +12,7 @@ co-occurrence distance on the page.
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -81,9 +82,10 @@ def grades_figure() -> None:
 
 def main() -> None:
     grades_figure()
-    out = Path("/tmp") / "inkarm_pencil_show"
-    inkarm(["pencil", "show", "HB", "--length-mm", "8", "--out", str(out)])
-    (IMG / "pencil_profile.png").write_bytes((out / "profile.png").read_bytes())
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "show"
+        inkarm(["pencil", "show", "HB", "--length-mm", "8", "--out", str(out)])
+        (IMG / "pencil_profile.png").write_bytes((out / "profile.png").read_bytes())
     print(f"written {IMG / 'pencil_grades.png'} and {IMG / 'pencil_profile.png'}")
 
 

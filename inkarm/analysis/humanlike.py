@@ -61,6 +61,9 @@ MAX_RADIUS_MM = 1e3
 """Power-law samples with a radius of curvature above this [mm] (near straight) are left out."""
 MIN_SAMPLES = 12
 """Strokes with fewer samples are skipped (too short to smooth and differentiate)."""
+MIN_PATH_MM = 1e-3
+"""Strokes whose path is shorter [mm] are skipped: the pen rests, and the low-pass's rounding
+noise (1e-14 mm) would count as speed peaks (the peak threshold is relative)."""
 RANGES_FILE = Path(__file__).parents[1] / "data" / "human_ranges.toml"
 """The human ranges shipped with inkarm (made by ``scripts/human_ranges.py`` from LASA)."""
 
@@ -161,13 +164,29 @@ def _stroke(traj: Trajectory, lognormal: bool) -> tuple[StrokeStats, list[float]
     return stats, asym, samples
 
 
+def unmeasurable(traj: Trajectory) -> str | None:
+    """Why ``traj`` cannot be measured (fewer than :data:`MIN_SAMPLES` samples, a path shorter
+    than :data:`MIN_PATH_MM`: rounding noise would count as speed peaks, or not 2-D/3-D);
+    None when it can."""
+    if traj.n < MIN_SAMPLES:
+        return f"{traj.n} samples, fewer than {MIN_SAMPLES}"
+    if traj.dim not in (2, 3):
+        return f"{traj.dim} coordinates, not 2 or 3"
+    if kin.path_length(traj) < MIN_PATH_MM:
+        return f"a path shorter than {MIN_PATH_MM:g} mm: the pen does not move"
+    return None
+
+
 def stroke_stats(traj: Trajectory, lognormal: bool = True,
                  smoothing_hz: float | None = SMOOTHING_HZ) -> StrokeStats:
     """The statistics of one stroke, low-passed at ``smoothing_hz`` [Hz] first (None: as
-    it is); ``lognormal=False`` skips the sigma-lognormal fit (its SNR is then NaN)."""
-    if traj.n < MIN_SAMPLES:
-        raise InputError(f"stroke_stats: needs at least {MIN_SAMPLES} samples, the stroke has "
-                         f"{traj.n}", value=traj.n)
+    it is); ``lognormal=False`` skips the sigma-lognormal fit (its SNR is then NaN).
+
+    Raises:
+        InputError: the stroke cannot be measured (:func:`unmeasurable` says why)."""
+    why = unmeasurable(traj)
+    if why is not None:
+        raise InputError(f"stroke_stats: cannot measure a stroke of {why}", value=traj.n)
     return _stroke(_smoothed(traj, smoothing_hz), lognormal)[0]
 
 
@@ -186,7 +205,7 @@ def human_stats(drawing: Drawing | Trajectory, lognormal: bool = True,
     strokes = (drawing,) if isinstance(drawing, Trajectory) else drawing.strokes
     measured, skipped, asym, xs, ys = [], [], [], [], []
     for i, traj in enumerate(strokes):
-        if traj.n < MIN_SAMPLES or kin.path_length(traj) <= 0 or traj.dim not in (2, 3):
+        if unmeasurable(traj) is not None:
             skipped.append(i)
             continue
         stats, pulse_asym, (x, y) = _stroke(_smoothed(traj, smoothing_hz), lognormal)
@@ -196,7 +215,7 @@ def human_stats(drawing: Drawing | Trajectory, lognormal: bool = True,
         ys.append(y)
     if not measured:
         raise InputError(f"human_stats: no stroke to measure: each of the {len(strokes)} needs "
-                         f"at least {MIN_SAMPLES} samples and a path of non-zero length")
+                         f"at least {MIN_SAMPLES} samples and a path of at least {MIN_PATH_MM:g} mm")
     beta, r2 = _fit(np.concatenate(xs), np.concatenate(ys))
     time = sum(s.duration_s for s in measured)
     peaks = sum(s.peaks for s in measured)

@@ -49,6 +49,44 @@ def load_trace_for(args: argparse.Namespace):
     return drawing
 
 
+def add_recording_options(parser: argparse.ArgumentParser) -> None:
+    """The options of a pen-tablet recording (commands reading human recordings)."""
+    parser.add_argument("--time-unit", choices=("s", "ms"), default="s",
+                        help="tablet CSV: unit of the t column (default s)")
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="tablet CSV: millimetres per device unit of x and y (default 1)")
+
+
+def load_recordings(trace, args: argparse.Namespace) -> list:
+    """The drawings ``trace`` names: every demonstration of ``lasa:SHAPE`` (one for
+    ``lasa:SHAPE:DEMO``), a tablet CSV (a ``pressure`` column, or ``--time-unit``/``--scale``
+    given) in one drawing, or any other trace (CSV, SVG: :func:`load_trace_for`'s options)."""
+    from pathlib import Path
+
+    from inkarm.io.human import LASA_PREFIX, is_tablet_csv, read_lasa_trace, read_tablet_csv
+
+    name = str(trace)
+    tablet_options = args.time_unit != "s" or args.scale != 1.0
+    option = "--time-unit" if args.time_unit != "s" else "--scale"
+    if name.startswith(LASA_PREFIX):
+        if tablet_options:
+            raise InputError("only for a tablet CSV, not a LASA trace", key=option)
+        with options_named(shape="TRACE", demo="TRACE"):
+            return read_lasa_trace(name)
+    path = Path(trace)
+    if path.suffix.lower() == ".csv" and (tablet_options or is_tablet_csv(path)):
+        with options_named(time_unit="--time-unit", scale_mm="--scale"):
+            return [read_tablet_csv(path, args.time_unit, args.scale)]
+    if tablet_options:
+        raise InputError("only for a tablet CSV", key=option, file=name)
+    from inkarm.io.trace import load_trace
+
+    with options_named(**TRACE_OPTIONS):
+        drawing = load_trace(path, speed=args.speed, rate=args.rate)
+    say_skipped(drawing, name)
+    return [drawing]
+
+
 def say_skipped(drawing, source: str) -> None:
     """What an SVG reading skipped, on stderr in one line (nothing when nothing was)."""
     import sys

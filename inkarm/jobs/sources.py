@@ -268,7 +268,7 @@ class HumanSource:
         from inkarm.plans.handstyles import get_handstyle
         from inkarm.plans.restyle import RestyleConfig, restyle
 
-        cfg = RestyleConfig.from_handstyle(get_handstyle(self.hand), dt=0.01, seed=seed)
+        cfg = RestyleConfig.from_handstyle(get_handstyle(self.hand), seed=seed)
         return restyle(drawing, cfg).drawing
 
 

@@ -38,6 +38,7 @@ import numpy as np
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
 from inkarm.plans.handstyles import Handstyle
+from inkarm.plans.pulses import DT as PULSE_DT
 
 Statistics = Callable[[Trajectory], Mapping[str, float]]
 
@@ -57,8 +58,8 @@ inter-quartile range is 0.11 .. 0.19)."""
 POPULATION = ("beta", "peaks_per_second", "jerk_per_peak")
 """The measures whose median over the restyles the score holds to the recordings' (module
 docstring)."""
-DT = 0.005
-"""LQT time step of the restyles [s]."""
+DT = PULSE_DT
+"""LQT time step of the restyles [s] (:data:`inkarm.plans.pulses.DT`)."""
 _CLIP = 9.0
 
 
@@ -113,11 +114,12 @@ def restyled(trace: Trajectory, hand: Handstyle) -> Trajectory:
 
 def errors(human: Mapping[str, float], restyle: Mapping[str, float]) -> dict[str, float]:
     """e_m of one recording (module docstring), for the measures of :data:`TOLERANCES` that
-    both sides have; a ratio of a measure that is not positive on either side is NaN."""
+    both sides have and the recording defines; a ratio of a measure that is not positive on
+    either side is NaN."""
     out = {}
     for name, (kind, tol) in TOLERANCES.items():
-        if name not in human or name not in restyle:
-            continue
+        if name not in human or name not in restyle or not math.isfinite(human[name]):
+            continue  # (the recording does not define it: a straight stroke has no beta)
         x, y = float(human[name]), float(restyle[name])
         if kind == "ratio":
             out[name] = math.log(y / x) / math.log(tol) if x > 0 and y > 0 else math.nan
@@ -165,7 +167,8 @@ def _restyle_all(traces, humans, hand, statistics) -> tuple[list[dict], list[dic
         try:
             measured = dict(statistics(restyled(trace, hand)))
         except InputError:
-            errs.append({name: math.nan for name in human if name in TOLERANCES})
+            errs.append({name: math.nan for name, value in human.items()
+                         if name in TOLERANCES and math.isfinite(value)})
             stats.append({})
             continue
         errs.append(errors(human, measured))
@@ -195,8 +198,9 @@ def fit_style(traces: Sequence[Trajectory], statistics: Statistics, *,
         if progress is not None:
             progress(done, len(grid))
     score, candidate, per_trace = best
-    medians = {m: float(np.nanmedian([abs(e[m]) for e in per_trace if m in e]))
-               for m in TOLERANCES if any(m in e for e in per_trace)}
+    finite = {m: [abs(e[m]) for e in per_trace if math.isfinite(e.get(m, math.nan))]
+              for m in TOLERANCES}
+    medians = {m: float(np.median(v)) for m, v in finite.items() if v}
     description = (f"fitted to {len(traces)} human recordings: order {candidate.order}, "
                    f"d / sqrt(h) = {candidate.stiffness:.3g}, key-points at the speed minima and peaks")
     return StyleFit(candidate.handstyle(name, description), score, tuple(scores), medians)

@@ -61,6 +61,10 @@ TIMINGS = ("isochronous", "pulses")
 """How a restyle times its targets: DPPLA targets held alike (seed 000's local isochrony), or
 key-points at the trace's speed minima and peaks, at its own times and velocities
 (:mod:`inkarm.plans.pulses`)."""
+PULSE_DT = 0.005
+"""The LQT time step of a restyle with timing "pulses" [s], unless told otherwise: key-points
+land on the nearest step, and at 10 ms a speed minimum and the peak 30 ms after it move by a
+third of their gap (LASA held out: +31-40 % speed peaks and 2x the jerk at 10 ms)."""
 MIN_SPACING = 0.01  # [fraction of the letter height]: 100 targets a letter height at most
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ curve's ends):
 
     x(t_i) ~ N(mu_i, Sigma_i),   dx/dt(t_i) ~ N(v_i, sigma_v^2 I),
 
-mu_i and v_i the recording's position and velocity (low-passed at :data:`SMOOTHING_HZ`) at t_i.
+mu_i and v_i the recording's position and velocity (low-passed at the 10 Hz the human measures
+use, :data:`inkarm.analysis.humanlike.SMOOTHING_HZ`, with their peak threshold) at t_i.
 Between key-points the LQT is free: its control cost alone shapes the movement, so the restyled
 stroke keeps the recording's pulses and their timing (a pulse's rise and fall each run between
 two key-points), and its jerk is the LQT's, not the tablet's. Key-points at the minima alone
@@ -33,20 +34,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from inkarm.analysis.humanlike import PEAK_THRESHOLD, SMOOTHING_HZ
 from inkarm.analysis.kinematics import lowpass, speed_pulses
 from inkarm.core.plan import StrokePlan
 from inkarm.core.trajectory import Trajectory
+from inkarm.errors import InputError
+from inkarm.plans.handstyles import PULSE_DT as DT
 
-SMOOTHING_HZ = 10.0
-"""Low-pass cutoff [Hz] before the speed minima and velocities are read: a tablet's sampling noise
-makes false minima in the raw speed; handwriting's pulses last 100 ms or more (3-5 a second)."""
-PEAK_THRESHOLD = 0.1
-"""Speed peaks below this fraction of the stroke's fastest do not start a pulse."""
 FREE_VARIANCE = 1e10
 """Covariance [mm^2] of the key-points between the minima: a precision of 1e-10 per mm^2 (the
 LQT takes variances up to 1e12), whose pull is negligible beside the control cost."""
 VELOCITY_VARIANCE = 1.0
-"""sigma_v^2 of the velocity constraints at the minima [(mm/s)^2]."""
+"""sigma_v^2 of the velocity constraints at the key-points [(mm/s)^2]."""
+STRETCH_LIMIT = 1.1
+"""Key-points closer than a step apart are moved a step on; a restyle whose stroke that
+lengthens beyond this factor is refused (the step is too coarse for the recording)."""
 
 
 def pulse_breakpoints(traj: Trajectory, smoothing_hz: float = SMOOTHING_HZ,
@@ -68,6 +70,10 @@ def pulse_plan(traj: Trajectory, breakpoints: np.ndarray, covs: np.ndarray, dt: 
     t = traj.t[breakpoints] - traj.t[0]
     order = np.arange(len(t))  # (minima closer than dt apart: one step after the other)
     steps = np.maximum.accumulate(np.round(t / dt).astype(np.intp) - order) + order
+    if steps[-1] * dt > STRETCH_LIMIT * t[-1] + dt:
+        raise InputError(f"a step of {dt:g} s is too coarse for the recording's key-points "
+                         f"(closest {float(np.min(np.diff(t))):.3g} s apart): the {t[-1]:.3g} s "
+                         f"stroke would last {steps[-1] * dt:.3g} s", key="dt", value=dt)
     n_steps, dim = int(steps[-1]) + 1, traj.dim
     grid = np.arange(n_steps) * dt
     means = np.column_stack([np.interp(grid, steps * dt, traj.pos[breakpoints, k])
@@ -76,7 +82,7 @@ def pulse_plan(traj: Trajectory, breakpoints: np.ndarray, covs: np.ndarray, dt: 
     covariances = np.repeat(free[None], n_steps, axis=0)
     covariances[steps] = covs
     velocities = np.full((n_steps, dim), np.nan)
-    velocities[steps] = lowpass(traj, SMOOTHING_HZ).velocity()[breakpoints]
+    velocities[steps] = lowpass(traj, SMOOTHING_HZ).velocity()[breakpoints]  # (as the minima)
     plan = StrokePlan.from_arrays(means, covariances, segment_time=dt, keypoints=True,
                                   meta={"pulse_steps": tuple(steps.tolist())})
     return StrokePlan(plan.targets, dt, True, meta=plan.meta, velocities=velocities,
@@ -90,5 +96,6 @@ def control_weight(order: int, d: float, duration: float, targets: int) -> float
     return 1.0 / (omega**order * d) ** 2
 
 
-__all__ = ["FREE_VARIANCE", "PEAK_THRESHOLD", "SMOOTHING_HZ", "VELOCITY_VARIANCE",
+__all__ = ["DT", "FREE_VARIANCE", "PEAK_THRESHOLD", "SMOOTHING_HZ", "STRETCH_LIMIT",
+           "VELOCITY_VARIANCE",
            "control_weight", "pulse_breakpoints", "pulse_plan"]

@@ -55,7 +55,7 @@ from inkarm.core.budget import STEPS, require, require_memory
 from inkarm.core.plan import MotorPlan, StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
-from inkarm.plans.handstyles import TIMINGS, Handstyle
+from inkarm.plans.handstyles import PULSE_DT, TIMINGS, Handstyle
 
 STYLES = ("geometric", "semi-tied")
 """Covariances a restyle chooses by name (``"handstyle"`` comes with :attr:`RestyleConfig.hand`)."""
@@ -125,9 +125,11 @@ class RestyleConfig:
     @classmethod
     def from_handstyle(cls, hand: Handstyle, **overrides) -> RestyleConfig:
         """The restyle of handstyle ``hand``: its covariances, order, d and timing (module
-        docstring); ``overrides`` set any other field (compression, dt, segment_time, seed,
-        ...)."""
+        docstring; timing "pulses" at :data:`inkarm.plans.handstyles.PULSE_DT` unless ``dt`` is given);
+        ``overrides`` set any other field (compression, dt, segment_time, seed, ...)."""
         settings = {"timing": hand.timing, **overrides}
+        if settings["timing"] == "pulses" and "dt" not in overrides:
+            settings["dt"] = PULSE_DT
         return replace(cls(), style="handstyle", hand=hand, order=hand.order, d=hand.d,
                        **settings)
 
@@ -145,6 +147,9 @@ class RestyleConfig:
         if (isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer))
                 or not 1 <= self.order <= MAX_ORDER):
             self._fail("order", f"expected an integer 1..{MAX_ORDER}, got {self.order!r}")
+        if self.timing == "pulses" and self.order < 2:
+            self._fail("order", f"timing 'pulses' constrains velocities at its key-points: "
+                       f"expected an order of 2 or more, got {self.order}")
         for name, (low, high), unit in (("d", D_RANGE, "mm"), ("dt", DT_RANGE, "s")):
             value = getattr(self, name)
             if not (_number(value) and low <= value <= high):

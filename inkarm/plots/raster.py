@@ -43,10 +43,16 @@ class Panel:
         u = left + (x - x0) / (x1 - x0) (right - left), v = bottom - (y - y0) / (y1 - y0)
         (bottom - top)."""
         left, top, right, bottom = self.box
-        x0, x1, y0, y1 = self.limits
+        x0, x1 = _widened(*self.limits[:2])
+        y0, y1 = _widened(*self.limits[2:])
         u = left + (np.asarray(x, float) - x0) * ((right - left) / (x1 - x0))
         v = bottom - (np.asarray(y, float) - y0) * ((bottom - top) / (y1 - y0))
         return np.column_stack(np.broadcast_arrays(u, v))
+
+
+def _widened(lo: float, hi: float) -> tuple[float, float]:
+    """``lo``, ``hi``, or a unit around them where they are equal (a constant plotted)."""
+    return (lo, hi) if hi > lo else (lo - 0.5, hi + 0.5)
 
 
 def nice_step(span: float, count: int = 5) -> float:

@@ -73,9 +73,17 @@ def test_short_strokes_are_skipped_and_a_drawing_of_them_refused():
     assert stats.skipped == (0,)
     with pytest.raises(InputError, match="no stroke to measure: each of the 1 needs at least"):
         human_stats(Drawing([tiny]))
-    with pytest.raises(InputError, match="stroke_stats: needs at least 12 samples, the stroke "
-                                         "has 5"):
+    with pytest.raises(InputError, match="cannot measure a stroke of 5 samples, fewer than 12"):
         stroke_stats(tiny)
+
+
+def test_a_resting_pen_is_not_measured():
+    # the low-pass turns a constant into 1e-14 mm of noise, which the relative peak threshold
+    # would count as peaks
+    rest = Trajectory(t=np.arange(40) * 0.01, pos=np.full((40, 2), 50.0))
+    with pytest.raises(InputError, match="a path shorter than 0.001 mm: the pen does not move"):
+        stroke_stats(rest)
+    assert human_stats(Drawing([rest, ellipse()]), lognormal=False).skipped == (0,)
 
 
 def test_a_constant_speed_trace_has_no_peaks_and_undefined_pulse_measures():

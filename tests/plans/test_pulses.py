@@ -82,3 +82,22 @@ def test_timing_names_are_checked():
         RestyleConfig(timing="human")
     with pytest.raises(Exception, match="timing must be one of isochronous, pulses, got 'x'"):
         Handstyle("h", timing="x")
+
+
+def test_a_human_style_restyles_at_its_own_step_unless_told():
+    hand = Handstyle("h", h=0.01, d=1.0, order=3, timing="pulses")
+    assert RestyleConfig.from_handstyle(hand).dt == 0.005
+    assert RestyleConfig.from_handstyle(hand, dt=0.01).dt == 0.01
+
+
+def test_a_step_too_coarse_for_the_key_points_is_refused():
+    trace, _ = zigzag()
+    with pytest.raises(InputError, match=r"dt: a step of 0.5 s is too coarse for the "
+                                         r"recording's key-points"):
+        restyle(Drawing([trace]), RestyleConfig(timing="pulses", dt=0.5))
+
+
+def test_pulses_need_an_order_that_has_velocities():
+    with pytest.raises(InputError, match="order: timing 'pulses' constrains velocities at its "
+                                         "key-points: expected an order of 2 or more, got 1"):
+        RestyleConfig(timing="pulses", order=1)
