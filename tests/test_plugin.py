@@ -31,8 +31,10 @@ def test_the_plugin_passes_a_scenario_and_fails_a_regression_naming_metric_and_a
     (pytester.path / "good" / "no_baseline.toml").write_text("title = 'not collected'\n")
     kp = [float(k) * 0.8 for k in load_scenario(SCENARIOS / "quick_stroke.toml").robot.gains.kp]
     _copy_quick(pytester.path / "detuned", f"\n[robot.gains]\nkp = {kp}\n")
-    result = pytester.runpytest("--inkarm-regress", "-p", "no:cacheprovider", "-v", "good",
-                                "detuned")
+    # (in a subprocess: pytester restores sys.modules after an in-process run, and a second run
+    # re-imports numpy's C extensions, which load once per process)
+    result = pytester.runpytest_subprocess("--inkarm-regress", "-p", "no:cacheprovider", "-v",
+                                           "good", "detuned")
     result.assert_outcomes(passed=1, failed=1)
     result.stdout.fnmatch_lines([
         "*good/quick_stroke.toml::quick_stroke PASSED*",
@@ -45,14 +47,14 @@ def test_the_plugin_passes_a_scenario_and_fails_a_regression_naming_metric_and_a
 
 def test_without_the_option_scenarios_are_not_collected(pytester):
     _copy_quick(pytester.path / "mine")
-    result = pytester.runpytest("-p", "no:cacheprovider", "mine")
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "mine")
     assert result.ret == pytest.ExitCode.NO_TESTS_COLLECTED
 
 
 @pytest.mark.slow
 def test_the_plugin_runs_every_shipped_scenario_and_each_matches_its_baseline(pytester):
-    result = pytester.runpytest("--inkarm-regress", "-p", "no:cacheprovider", "-rf",
-                                str(SCENARIOS))
+    result = pytester.runpytest_subprocess("--inkarm-regress", "-p", "no:cacheprovider", "-rf",
+                                           str(SCENARIOS))
     shipped = sorted(SCENARIOS.glob("*.toml"))
     assert len(shipped) >= 9
     result.assert_outcomes(passed=len(shipped))
