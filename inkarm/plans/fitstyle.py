@@ -106,10 +106,41 @@ def human_measures(trace: Trajectory) -> dict[str, float]:
 
 def restyled(trace: Trajectory, hand: Handstyle) -> Trajectory:
     """``trace`` re-drawn by ``hand`` (its timing, covariances, order and d) at :data:`DT`."""
-    from inkarm.plans.restyle import RestyleConfig, restyle
+    from inkarm.plans.restyle import restyle
 
-    cfg = RestyleConfig.from_handstyle(hand, dt=DT, seed=0)
-    return restyle(Drawing([trace]), cfg).drawing.strokes[0]
+    return restyle(Drawing([trace]), _config(hand)).drawing.strokes[0]
+
+
+def _config(hand: Handstyle):
+    from inkarm.plans.restyle import RestyleConfig
+
+    return RestyleConfig.from_handstyle(hand, dt=DT, seed=0)
+
+
+def _key_point_plan(trace: Trajectory):
+    """(the key-point plan, its number of key-points) of ``trace``, which every candidate
+    shares: they differ in order and d only, not in covariances (h I) or step; or the
+    InputError a restyle of the trace raises."""
+    from inkarm.plans.restyle import pulse_targets, stroke_plan
+
+    try:
+        result = pulse_targets(trace)
+        return stroke_plan(trace, result, _config(Candidate(3, 1.0).handstyle())), \
+            len(result.breakpoints)
+    except InputError as e:
+        return e
+
+
+def _solved(trace: Trajectory, prepared, cfg) -> Trajectory:
+    """The restyle of ``trace`` by ``cfg`` from its shared key-point plan ``prepared``: what
+    :func:`restyled` gives, without finding the key-points again."""
+    from inkarm.models.lqt import solve
+    from inkarm.plans.restyle import stroke_lqt_config
+
+    if isinstance(prepared, InputError):
+        raise prepared
+    plan, targets = prepared
+    return solve(plan, stroke_lqt_config(trace, targets, cfg))
 
 
 def errors(human: Mapping[str, float], restyle: Mapping[str, float]) -> dict[str, float]:
@@ -157,15 +188,17 @@ def trace_errors(traces: Sequence[Trajectory], humans: Sequence[Mapping[str, flo
     """The errors e_i of every trace restyled by ``hand``; a restyle whose statistics cannot be
     measured (too little movement to fit a power law, no speed peak) has NaN errors, which the
     score counts at the clip."""
-    return _restyle_all(traces, humans, hand, statistics)[0]
+    return _restyle_all(humans, lambda i: restyled(traces[i], hand), statistics)[0]
 
 
-def _restyle_all(traces, humans, hand, statistics) -> tuple[list[dict], list[dict]]:
-    """Per trace, the errors and the restyle's statistics (empty where it cannot be measured)."""
+def _restyle_all(humans, restyle_one: Callable[[int], Trajectory],
+                 statistics) -> tuple[list[dict], list[dict]]:
+    """Per trace i (``restyle_one(i)`` its restyle), the errors and the restyle's statistics
+    (empty where it cannot be measured)."""
     errs, stats = [], []
-    for trace, human in zip(traces, humans):
+    for i, human in enumerate(humans):
         try:
-            measured = dict(statistics(restyled(trace, hand)))
+            measured = dict(statistics(restyle_one(i)))
         except InputError:
             errs.append({name: math.nan for name, value in human.items()
                          if name in TOLERANCES and math.isfinite(value)})
@@ -186,11 +219,13 @@ def fit_style(traces: Sequence[Trajectory], statistics: Statistics, *,
         raise InputError("fit-style: no recordings to fit to", key="recordings")
     humans = [statistics(trace) for trace in traces]
     grid = [Candidate(int(n), float(s)) for n in orders for s in stiffnesses]
+    plans = [_key_point_plan(trace) for trace in traces]  # (the same for every candidate)
     scores = []
     best: tuple[float, Candidate, list] | None = None
     for done, candidate in enumerate(grid, 1):
-        per_trace, restyles = _restyle_all(traces, humans, candidate.handstyle(name),
-                                           statistics)
+        cfg = _config(candidate.handstyle(name))
+        per_trace, restyles = _restyle_all(
+            humans, lambda i, cfg=cfg: _solved(traces[i], plans[i], cfg), statistics)
         score = score_of(per_trace) + population_score(humans, restyles)
         scores.append((candidate, score))
         if best is None or score < best[0]:

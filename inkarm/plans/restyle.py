@@ -273,7 +273,7 @@ def pulse_targets(traj: Trajectory) -> DPPLAResult:
     return DPPLAResult(cuts, cost, float(np.sqrt(cost / traj.n)), optimal_in_band=None)
 
 
-def _lqt_config(traj: Trajectory, targets: int, cfg: RestyleConfig):
+def stroke_lqt_config(traj: Trajectory, targets: int, cfg: RestyleConfig):
     """The LQT settings of one stroke: the restyle's, with timing "pulses" the control weight
     of its targets' mean hold (:func:`inkarm.plans.pulses.control_weight`)."""
     from inkarm.models.lqt import LQTConfig
@@ -296,9 +296,9 @@ def _steps_per_target(traj: Trajectory, targets: int, cfg: RestyleConfig) -> int
 
 
 def _lqt_steps(traj: Trajectory, targets: int, cfg: RestyleConfig) -> float:
-    """Time steps of the LQT that re-draws ``traj`` through ``targets`` targets (with timing
-    "pulses", at most the trace's duration in steps plus one a sample: key-points closer than a
-    step apart are moved a step on)."""
+    """Time steps of the LQT that re-draws ``traj`` through ``targets`` DPPLA targets, or with
+    timing "pulses" at most the trace's duration in steps plus one a sample (key-points closer
+    than a step apart are moved a step on)."""
     if cfg.timing == "pulses":
         return float(round(traj.duration / cfg.dt) + traj.n)
     return float(targets * _steps_per_target(traj, targets, cfg))
@@ -310,8 +310,9 @@ def check_restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Non
     for i, traj in enumerate(drawing.strokes):
         if traj.n < MIN_SAMPLES:
             continue
-        k = stroke_segments(traj, cfg.compression)
+        k = 0  # (pulses take no DPPLA)
         if cfg.timing != "pulses":
+            k = stroke_segments(traj, cfg.compression)
             try:
                 check_budget(k, traj.n, traj.dim, banded=_banded(cfg.banded, k, traj.n))
             except InputError as e:
@@ -347,7 +348,7 @@ def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
         result = (pulse_targets(traj) if cfg.timing == "pulses" else
                   stroke_targets(traj, cfg.compression, cfg.banded))
         plan = stroke_plan(traj, result, cfg, rng)
-        strokes.append(solve(plan, _lqt_config(traj, len(result.breakpoints), cfg)))
+        strokes.append(solve(plan, stroke_lqt_config(traj, len(result.breakpoints), cfg)))
         plans.append(plan)
         results.append(result)
         kept.append(i)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from inkarm.analysis.kinematics import lowpass, normalised_jerk, speed_peaks
@@ -78,3 +79,13 @@ def test_the_population_term_is_the_median_shift_in_inter_quartile_ranges():
     # median moved by 0.2, IQR 0.2: one unit; peaks per second have no spread: left out
     assert population_score(humans, restyles) == pytest.approx(1.0)
     assert population_score(humans, humans) == 0.0
+
+
+def test_the_fit_restyles_as_restyle_does():
+    from inkarm.plans.fitstyle import _config, _key_point_plan, _solved
+
+    trace, _ = zigzag()
+    hand = Candidate(5, 30.0).handstyle()
+    fast = _solved(trace, _key_point_plan(trace), _config(hand))
+    slow = restyled(trace, hand)
+    assert np.array_equal(fast.t, slow.t) and np.array_equal(fast.pos, slow.pos)

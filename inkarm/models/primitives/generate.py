@@ -106,12 +106,18 @@ def reconstruct(model: PrimitiveModel, expectations: np.ndarray) -> np.ndarray:
     return np.einsum("mtbk,mkd->tbd", expectations, model.W)
 
 
+def path_drift_mm(model: PrimitiveModel, Y: np.ndarray, mask: np.ndarray,
+                  expectations: np.ndarray) -> np.ndarray:
+    """(T, B, 2) the pen path minus its reconstruction's [mm], both integrated from the same
+    start (channels ``dx``, ``dy``), zero past each sequence's end."""
+    ix = _xy_channels(model)
+    steps = (Y - reconstruct(model, expectations))[..., ix] * model.scale[ix] * mask[..., None]
+    return np.cumsum(steps, axis=0)
+
+
 def reconstruction_error_mm(model: PrimitiveModel, Y: np.ndarray, mask: np.ndarray,
                             expectations: np.ndarray) -> np.ndarray:
-    """(B,) mean distance [mm] between each sequence's pen path and its reconstruction's, both
-    integrated from the same start (channels ``dx``, ``dy``)."""
-    recon = reconstruct(model, expectations)
-    ix = _xy_channels(model)
-    steps = (Y - recon)[..., ix] * model.scale[ix] * mask[..., None]
-    drift = np.linalg.norm(np.cumsum(steps, axis=0), axis=-1)          # (T, B)
+    """(B,) mean distance [mm] between each sequence's pen path and its reconstruction's
+    (:func:`path_drift_mm`)."""
+    drift = np.linalg.norm(path_drift_mm(model, Y, mask, expectations), axis=-1)  # (T, B)
     return (drift * mask).sum(axis=0) / mask.sum(axis=0)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inkarm.models.primitives.generate import _xy_channels, reconstruct
+from inkarm.models.primitives.generate import path_drift_mm, reconstruct
 from inkarm.models.primitives.inference import Batch, Posterior, e_step
 from inkarm.models.primitives.model import PrimitiveModel
 
@@ -46,9 +46,7 @@ def reconstruction_rms_mm(model: PrimitiveModel, Y: np.ndarray, mask: np.ndarray
                           expectations: np.ndarray) -> np.ndarray:
     """(B,) the RMS distance [mm] of the module docstring, from (T, B, D) data, (T, B) mask and
     (M, T, B, K) expectations."""
-    ix = _xy_channels(model)
-    steps = (Y - reconstruct(model, expectations))[..., ix] * model.scale[ix] * mask[..., None]
-    drift = (np.cumsum(steps, axis=0) ** 2).sum(axis=-1)                 # (T, B)
+    drift = (path_drift_mm(model, Y, mask, expectations) ** 2).sum(axis=-1)  # (T, B)
     return np.sqrt((drift * mask).sum(axis=0) / mask.sum(axis=0))
 
 
