@@ -52,7 +52,8 @@ def load_trace_for(args: argparse.Namespace):
 def add_recording_options(parser: argparse.ArgumentParser) -> None:
     """The options of a pen-tablet recording (commands reading human recordings)."""
     parser.add_argument("--time-unit", choices=("s", "ms"), default="s",
-                        help="tablet CSV: unit of the t column (default s)")
+                        help="tablet CSV: unit of the t column; timed SVG: of its times where the file names "
+                        "none (default s)")
     parser.add_argument("--scale", type=float, default=1.0,
                         help="tablet CSV: millimetres per device unit of x and y (default 1)")
 
@@ -60,7 +61,15 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
 def load_recordings(trace, args: argparse.Namespace) -> list:
     """The drawings ``trace`` names: every demonstration of ``lasa:SHAPE`` (one for
     ``lasa:SHAPE:DEMO``), a tablet CSV (a ``pressure`` column, or ``--time-unit``/``--scale``
-    given) in one drawing, or any other trace (CSV, SVG: :func:`load_trace_for`'s options)."""
+    given) in one drawing, an SVG pen recording with the time of every point
+    (:mod:`inkarm.io.svgtiming`; ``--time-unit`` where the file names no unit) in one drawing,
+    or any other trace (CSV, SVG: :func:`load_trace_for`'s options).
+
+    An SVG without times is a path, not a recording: it is read at ``--speed`` only where
+    ``args.human`` is False (``analyse`` without ``--human``); where human statistics are
+    asked for (``analyse --human``, and commands without a ``human`` option: ``fit-style``)
+    it is refused naming the file, since a speed it would measure is the one ``--speed``
+    invented."""
     from pathlib import Path
 
     from inkarm.io.human import LASA_PREFIX, is_tablet_csv, read_lasa_trace, read_tablet_csv
@@ -70,15 +79,29 @@ def load_recordings(trace, args: argparse.Namespace) -> list:
     option = "--time-unit" if args.time_unit != "s" else "--scale"
     if name.startswith(LASA_PREFIX):
         if tablet_options:
-            raise InputError("only for a tablet CSV, not a LASA trace", key=option)
+            raise InputError("only for a tablet CSV or a timed SVG, not a LASA trace",
+                             key=option)
         with options_named(shape="TRACE", demo="TRACE"):
             return read_lasa_trace(name)
     path = Path(trace)
     if path.suffix.lower() == ".csv" and (tablet_options or is_tablet_csv(path)):
         with options_named(time_unit="--time-unit", scale_mm="--scale"):
             return [read_tablet_csv(path, args.time_unit, args.scale)]
+    if path.suffix.lower() == ".svg" and path.is_file():
+        from inkarm.io.svgtiming import no_times_error, read_timed_svg, svg_has_times
+
+        if args.scale != 1.0:
+            raise InputError("only for a tablet CSV (an SVG's units place it on the page)",
+                             key="--scale", file=name)
+        if svg_has_times(path):
+            with options_named(time_unit="--time-unit"):
+                drawing = read_timed_svg(path, args.time_unit)
+            say_skipped(drawing, name)
+            return [drawing]
+        if getattr(args, "human", True) and not tablet_options:
+            raise no_times_error(path)
     if tablet_options:
-        raise InputError("only for a tablet CSV", key=option, file=name)
+        raise InputError("only for a tablet CSV or a timed SVG", key=option, file=name)
     from inkarm.io.trace import load_trace
 
     with options_named(**TRACE_OPTIONS):

@@ -25,7 +25,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("recordings", nargs="+",
                    help="pen recordings: a tablet CSV (t,x,y[,pressure]: see --time-unit, "
-                   "--scale), a trace CSV (t,x,y[,z][,stroke]), or "
+                   "--scale), a trace CSV (t,x,y[,z][,stroke]), an SVG with the time of every "
+                   "point (data-t on each polyline or path; an SVG without times is refused), or "
                    "lasa:SHAPE[:DEMO|:FIRST-LAST] (lasa:all: every single-shape set; the LASA "
                    "handwriting set, extra 'lasa')")
     p.add_argument("--out", type=out_path, required=True, help="handstyles file to write (.toml)")

@@ -219,7 +219,7 @@ class PrimitivesSource:
 @dataclass(frozen=True)
 class HumanSource:
     """A human recording (:mod:`inkarm.io.human`): one LASA demonstration (``recording =
-    "lasa:SHAPE:DEMO"``) or a pen-tablet CSV (``file``, with its ``time_unit`` "s" or "ms" and
+    "lasa:SHAPE:DEMO"``) or a pen-tablet CSV or timed SVG (``file``, with its ``time_unit`` "s" or "ms" and
     ``scale_mm`` [mm per unit]), drawn as the hand drew it, or restyled by the handstyle ``hand``
     (``"human"``: the LQT between key-points at the hand's speed minima and peaks,
     :mod:`inkarm.plans.pulses`)."""
@@ -238,7 +238,7 @@ class HumanSource:
 
         if ("recording" in table) == ("file" in table):
             raise rd.error("source", "give one of recording (lasa:SHAPE:DEMO) and file (a "
-                           "tablet CSV)")
+                           "tablet CSV or an SVG with the time of every point)")
         kw: dict[str, Any] = {}
         if "recording" in table:
             name = rd.text(table["recording"], "source.recording")
@@ -261,6 +261,12 @@ class HumanSource:
 
         if self.recording is not None:
             [drawing] = read_lasa_trace(self.recording)
+        elif self.file.suffix.lower() == ".svg":
+            from inkarm.io.svgtiming import no_times_error, read_timed_svg, svg_has_times
+
+            if not svg_has_times(self.file):
+                raise no_times_error(self.file)
+            drawing = read_timed_svg(self.file, self.time_unit)
         else:
             drawing = read_tablet_csv(self.file, self.time_unit, self.scale_mm)
         if self.hand is None:

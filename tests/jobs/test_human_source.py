@@ -62,3 +62,15 @@ def test_a_runs_metrics_carry_the_planned_drawings_human_measures(tmp_path):
     t = np.linspace(0.0, 1.0, 50)
     line = Drawing([Trajectory(t, np.column_stack([30 * t**2, 0 * t]))])
     assert "plan_beta" not in with_plan_measures(Metrics(), line)  # a line has no power law
+
+
+def test_a_timed_svg_recording_is_drawn_as_recorded_and_an_untimed_one_refused(tmp_path):
+    data = __import__("pathlib").Path(__file__).parents[1] / "data" / "human"
+    (tmp_path / "pen.svg").write_bytes((data / "tablet_timed.svg").read_bytes())
+    drawing = source_drawing(scenario(tmp_path, file="pen.svg"))
+    assert drawing.strokes and all(np.all(np.diff(s.t) > 0) for s in drawing.strokes)
+    (tmp_path / "path.svg").write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" '
+        'viewBox="0 0 100 100"><polyline points="0,0 10,10 20,0"/></svg>')
+    with pytest.raises(InputError, match="path.svg"):
+        source_drawing(scenario(tmp_path, file="path.svg"))

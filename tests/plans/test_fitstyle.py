@@ -89,3 +89,17 @@ def test_the_fit_restyles_as_restyle_does():
     fast = _solved(trace, _key_point_plan(trace), _config(hand))
     slow = restyled(trace, hand)
     assert np.array_equal(fast.t, slow.t) and np.array_equal(fast.pos, slow.pos)
+
+
+def test_the_population_term_charges_a_shift_the_folds_see_and_the_pooled_median_hides():
+    # 8 recordings, 2 folds (8 // MIN_FOLD): the even ones' restyles move up by 0.1, the odd
+    # ones' down by 0.1, so the restyles as a whole are the recordings again (pooled shift 0)
+    betas = [0.1 * k for k in range(1, 9)]
+    humans = [{"beta": b} for b in betas]
+    restyles = [{"beta": b + (0.1 if i % 2 == 0 else -0.1)} for i, b in enumerate(betas)]
+    iqr = float(np.subtract(*np.percentile(betas, [75, 25])))  # 0.35
+    assert population_score(humans, restyles, folds=1) == pytest.approx(0.0, abs=1e-24)
+    assert population_score(humans, restyles) == pytest.approx((0.1 / iqr) ** 2)
+    # a fold where the restyles are all unmeasured is left out, not counted as no shift
+    restyles[1::2] = [{}] * 4
+    assert population_score(humans, restyles) == pytest.approx((0.1 / iqr) ** 2)
