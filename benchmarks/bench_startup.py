@@ -17,10 +17,13 @@ Cases:
   start-up (the interpreter), imports (every module the command loads, imported up front in
   the order it loads them), drawing (:func:`inkarm.jobs.run.run`: planning, the closed loop,
   physics, canvas, metrics), writing (:func:`inkarm.jobs.outputs.write_run`, report.png
-  included), the rest (scenario, checks) and the exit (the interpreter's teardown: the
-  process's CPU less ``getrusage`` of the child just before it ends); medians per phase;
+  included), the rest (scenario, checks) and the exit (the interpreter's teardown after
+  ``gc.freeze()``, as the console command ends: the process's CPU less ``getrusage`` of the
+  child just before it ends); MuJoCo imported without OpenGL, as ``inkarm draw`` imports it;
+  per run, then medians per phase;
 - the floor: a process that imports what drawing needs and draws, writing nothing; and
-  ``python -c "import mujoco"`` (interpreter, NumPy, MuJoCo: what no drawing process avoids).
+  ``python -c "import mujoco"`` with OpenGL off, as ``inkarm draw`` imports it (interpreter,
+  NumPy, MuJoCo: what no drawing process avoids).
 
 Targets (the performance issue): ``inkarm --help`` at most 3x the reference; the drawing at
 least half of the CPU of ``inkarm draw``.
@@ -43,6 +46,8 @@ from blocks import interleave
 BIN = Path(sys.executable).parent
 HELP_TARGET = 3.0
 SHARE_TARGET = 0.5
+HEAVY = ("scipy", "matplotlib", "mujoco", "glfw", "PIL", "pyarrow", "ray", "dynamixel_sdk",
+         "skimage")  # the libraries whose loading the start-up test watches (and Pillow)
 
 # A child that draws the default as `inkarm draw` does, its CPU split by phase; argv[1]: the
 # output folder, argv[2]: a JSON file of the modules to import up front, argv[3]: "write" to
@@ -52,6 +57,8 @@ import json, resource, sys, time
 start = time.process_time()
 out, modules, write = sys.argv[1], sys.argv[2], sys.argv[3] == "write"
 import importlib
+from inkarm.sim.gl import import_mujoco_without_gl
+import_mujoco_without_gl()  # as `inkarm draw` imports MuJoCo: without OpenGL (no glfw)
 for name in json.load(open(modules)):
     try:
         importlib.import_module(name)
@@ -70,11 +77,16 @@ if write:
     from inkarm.jobs.outputs import write_run
     write_run(result, out)
 t4 = time.process_time()
+import gc
+gc.freeze()  # as the console command ends (inkarm.cli.main): no collection at the exit
 usage = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"start-up": start, "imports": t1 - start, "drawing": t3 - t2,
                   "writing": t4 - t3, "total": usage.ru_utime + usage.ru_stime,
                   "late": late}))
 """
+
+# MuJoCo alone, as a drawing process imports it (OpenGL off: no glfw).
+MUJOCO = "import os; os.environ['MUJOCO_GL'] = 'disable'; import mujoco"
 
 # The modules `inkarm draw` (argv[3] "draw") or a bare drawing (else) has loaded when it
 # ends, in the order it loaded them, into the JSON file argv[2].
@@ -86,6 +98,8 @@ if sys.argv[3] == "draw":
 else:
     from inkarm.jobs.run import run
     from inkarm.jobs.scenario import load_scenario
+    from inkarm.sim.gl import import_mujoco_without_gl
+    import_mujoco_without_gl()
     run(load_scenario(None))
 json.dump(list(sys.modules), open(sys.argv[2], "w"))
 """
@@ -129,6 +143,9 @@ def main() -> int:
                 seconds, stdout = cpu_of([py, "-c", SPLIT, out, modules[which],
                                           "write" if write else "-"], env)
                 measured = {**json.loads(stdout), "process": seconds}
+                measured["rest"] = measured["total"] - sum(  # per run: medians do not add up
+                    measured[k] for k in ("start-up", "imports", "drawing", "writing"))
+                measured["exit"] = seconds - measured["total"]
                 for key, value in measured.items():
                     phases["split" if write else "floor"].setdefault(key, []).append(value)
                 return seconds
@@ -141,12 +158,15 @@ def main() -> int:
                                    env)[0],
             "split": split("draw", True),
             "floor": split("floor", False),
-            "mujoco": lambda: cpu_of([py, "-c", "import mujoco"], env)[0],
+            "mujoco": lambda: cpu_of([py, "-c", MUJOCO], env)[0],
         }
         short = ("help", "numpy", "mujoco")
         result = interleave(cases, blocks=blocks, clock=None,
                             repeats={name: repeats if name in short else 1 for name in cases})
-    print(report(result, phases, blocks, repeats))
+        loaded = set(json.loads(Path(modules["draw"]).read_text()))
+    heavy = [name for name in HEAVY if name in loaded]
+    print(report(result, phases, blocks, repeats) + "\nHeavy libraries `inkarm draw` of the "
+          f"default loads: {', '.join(heavy)}.")
     return 0
 
 
@@ -160,8 +180,7 @@ def report(result, phases, blocks: int, repeats: int) -> str:
     # each list's first entry is interleave's untimed warm-up call
     split = {k: median_ms(v[1:]) for k, v in phases["split"].items() if k != "late"}
     floor = {k: median_ms(v[1:]) for k, v in phases["floor"].items() if k != "late"}
-    rest = split["total"] - sum(split[k] for k in ("start-up", "imports", "drawing", "writing"))
-    exit_ = split["process"] - split["total"]
+    rest, exit_ = split["rest"], split["exit"]
     late = sorted({m for run in phases["split"].get("late", []) for m in run})
     help_ratio = result.ratio("help", "numpy")
     share = split["drawing"] / split["process"]
@@ -179,7 +198,7 @@ def report(result, phases, blocks: int, repeats: int) -> str:
         "|---|---|",
         f"| `inkarm --help` | {ms['help']:.0f} |",
         f"| `python -c \"import numpy\"` (reference) | {ms['numpy']:.0f} |",
-        f"| `python -c \"import mujoco\"` | {ms['mujoco']:.0f} |",
+        f"| `python -c \"import mujoco\"` (MUJOCO_GL=disable) | {ms['mujoco']:.0f} |",
         f"| `inkarm draw` of the default, whole | {ms['draw']:.0f} |",
         f"| the same steps, split below | {ms['split']:.0f} |",
         f"| the floor: import what drawing needs, draw, write nothing | {ms['floor']:.0f} |",

@@ -18,12 +18,14 @@ import inkarm
 from inkarm.errors import InkarmError
 
 
-def _command_modules():
+def command_names() -> dict[str, str]:
+    """Each command's name and its module, sorted, without importing any: ``inkarm/commands/
+    fit_style.py`` is ``fit-style``."""
     import inkarm.commands as pkg
 
-    for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name):
-        if not info.name.startswith("_"):
-            yield importlib.import_module(f"inkarm.commands.{info.name}")
+    return {info.name.replace("_", "-"): f"inkarm.commands.{info.name}"
+            for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name)
+            if not info.name.startswith("_")}
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -34,7 +36,12 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``inkarm`` parser; with a ``command`` name only that command's sub-parser (what
+    ``inkarm draw ...`` parses: every other command's parser would import its module, a
+    tenth of a second in all), else all of them."""
+    names = command_names()
+    modules = [names[command]] if command in names else list(names.values())
     parser = OneLineParser(
         prog="inkarm",
         description="Human-like pen trajectories, drawn by a simulated or real robot arm. "
@@ -42,14 +49,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"inkarm {inkarm.__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
-    for module in _command_modules():
+    for module in map(importlib.import_module, modules):
         p = module.add_parser(sub)
         p.set_defaults(_run=module.run)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    given = sys.argv[1:] if argv is None else argv
+    parser = build_parser(given[0] if given else None)
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()

@@ -1,34 +1,214 @@
-"""``inkarm calibrate --port PORT --robot NAME``: measure a Dynamixel arm's joint zeros and
-directions (move each joint to its marks) and write them beside the robot profile."""
+"""``inkarm calibrate joints|paper|pen|kinematics|all``: find out how the real cell differs from the
+model and store it in the robot's calibration file (the user's configuration folder).
+
+- ``joints --port PORT --robot NAME``: a Dynamixel arm's joint zeros and directions (move each
+  joint to its marks), written to ``<config>/calibration/<robot>.joints.toml``;
+- ``paper [SCENARIO]``: probe the sheet along the scenario's drawing (or on a grid over it)
+  and store its height map;
+- ``pen [SCENARIO]``: the pen's tool-centre point (tip offset);
+- ``kinematics [SCENARIO]``: link lengths and joint offsets from drawn marks.
+
+``paper``, ``pen`` and ``kinematics`` merge their result into ``--out`` (default the robot's
+``<config>/calibration/<robot>.toml``; ``inkarm draw --calibration auto`` reads it), keeping
+what the file held besides; each probes believing what the file already holds, except the part
+it measures (so run them in the order pen, kinematics, paper: each later one draws with what the
+earlier found). ``all`` runs pen, kinematics and paper in that order (the order that
+works: :mod:`inkarm.jobs.calibration_cell`). The old form ``inkarm calibrate --port PORT`` is
+``calibrate joints``.
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+SUBCOMMANDS = ("joints", "paper", "pen", "kinematics", "all")
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "calibrate",
-        help="measure a Dynamixel arm's joint zeros and directions",
+        help="calibrate the cell: joint zeros, the paper's height map, the pen tip, the "
+        "arm's kinematics",
+        description="Measure how the real cell differs from the model and store it in the "
+        "robot's calibration file, in the user's configuration folder ($INKARM_CONFIG_DIR, "
+        "else $XDG_CONFIG_HOME/inkarm, else ~/.config/inkarm), which `inkarm draw "
+        "--calibration auto` (or a scenario's calibration = \"auto\") reads.",
+    )
+    # the form of inkarm <= 0.x: `inkarm calibrate --port P [--robot R] [--out F]` = joints
+    p.add_argument("--port", dest="legacy_port", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--robot", dest="legacy_robot", default="wx250s", help=argparse.SUPPRESS)
+    p.add_argument("--out", dest="legacy_out", default=None, help=argparse.SUPPRESS)
+    sub = p.add_subparsers(dest="what", metavar="WHAT", parser_class=type(p))
+    joints = sub.add_parser(
+        "joints", help="a Dynamixel arm's joint zeros and directions",
         description="Turn the servos' torque off and, joint by joint, ask you to move the "
         "joint to its zero mark and to a mark 90 degrees positive (press Enter at each); "
-        "writes <profile>.calibration.toml beside the robot profile (or --out), which "
-        "`inkarm draw --backend dynamixel` reads. Answers come from stdin, so a script can "
-        "drive it.",
-    )
-    p.add_argument("--port", required=True, help="serial port of the arm (or an emulator's pty)")
-    p.add_argument("--robot", default="wx250s", metavar="NAME|FILE.toml",
-                   help="robot profile with a [backends.dynamixel] table (default wx250s)")
-    p.add_argument("--out", metavar="FILE.toml", default=None,
-                   help="calibration file (default: beside the robot profile)")
+        "writes <config>/calibration/<robot>.joints.toml (or --out), which `inkarm draw "
+        "--backend dynamixel` reads. Answers come from stdin, so a script can drive it.")
+    joints.add_argument("--port", required=True,
+                        help="serial port of the arm (or an emulator's pty)")
+    joints.add_argument("--robot", default="wx250s", metavar="NAME|FILE.toml",
+                        help="robot profile with a [backends.dynamixel] table (default wx250s)")
+    joints.add_argument("--out", metavar="FILE.toml", default=None,
+                        help="joint calibration file (default: in the configuration folder)")
+    for name, help_, description in (
+        ("paper", "probe the sheet along the drawing and store its height map",
+         ("Touch the sheet at dots every --spacing mm along the scenario's drawing (the force "
+          "loop settles at each), take each dot's height from the joint readings, the model "
+          "and the force, fit a smooth height map and store it.")),
+        ("pen", "find the pen's tool-centre point (tip offset)",
+         ("Draw marks with the pen at several orientations and fit where its tip really is "
+          "in the flange frame; store the tip offset.")),
+        ("kinematics", "fit link lengths and joint offsets from drawn marks",
+         ("Draw a pattern of dots, measure where they landed and fit link-length and "
+          "joint-offset corrections by least squares; store them and report before/after.")),
+        ("all", "the pen, the kinematics and the paper, in that order",
+         ("Calibrate the pen, then the arm's kinematics believing that pen, then the paper "
+          "through both (a backend without a force sensor: no paper); store all three.")),
+    ):
+        s = sub.add_parser(name, help=help_, description=description)
+        s.add_argument("scenario", nargs="?", default=None,
+                       help="scenario file (TOML); default: the embedded letter N")
+        s.add_argument("--robot", metavar="NAME|FILE.toml", default=None,
+                       help="robot profile (default: the scenario's)")
+        s.add_argument("--backend", default="sim", metavar="NAME",
+                       help="where to probe: sim (default) or a device on --port (dynamixel)")
+        s.add_argument("--port", default=None, help="serial port of the device")
+        s.add_argument("--time-scale", type=float, default=1.0,
+                       help="device seconds per wall second: an emulator's --speedup")
+        s.add_argument("--out", metavar="FILE.toml", default=None,
+                       help="calibration file to merge into (default: the robot's, in the "
+                       "configuration folder)")
+        s.add_argument("--quiet", action="store_true", help="no progress bar")
+        if name in ("paper", "all"):
+            s.add_argument("--spacing", type=float, default=10.0 if name == "paper" else 5.0,
+                           metavar="MM",
+                           help="distance between probe dots (default 10 mm, all: 5; 5 or less for "
+                           "relief of 30 mm wavelength, a third of a bump's width)")
+            s.add_argument("--pattern", choices=("path", "grid"), default="path",
+                           help="where to probe: along the drawing's path (default; where it "
+                           "inks anyway) or on a grid over its bounding box (dots off the "
+                           "path: a scratch sheet)")
     return p
 
 
 def run(args: argparse.Namespace) -> int:
+    from inkarm.errors import InputError
+
+    what = getattr(args, "what", None)
+    if what is None:
+        if args.legacy_port is None:
+            raise InputError(f"expected what to calibrate: {', '.join(SUBCOMMANDS)} (e.g. "
+                             "`inkarm calibrate joints --port PORT` for a Dynamixel arm's "
+                             "zeros)", key="WHAT")
+        return _joints(args.legacy_port, args.legacy_robot, args.legacy_out)
+    if what == "joints":
+        return _joints(args.port, args.robot, args.out)
+    return _cell(args, what)
+
+
+def _joints(port: str, robot: str, out: str | None) -> int:
     from inkarm.hardware.dynamixel.calibration import calibrate_arm
     from inkarm.robots.registry import load_robot
 
-    profile = load_robot(args.robot)
-    calibrate_arm(args.port, profile, Path(args.out) if args.out else None)
+    profile = load_robot(robot)
+    calibrate_arm(port, profile, Path(out) if out else None)
     return 0
+
+
+def _cell(args: argparse.Namespace, what: str) -> int:
+    import math
+
+    from inkarm.commands.draw import ProgressBar
+    from inkarm.errors import InputError
+    from inkarm.jobs.backends import BackendOptions, get_backend
+    from inkarm.jobs.calibration import believing, update_calibration
+    from inkarm.jobs.scenario import load_scenario
+    from inkarm.robots.calibration import calibration_path
+
+    spacing = getattr(args, "spacing", 10.0)
+    if not (math.isfinite(spacing) and 0.5 <= spacing <= 100.0):
+        raise InputError(f"expected a spacing of 0.5 to 100 mm, got {spacing:g}",
+                         key="--spacing", value=spacing)
+    scenario = load_scenario(args.scenario)
+    if args.robot is not None:
+        key = "robot.file" if args.robot.endswith(".toml") else "robot.name"
+        robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
+        scenario = scenario.with_overrides({"robot": {}, key: robot})
+    get_backend(args.backend)  # an unknown name fails here, before anything moves
+    robot = scenario.robot.name
+    out = Path(args.out) if args.out else calibration_path(robot)
+    # `all` measures every part: it starts from the nominal cell (the file's robot still checked)
+    scenario = believing(scenario, out, "paper" if what == "all" else what)
+    if what == "all":
+        from inkarm.jobs.calibration import with_calibration
+
+        scenario = with_calibration(scenario, None)
+    options = BackendOptions(port=args.port, time_scale=args.time_scale)
+    bar = None if args.quiet else ProgressBar(f"calibrate {what} ({robot})")
+    try:
+        if what == "all":
+            from inkarm.jobs.calibration_cell import calibrate_cell
+
+            found = calibrate_cell(scenario, args.backend, options, bar, spacing,
+                                   pattern=args.pattern)
+            summary = found.describe()
+            update = {"geometry": found.geometry}
+            if found.paper is not None:
+                update["paper"] = found.paper
+        elif what == "paper":
+            from inkarm.jobs.calibration import probe_paper, probe_paper_marks
+
+            if getattr(get_backend(args.backend), "senses_force", True):
+                probe = probe_paper(scenario, args.backend, options, spacing, bar,
+                                    pattern=args.pattern)
+            else:  # ramped dashes read from their ink (the emulator's twin draws it)
+                probe = probe_paper_marks(scenario, args.backend, options, max(spacing, 10.0),
+                                          bar)
+            summary = probe.summary()
+            update = {"paper": probe.map}
+        else:
+            summary, geometry = _geometry(what, scenario, args.backend, options, bar, out)
+            update = {"geometry": geometry}
+    finally:
+        if bar is not None:
+            bar.close()
+    first = summary.splitlines()[0] if summary else ""  # (a report's first line in the file)
+    note = f"{what}: {first} ({args.backend}, scenario {scenario.title!r})"
+    cal, path = update_calibration(robot, out, note=note, **update)
+    print(f"{what}: {summary}")
+    print(f"calibration of {robot}: {cal.describe()}")
+    print(f"wrote {path} (draw with it: inkarm draw --calibration "
+          f"{'auto' if path == calibration_path(robot) else path})")
+    return 0
+
+
+def _geometry(what: str, scenario, backend: str, options, progress, out: Path):
+    """The pen's or the arm's fit (inkarm.jobs.calibration_pen / _kinematics) merged into the
+    geometry the file ``out`` holds: pen -> the tip offset only, kinematics -> the link
+    lengths and joint offsets only."""
+    import dataclasses
+    import importlib
+
+    from inkarm.errors import InputError
+    from inkarm.robots.calibration import read_calibration
+    from inkarm.robots.geometry import GeometryErrors
+
+    module = f"inkarm.jobs.calibration_{what}"
+    try:
+        fits = importlib.import_module(module)
+    except ModuleNotFoundError as e:
+        if e.name != module:
+            raise
+        raise InputError(f"calibrate {what} is not available in this installation (no "
+                         f"{module})", key="WHAT", value=what) from None
+    held = read_calibration(out).geometry if out.is_file() else GeometryErrors()
+    if what == "pen":
+        fitted = fits.calibrate_pen(scenario, backend, options, progress)
+        tip = fitted.tip_offset_mm
+        return (f"tip offset ({', '.join(f'{v:+.3f}' for v in tip)}) mm in the flange frame",
+                dataclasses.replace(held, tip_offset_mm=tip))
+    fitted, report = fits.calibrate_kinematics(scenario, backend, options, progress)
+    return report, dataclasses.replace(held, link_length_mm=fitted.link_length_mm,
+                                       joint_offset_deg=fitted.joint_offset_deg)

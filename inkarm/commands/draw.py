@@ -49,9 +49,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="serial port of the device (a pseudo-terminal from `inkarm emulate`)")
     p.add_argument("--profile", metavar="NAME|FILE.toml", default=None,
                    help="device profile: for a plotter, the pen profile (servo, z) or a file; for an "
-                   "AxiDraw, its model profile (v3, v3_a3) or a file; for a Dynamixel arm, its calibration file (default: beside the robot profile)")
+                   "AxiDraw, its model profile (v3, v3_a3) or a file; for a Dynamixel arm, its joint calibration file (default: <config>/calibration/<robot>.joints.toml, from `inkarm calibrate joints`)")
     p.add_argument("--time-scale", type=float, default=1.0,
                    help="device seconds per wall second: an emulator's --speedup (default 1)")
+    p.add_argument("--calibration", metavar="FILE|auto|none", default=None,
+                   help="what the controller believes of the cell (`inkarm calibrate`): a "
+                   "calibration file, auto (the robot's file in the configuration folder, when "
+                   "there is one) or none; default: the scenario's calibration key")
     p.add_argument("--check", action="store_true",
                    help="check the scenario (source, budgets, placement, reach) and stop before "
                    "simulating; writes nothing")
@@ -137,6 +141,10 @@ def run(args: argparse.Namespace) -> int:
         from inkarm.sim.gl import configure_gl
 
         configure_gl()
+    elif not args.viewer:  # this process renders nothing: MuJoCo without glfw
+        from inkarm.sim.gl import import_mujoco_without_gl
+
+        import_mujoco_without_gl()
     check_video_options(args)  # fail before a long simulation
     if args.video:
         from inkarm.sim.render import require_ffmpeg
@@ -156,6 +164,11 @@ def run(args: argparse.Namespace) -> int:
         key = "robot.file" if args.robot.endswith(".toml") else "robot.name"
         robot = str(Path(args.robot).resolve()) if key == "robot.file" else args.robot
         scenario = scenario.with_overrides({"robot": {}, key: robot})
+    if args.calibration is not None:
+        from inkarm.jobs.calibration import with_calibration
+
+        given = args.calibration
+        scenario = with_calibration(scenario, None if given == "none" else given)
     out = check_out_dir(args.out, inputs=scenario_inputs(scenario), names=RUN_FILES)
     if args.check and args.backend != "sim":
         from inkarm.jobs.backends import BackendOptions, check_backend

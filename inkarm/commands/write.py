@@ -71,18 +71,17 @@ def run(args) -> int:
     tp, drawing = write_text(
         text, style, dt=args.dt, height=args.height, font=args.font, layout=layout, seed=args.seed
     )
-    fidelity = text_fidelity(tp, drawing)
-    fig = plot_text(
-        tp, drawing, title=f"{args.style}: {len(drawing.strokes)} strokes", fidelity=fidelity
-    )
+    strokes, seconds = len(drawing.strokes), drawing.strokes[-1].t[-1]
     with staged(args.out) as stage:
         drawing.to_csv(stage / "drawing.csv")
         drawing.to_svg(stage / "drawing.svg")
-        save_figure(fig, stage / "write.png", dpi=200)
+        fidelity = text_fidelity(tp, drawing)
+        fig = plot_text(tp, drawing, title=f"{args.style}: {strokes} strokes", fidelity=fidelity)
+        del tp, drawing  # done with: the figure holds copies of what it draws
+        save_figure(fig, stage / "write.png", dpi=200, pil_kwargs={"compress_level": 1})
     letters = sum(1 for c in text if not c.isspace())
     print(
-        f"{letters} letters in {len(drawing.strokes)} strokes, "
-        f"{drawing.strokes[-1].t[-1]:.2f} s; from the font: {fidelity.summary()}; "
-        f"wrote {args.out / 'drawing.csv'}, drawing.svg, write.png"
+        f"{letters} letters in {strokes} strokes, {seconds:.2f} s; from the font: "
+        f"{fidelity.summary()}; wrote {args.out / 'drawing.csv'}, drawing.svg, write.png"
     )
     return 0

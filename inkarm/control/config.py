@@ -38,6 +38,13 @@ RANGES = {
     "stop_s": _R(0.0, 10.0, "s", open_low=True),
     "friction_adaptation": _R(0.0, 1e9, "N m/(rad s)"),
     "lookahead_s": _R(0.0, 1.0, "s"),
+    "surface_lead_s": _R(0.0, 0.2, "s"),
+    "surface_rate_filter_s": _R(0.0, 1.0, "s"),
+    "surface_cell_mm": _R(0.0, 100.0, "mm"),
+    "map_lead_s": _R(0.0, 0.2, "s"),
+    "map_surface_lead_s": _R(0.0, 0.2, "s"),
+    "map_force_filter_s": _R(0.0, 1.0, "s"),
+    "relief_accel_mm_s2": _R(0.0, 1e6, "mm/s^2"),
 }
 
 
@@ -85,6 +92,27 @@ class LoopConfig:
         probe_paper: Before drawing, touch the paper at three points of the drawing's path and
             fit its plane (:mod:`inkarm.control.probe`), so that the first stroke already knows
             the sheet's height and tilt.
+        surface_lead_s: tau_L: the force loop feeds forward the paper's surface this far
+            ahead along the path, from the rate at which the depth of the surface under the pen
+            changes (:mod:`inkarm.control.force`); 0: the integrator alone follows relief (as
+            before issue 23).
+        surface_rate_filter_s: tau_r: time constant of the low-pass on that rate [s].
+        surface_cell_mm: Grid spacing of the height field learnt while drawing, for places the
+            pen comes back to (:class:`inkarm.control.heightmap.LearntField`); 0: none (the
+            sheet's plane and the lead only).
+        map_lead_s: tau_M: how far ahead along the plan the calibrated height map
+            (``KinematicModel.paper_map``) is read: the pen's depth follows its reference this
+            much late [s]. Only with a map.
+        map_surface_lead_s: tau_L where the controller has a calibrated map (in place of
+            ``surface_lead_s``): the measured rate is then the map's residual, mostly the
+            pen's timing around steep relief, which a lead measured a few periods late
+            amplifies (issue 23's calibrated mix); 0: none.
+        map_force_filter_s: ``force_filter_s`` where the controller has a calibrated map: the
+            low-pass is there for the measured lead's derivative; without a lead to feed, a
+            shorter one leaves the integrator less lag [s].
+        relief_accel_mm_s2: With a calibrated map, strokes are slowed so that the height under
+            the pen changes its rate by at most this [mm/s^2] (:mod:`inkarm.control.
+            relief_speed`); 0: never.
     """
 
     force_n: float = 1.0
@@ -115,6 +143,13 @@ class LoopConfig:
     friction_adaptation: float = 2e4
     lookahead_s: float = 0.0
     probe_paper: bool = False
+    surface_lead_s: float = 0.03
+    surface_rate_filter_s: float = 0.01
+    surface_cell_mm: float = 0.0
+    map_lead_s: float = 0.03
+    map_surface_lead_s: float = 0.0
+    map_force_filter_s: float = 0.005
+    relief_accel_mm_s2: float = 2000.0
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -311,7 +311,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     dt = context.dt
     law.start(context)
     watchdog = Watchdogs(shared.watch_context, shared.watchdogs)
-    force_loop = ForceLoop(config, dt)  # and the paper's surface, learnt while drawing
+    force_loop = ForceLoop.of_model(config, dt, context.model)  # and the paper's surface
     shape, depth_at, surface = force_loop.shape, force_loop.depth, force_loop.surface
     probes, drawing_starts = shared.probes, shared.drawing_starts
     probing, probe_wall, probed = bool(probes), 0.0, ()

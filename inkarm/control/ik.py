@@ -15,6 +15,15 @@ pen, from flange to tip) and the desired pen direction a:
 and ``dq`` is scaled as a whole vector (direction kept) so that no joint moves more than its
 step limit. Units: SI inside (m, rad), as in MuJoCo; callers in page millimetres go through
 :mod:`inkarm.core.frames` first.
+
+A stroke may ask for another pen orientation (:class:`PenPose`: the pen tilted from the normal,
+its spin set; the pen calibration's marks, :mod:`inkarm.control.calibration.pen`). A set spin
+adds a sixth row, the rotation about the pen axis that turns the site's x axis x_s onto the
+goal x* (both across the pen):
+
+    e_6 = z_s . (x_s x x*) = y_s . x*,    J_6 = z_s^T Jr
+
+and the solve is the same with 6 rows (:func:`pose_task`). Without poses nothing changes.
 """
 
 from __future__ import annotations
@@ -24,7 +33,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dposv as _cholesky_solve
 
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.errors import InputError, UnreachableError
@@ -93,6 +101,13 @@ class IKResult:
 _EYE5 = np.eye(5)
 
 
+def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x of A x = b, A symmetric positive definite, by Cholesky (LAPACK dposv)."""
+    from scipy.linalg.lapack import dposv  # (here: the planner imports without SciPy)
+
+    return dposv(A, b)[1]
+
+
 def pen_error(
     p: np.ndarray, R: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray
 ) -> np.ndarray:
@@ -128,6 +143,40 @@ def pen_task(
     return pen_error(p, R, p_goal, axis_goal), pen_jacobian(R, Jp, Jr)
 
 
+def across(axis: np.ndarray, x_goal) -> np.ndarray:
+    """``x_goal`` (3,) made a unit vector across the unit ``axis`` (its part along the axis
+    removed): the spin goal x* of a 6-row task."""
+    x = np.asarray(x_goal, float)
+    x = x - (x @ axis) * axis
+    norm = float(np.linalg.norm(x))
+    if not norm > 1e-9:
+        raise InputError("a spin goal must not point along the pen axis", key="spin_goal",
+                         value=tuple(np.asarray(x_goal, float).tolist()))
+    return x / norm
+
+
+def with_spin(e: np.ndarray, J: np.ndarray, R: np.ndarray, Jr: np.ndarray,
+              spin_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 5-row pen task (e, J) with the spin row of the module docstring appended:
+    e_6 = y_s . x*, J_6 = z_s^T Jr."""
+    return np.append(e, R[:, 1] @ spin_goal), np.vstack([J, R[:, 2] @ Jr])
+
+
+def pose_task(
+    p: np.ndarray,
+    R: np.ndarray,
+    Jp: np.ndarray,
+    Jr: np.ndarray,
+    p_goal: np.ndarray,
+    axis_goal: np.ndarray,
+    spin_goal: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pen_task`, and with a ``spin_goal`` x* (unit, across ``axis_goal``) its sixth
+    row (module docstring)."""
+    e, J = pen_task(p, R, Jp, Jr, p_goal, axis_goal)
+    return (e, J) if spin_goal is None else with_spin(e, J, R, Jr, spin_goal)
+
+
 def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
     """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits: back
     into the band [lower + margin, upper - margin], zero inside it."""
@@ -153,22 +202,25 @@ def dls_update(
     upper: np.ndarray,
 ) -> np.ndarray:
     """q + dq, the step of the module docstring from the pen-task error ``e`` (5,) and
-    Jacobian ``J`` (5, n) at ``q`` (task only when ``dq0`` is None), scaled to
-    ``cfg.max_step`` and clipped to the limits.
+    Jacobian ``J`` (5, n) at ``q`` (6 rows with a set spin: :func:`pose_task`; task only when
+    ``dq0`` is None), scaled to ``cfg.max_step`` and clipped to the limits.
 
     The task and null-space terms share one solve, by linearity:
     J^T A^-1 e + (I - J^T A^-1 J) dq0 = J^T A^-1 (e - J dq0) + dq0 with A = J J^T + lambda^2 I,
     solved by Cholesky (A is symmetric positive definite)."""
     w = cfg._row_weights
+    rows = e.shape[0]
     if w is not None:
+        if rows != 5:  # the spin row (a pen pose's) weighs as the tilt rows do
+            w = np.append(w, [cfg.tilt_weight] * (rows - 5))
         J = w[:, None] * J
         e = w * e
     A = J @ J.T
-    A += cfg.damping**2 * _EYE5
+    A += cfg.damping**2 * (_EYE5 if rows == 5 else np.eye(rows))
     rhs = e if dq0 is None else e - J @ dq0
     # A >= lambda^2 I, so the factorisation cannot fail on finite numbers (and non-finite ones
     # propagate to q, where the callers' error checks catch them).
-    _, y, _ = _cholesky_solve(A, rhs)
+    y = _solve_spd(A, rhs)
     dq = J.T @ y
     if dq0 is not None:
         dq += dq0
@@ -187,18 +239,26 @@ def dls_step(
     q_posture: np.ndarray,
     cfg: IKConfig,
     null_space: bool = True,
+    spin_goal: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``."""
+    """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``
+    (``spin_goal``: the site's x axis x* (3,) in the robot frame, a 6-row task)."""
     p, R, Jp, Jr = kin.jacobian_views(q)
     e = pen_error(p, R, p_goal, axis_goal)
     J = pen_jacobian(R, Jp, Jr)
+    if spin_goal is not None:
+        e, J = with_spin(e, J, R, Jr, spin_goal)
     dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg) if null_space else None
     return dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper), e
 
 
 def task_error(e: np.ndarray) -> tuple[float, float]:
     """(position error [m], tilt error [rad]) of a pen-task error vector; the tilt error is
-    |z_s x a|, the sine of the pen's tilt from the goal axis."""
+    |z_s x a|, the sine of the pen's tilt from the goal axis (with a spin row: the norm of the
+    tilt and spin rows)."""
+    if e.shape[0] != 5:
+        ex, ey, ez, *turns = e.tolist()
+        return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(sum(t * t for t in turns))
     ex, ey, ez, tx, ty = e.tolist()
     return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(tx * tx + ty * ty)
 
@@ -219,19 +279,24 @@ def solve_ik(
     q0,
     q_posture=None,
     cfg: IKConfig = IKConfig(),
+    spin_goal=None,
 ) -> IKResult:
     """Iterate :func:`dls_step` from ``q0`` until the tip is within tolerance of ``p_goal`` [m]
-    and the pen points along ``axis_goal`` (unit, 3,). Never raises on failure: check
-    ``converged``. The null-space term acts during the first half of the iterations (until the
-    posture has settled), task-only steps after."""
+    and the pen points along ``axis_goal`` (unit, 3,) (and, given ``spin_goal``, the site's x
+    axis along it: a :class:`PenPose`'s spin). Never raises on failure: check ``converged``.
+    The null-space term acts during the first half of the iterations (until the posture has
+    settled), task-only steps after."""
     q = np.clip(np.asarray(q0, float).copy(), kin.lower, kin.upper)
     q_posture = q.copy() if q_posture is None else np.asarray(q_posture, float)
     p_goal = np.asarray(p_goal, float)
     axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
+    if spin_goal is not None:
+        spin_goal = across(axis_goal, spin_goal)
     e = np.zeros(5)
     for it in range(1, cfg.max_iter + 1):
         null_space = it <= cfg.max_iter // 2
-        q_next, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=null_space)
+        q_next, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=null_space,
+                             spin_goal=spin_goal)
         pos_err, tilt_err = task_error(e)
         # (the largest joint move as a list max: cheaper than numpy's on 7 numbers)
         settled = not null_space or max(map(abs, (q_next - q).tolist())) < 1e-4
@@ -324,17 +389,112 @@ def track_path(
     for i, p_goal in enumerate(points):
         pos_err, tilt_err = tracker.step(p_goal)
         q = tracker.q
-        # (q is clipped to the limits: the smallest distance to one, as a list min)
-        clearance = min(np.minimum(q - kin.lower, kin.upper - q).tolist())
-        tilt_bad = cfg.tilt_weight > 0 and tilt_err > 100 * cfg.tol_tilt
-        if pos_err > 100 * cfg.tol_pos or tilt_bad or not clearance > 1e-9:
-            at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
-            where = label(i) if label is not None else f"sample {i}"
-            why = (
-                f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"
-                if at_limit.any()
-                else f"tip error {1000 * pos_err:.3f} mm, pen tilt {np.rad2deg(tilt_err):.3f} deg"
-            )
-            raise UnreachableError(f"{where}: out of reach with the pen perpendicular ({why})")
+        _check_tracked(kin, cfg, q, pos_err, tilt_err, i, label, "with the pen perpendicular")
+        path[i] = q
+    return path
+
+
+def _check_tracked(kin: ArmKinematics, cfg: IKConfig, q: np.ndarray, pos_err: float,
+                   tilt_err: float, i: int, label: Callable[[int], str] | None,
+                   how: str) -> None:
+    """Raise UnreachableError naming sample ``i`` (``label(i)`` when given) when its tip error
+    [m] stays above ``100 * tol_pos``, its tilt error [rad] above ``100 * tol_tilt`` (when
+    the tilt counts), or ``q`` sits at a joint limit; ``how``: the pen's pose, in words."""
+    # (q is clipped to the limits: the smallest distance to one, as a list min)
+    clearance = min(np.minimum(q - kin.lower, kin.upper - q).tolist())
+    tilt_bad = cfg.tilt_weight > 0 and tilt_err > 100 * cfg.tol_tilt
+    if pos_err > 100 * cfg.tol_pos or tilt_bad or not clearance > 1e-9:
+        at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
+        where = label(i) if label is not None else f"sample {i}"
+        why = (
+            f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"
+            if at_limit.any()
+            else f"tip error {1000 * pos_err:.3f} mm, pen tilt {np.rad2deg(tilt_err):.3f} deg"
+        )
+        raise UnreachableError(f"{where}: out of reach {how} ({why})")
+
+
+MAX_TILT_DEG = 60.0  # the largest pen tilt a stroke may ask for [deg]
+
+
+@dataclass(frozen=True)
+class PenPose:
+    """An orientation of the pen against the paper that a stroke may ask for (the pen
+    calibration's marks); the default is the drawing pen's: perpendicular, spin free.
+
+    In the page frame (z out of the paper) the pen axis, from the flange to the tip, is
+
+        a = (-sin(theta) cos(phi), -sin(theta) sin(phi), -cos(theta))
+
+    (the pen's upper end leans toward the page direction ``phi``), and with a set spin ``psi``
+    the flange's x axis is x* = Rot(k, theta) (cos(psi), sin(psi), 0): the upright pen's x axis
+    at ``psi`` from page x, carried along by the tilt about k = (-sin(phi), cos(phi), 0)
+    (Rodrigues: Rot(k, t) v = v cos t + (k x v) sin t + k (k . v)(1 - cos t)).
+
+    Attributes:
+        tilt_deg: theta, the pen axis's angle from the paper's normal [deg], in [0, 60].
+        azimuth_deg: phi, the page direction the tilt leans toward, from page x [deg].
+        spin_deg: psi [deg]; None: the spin about the pen axis is free (the IK's null space
+            chooses it, as for drawing).
+    """
+
+    tilt_deg: float = 0.0
+    azimuth_deg: float = 0.0
+    spin_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("tilt_deg", "azimuth_deg", "spin_deg"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value)) and not (
+                    value is None and name == "spin_deg"):
+                raise InputError(f"expected a finite number of degrees, got {value!r}", key=name,
+                                 value=value)
+        if not 0.0 <= self.tilt_deg <= MAX_TILT_DEG:
+            raise InputError(f"expected a tilt from the paper's normal in [0, {MAX_TILT_DEG:g}] "
+                             f"deg, got {self.tilt_deg}", key="tilt_deg", value=self.tilt_deg)
+
+    def page_axes(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """(a, x*) in the page frame (class docstring); x* is None with a free spin."""
+        t, f = math.radians(self.tilt_deg), math.radians(self.azimuth_deg)
+        axis = np.array([-math.sin(t) * math.cos(f), -math.sin(t) * math.sin(f), -math.cos(t)])
+        if self.spin_deg is None:
+            return axis, None
+        s, k = math.radians(self.spin_deg), np.array([-math.sin(f), math.cos(f), 0.0])
+        v = np.array([math.cos(s), math.sin(s), 0.0])
+        x = v * math.cos(t) + np.cross(k, v) * math.sin(t) + k * (k @ v) * (1.0 - math.cos(t))
+        return axis, x
+
+
+def track_poses(
+    kin: ArmKinematics,
+    points: np.ndarray,
+    axes: np.ndarray,
+    spins: np.ndarray,
+    q0,
+    q_posture,
+    cfg: IKConfig = IKConfig(),
+    label: Callable[[int], str] | None = None,
+) -> np.ndarray:
+    """:func:`track_path` with a pen direction per sample: ``axes`` (N, 3) unit, and spin goals
+    ``spins`` (N, 3) (a row of NaN: the spin is free there), robot frame. Each sample: one
+    null-space step, then task-only steps until within tolerance (at most 20); raises
+    UnreachableError as :func:`track_path` does."""
+    points = np.asarray(points, float)
+    q = np.asarray(q0, float).copy()
+    q_posture = np.asarray(q_posture, float)
+    path = np.empty((points.shape[0], kin.n))
+    for i, p_goal in enumerate(points):
+        axis = axes[i]
+        spin = None if np.isnan(spins[i]).any() else across(axis, spins[i])
+        dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg)
+        for _ in range(21):
+            p, R, Jp, Jr = kin.jacobian_views(q)
+            e, J = pose_task(p, R, Jp, Jr, p_goal, axis, spin)
+            pos_err, tilt_err = task_error(e)
+            if dq0 is None and cfg.converged(pos_err, tilt_err):
+                break
+            q = dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper)
+            dq0 = None
+        _check_tracked(kin, cfg, q, pos_err, tilt_err, i, label, "with the pen's pose")
         path[i] = q
     return path

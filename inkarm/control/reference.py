@@ -19,6 +19,17 @@ Feed-forward terms planned here: the inertial M(q*) qdd*, the planned contact fo
 through J(q*)^T f with f = F* (mu u - n): the set-point force into the paper plus the nib's
 Coulomb drag along the planned direction of motion u, and the joint direction J5^+ (-n) along
 which the force loop moves the pen reference.
+
+Pen poses. A drawing whose ``meta["pen_poses"]`` holds one :class:`inkarm.control.ik.PenPose`
+(or None: upright) per stroke is drawn with each stroke's pen tilted and spun as asked (the pen
+calibration's dots): the stroke's descent, draw and lift follow the line along the tilted pen
+axis, p' = p + z (u - e_z) with u = -a / cos(theta) in the page frame (z: the planned height
+above the paper), and the force loop presses along u too (J6^+ [-u; 0] with the orientation
+held, J6 = [Jp; R^T Jr]): a tip that touches the paper sooner or later than planned (a pen of
+another length) moves along the pen's own axis, into the paper, and does not slide on it (but
+for the sheet's give, its sinking times tan(theta)); the travel to a stroke turns the pen from
+the previous stroke's pose (slerp on the minimum-jerk profile; the spin is free unless both
+strokes set one). Without the key nothing changes.
 """
 
 from __future__ import annotations
@@ -27,13 +38,14 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from inkarm.control.config import LoopConfig
-from inkarm.control.ik import IKConfig, pen_jacobian, solve_ik, track_path
+from inkarm.control.ik import IKConfig, PenPose, pen_jacobian, solve_ik, track_path, track_poses
 from inkarm.control.kinematics import ArmKinematics
+from inkarm.control.relief_speed import slowed_over_relief
 from inkarm.control.sequencing import PenPath, minimum_jerk, pen_depth_mm, sequence_pen, ticks
-from inkarm.core.log import APPROACH, DRAW, HOME, PHASES
+from inkarm.core.log import APPROACH, DRAW, HOME, PHASES, TRAVEL
+from inkarm.core.spline import cubic_spline
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError, UnreachableError
 from inkarm.models.minjerk import PEAK_SPEED_RATIO
@@ -150,9 +162,11 @@ def plan_joint_reference(
     kin: ArmKinematics | None = None,
     ik: IKConfig | None = None,
     speed_limits: np.ndarray | None = None,
+    poses: tuple[PenPose | None, ...] | None = None,
 ) -> JointReference:
     """The joint reference of the pen path ``pen`` (period ``dt`` [s]) for the arm of ``model``,
-    from ``q_start``: a joint-space approach, the pen path by inverse kinematics, and home.
+    from ``q_start``: a joint-space approach, the pen path by inverse kinematics, and home;
+    ``poses``: one pen pose per stroke (module docstring), None: the pen upright throughout.
 
     Raises UnreachableError naming the stroke and point that the arm cannot reach, and
     :class:`JointSpeedError` naming the joint whose planned speed exceeds ``speed_limits``
@@ -163,7 +177,13 @@ def plan_joint_reference(
     page, phase, stroke = pen.page_mm, pen.phase, pen.stroke
     posture = model.home_q
     axis = placement.pen_axis
-    first = solve_ik(kin, placement.to_robot(page[0]), axis, posture, posture, ik)
+    if poses is not None:
+        lean, axes, spins = _pose_rows(pen, poses, placement.rotation)
+        page = page + page[:, 2:3] * (lean - np.array([0.0, 0.0, 1.0]))
+        first = solve_ik(kin, placement.to_robot(page[0]), axes[0], posture, posture, ik,
+                         spin_goal=None if np.isnan(spins[0]).any() else spins[0])
+    else:
+        first = solve_ik(kin, placement.to_robot(page[0]), axis, posture, posture, ik)
     if not first.converged:
         raise UnreachableError(
             f"stroke 0, point ({page[0, 0]:.1f}, {page[0, 1]:.1f}) mm: out of reach above the paper"
@@ -186,11 +206,15 @@ def plan_joint_reference(
 
     ik_cfg = dataclasses.replace(ik, posture_gain=config.posture_rate * dt * stride,
                                  limit_gain=0.5)
-    q_knots = track_path(
-        kin, placement.to_robot(page[knots]), axis, first.q, posture, ik_cfg, label
-    )
+    if poses is not None:
+        q_knots = track_poses(kin, placement.to_robot(page[knots]), axes[knots], spins[knots],
+                              first.q, posture, ik_cfg, label)
+    else:
+        q_knots = track_path(
+            kin, placement.to_robot(page[knots]), axis, first.q, posture, ik_cfg, label
+        )
     if len(knots) > 1:
-        q_cart = CubicSpline(knots, q_knots, axis=0, bc_type="clamped")(np.arange(len(page)))
+        q_cart = cubic_spline(knots, q_knots, "clamped")(np.arange(len(page)))
     else:
         q_cart = q_knots.copy()
 
@@ -229,10 +253,13 @@ def plan_joint_reference(
     jac5_k = np.empty((n_k, 5, kin.n))
     mass_k = np.empty((n_k, kin.n * kin.n))
     bias_k = np.empty((n_k, kin.n))
+    spin_k = np.empty((n_k, kin.n)) if poses is not None else None
     for j, i in enumerate(all_knots):
         p, R, Jp, Jr = kin.jacobian_views(q[i])
         tip_k[j] = p
         jac5_k[j] = pen_jacobian(R, Jp, Jr)
+        if spin_k is not None:
+            spin_k[j] = R[:, 2] @ Jr
         mass_k[j] = kin.mass(q[i]).ravel()
         bias_k[j] = kin.bias(q[i], qd[i])
     page_k = placement.to_page(tip_k)
@@ -244,6 +271,11 @@ def plan_joint_reference(
     JJt += IKConfig().damping ** 2 * np.eye(5)
     y = np.linalg.solve(JJt, np.broadcast_to(press, (n_k, 5))[..., None])
     normal_q_k = (jac5_k.transpose(0, 2, 1) @ y)[..., 0]
+    if spin_k is not None:  # a pen pose presses along its own axis (module docstring)
+        cart = (all_knots >= len(approach)) & (all_knots < len(approach) + len(page))
+        normal_q_k[cart] = _press_along(jac5_k[cart], spin_k[cart],
+                                        lean[all_knots[cart] - len(approach)]
+                                        @ placement.rotation.T)
     mass = _lerp_rows(all_knots, mass_k, len(q)).reshape(len(q), kin.n, kin.n)
     jac_t = _lerp_rows(all_knots, jac_k, len(q)).reshape(len(q), kin.n, 3)
     page_all = _lerp_rows(all_knots, page_k, len(q))
@@ -272,6 +304,61 @@ def plan_joint_reference(
         bias=_lerp_rows(all_knots, bias_k, len(q)),
         settle=frozenset(offset + r for r in pen.settle),
     )
+
+
+def pen_poses(drawing: Drawing) -> tuple[PenPose | None, ...] | None:
+    """The drawing's ``meta["pen_poses"]``, checked: one :class:`PenPose` or None per stroke;
+    None without the key (or when every stroke's pen is upright with a free spin)."""
+    raw = drawing.meta.get("pen_poses")
+    if raw is None:
+        return None
+    poses = tuple(raw)
+    if len(poses) != len(drawing.strokes) or not all(
+            p is None or isinstance(p, PenPose) for p in poses):
+        raise InputError(f"drawing meta['pen_poses']: expected one PenPose (or None) per stroke "
+                         f"({len(drawing.strokes)}), got {len(poses)} items", key="pen_poses")
+    upright = PenPose()
+    return None if all(p is None or p == upright for p in poses) else poses
+
+
+def _pose_rows(pen: PenPath, poses, rotation: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row of ``pen``: the lean u = -a / cos(theta) (page frame, u_z = 1), and the pen
+    axis a and spin goal x* (NaN: free) in the robot frame (module docstring)."""
+    frames = [(p or PenPose()).page_axes() for p in poses]
+    axes = np.array([a for a, _ in frames])
+    spins = np.array([np.full(3, np.nan) if x is None else x for _, x in frames])
+    k = pen.stroke
+    row_axes, row_spins = axes[k].copy(), spins[k].copy()
+    travel = pen.phase == TRAVEL
+    starts = np.flatnonzero(travel & ~np.roll(travel, 1))
+    for start in starts:
+        end = start + int(np.argmin(travel[start:])) if not travel[start:].all() else len(k)
+        to = int(k[start])
+        s = minimum_jerk(end - start)[:, None]
+        a = (1.0 - s) * axes[to - 1] + s * axes[to]
+        row_axes[start:end] = a / np.linalg.norm(a, axis=1, keepdims=True)
+        if np.isnan(spins[[to - 1, to]]).any():
+            row_spins[start:end] = np.nan
+            continue
+        from scipy.spatial.transform import Rotation, Slerp  # (only where spins are set)
+
+        ends = Rotation.from_matrix([np.column_stack([x, np.cross(a, x), a]) for a, x in
+                                     ((axes[to - 1], spins[to - 1]), (axes[to], spins[to]))])
+        turned = Slerp([0.0, 1.0], ends)(s[:, 0]).as_matrix()
+        row_axes[start:end], row_spins[start:end] = turned[:, :, 2], turned[:, :, 0]
+    lean = -row_axes / -row_axes[:, 2:3]
+    return lean, row_axes @ rotation.T, row_spins @ rotation.T
+
+
+def _press_along(jac5: np.ndarray, spin: np.ndarray, lean: np.ndarray) -> np.ndarray:
+    """J6^+ [-u; 0] per knot: the joint motion that moves the pen by -u (robot frame, (m, 3))
+    with its orientation held; ``jac5`` (m, 5, n) the pen task Jacobians, ``spin`` (m, n) the
+    spin rows z_s^T Jr."""
+    jac6 = np.concatenate([jac5, spin[:, None, :]], axis=1)
+    press = np.concatenate([-lean, np.zeros((len(lean), 3))], axis=1)
+    A = jac6 @ jac6.transpose(0, 2, 1) + IKConfig().damping ** 2 * np.eye(6)
+    return (jac6.transpose(0, 2, 1) @ np.linalg.solve(A, press[..., None]))[..., 0]
 
 
 def _knots(n: int, stride: int) -> np.ndarray:
@@ -330,17 +417,22 @@ def plan_within_speed_limits(
     the descents, lifts and travel are stretched by the excess (times 1.05), and the drawing's
     own times too unless its strokes keep to the limits (a long pen-up move, such as a probe's,
     does not slow the strokes); the plan is made again, up to three times; "refuse" raises
-    :class:`JointSpeedError`."""
+    :class:`JointSpeedError`. The strokes' pen poses come from ``drawing.meta["pen_poses"]``
+    (:func:`pen_poses`; module docstring)."""
     kin = kin or ArmKinematics.of(model)
     depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm,
                          model.pen_preload_n, model.paper_stiffness_n_per_mm)
     notes: list[str] = []
+    if model.paper_map is not None and config.relief_accel_mm_s2 > 0:
+        drawing, note = slowed_over_relief(drawing, model.paper_map, config.relief_accel_mm_s2)
+        notes += [note] if note else []
     stretch = moves_stretch = 1.0
+    poses = pen_poses(drawing)
     for attempt in range(4):
         pen = sequence_pen(drawing, config, depth, dt)
         try:
             return plan_joint_reference(pen, model, config, q_start, dt, kin, ik,
-                                        speed_limits), tuple(notes)
+                                        speed_limits, poses), tuple(notes)
         except JointSpeedError as e:
             if config.speed_limits == "refuse" or attempt == 3:
                 raise

@@ -12,10 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from inkarm.control.config import LoopConfig
 from inkarm.core.log import DESCEND, DRAW, LIFT, TRAVEL
+from inkarm.core.spline import cubic_spline, hermite_spline
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError
 from inkarm.models.minjerk import PEAK_SPEED_RATIO, minimum_jerk_profile
@@ -88,9 +88,9 @@ def stroke_points(drawing: Drawing, k: int, dt: float) -> np.ndarray:
     t = np.minimum(s.t[0] + dt * np.arange(n), s.t[-1])
     pts = np.zeros((n, 3))
     if s.n >= 4 and s.vel is not None:
-        pts[:, : s.dim] = CubicHermiteSpline(s.t, s.pos, s.vel, axis=0)(t)
+        pts[:, : s.dim] = hermite_spline(s.t, s.pos, s.vel)(t)
     elif s.n >= 4:
-        pts[:, : s.dim] = CubicSpline(s.t, s.pos, axis=0)(t)
+        pts[:, : s.dim] = cubic_spline(s.t, s.pos)(t)
     else:
         for c in range(s.dim):
             pts[:, c] = np.interp(t, s.t, s.pos[:, c])

@@ -11,6 +11,10 @@ b, c, so that a few collinear samples do not tilt it) and feeds the plane's heig
 reference point forward. The force integrator is left with the residual: on a tilted sheet it
 no longer has to chase the slope (at 60 mm/s over 2 deg, 2 mm/s of climb, a 0.05 N lag with
 k_F = 40 mm/(N s), and more at every stroke's start).
+
+The plane is P, one part of the surface the force loop feeds forward (:mod:`inkarm.control.force`):
+relief beyond a plane is the calibrated map, the field learnt where the pen has been
+(:mod:`inkarm.control.heightmap`) and the measured lead.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ stroke-kind registry, one module each: the protocol is :class:`inkarm.io.planfil
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -173,7 +174,8 @@ class StrokePlan:
     dict, and ``velocities`` are left out of the hash but not of ``==``).
 
     Attributes:
-        targets: The Gaussian targets, in order (at least one).
+        targets: The Gaussian targets, in order (at least one): a tuple, or a
+            :class:`TargetArray` (a stroke built from arrays, :func:`stroke_from_arrays`).
         segment_time: Duration T_s each target is tracked, in [s] (local isochrony, seed 000 sec. 3.3).
         keypoints: If True the targets are sparse key-points, each active at one instant
             (GI paper eq. 6-7) instead of held stepwise.
@@ -183,7 +185,7 @@ class StrokePlan:
         velocity_var: Variance of the velocity constraints in [(mm/s)^2] (small = hard).
     """
 
-    targets: tuple[GaussianTarget, ...]
+    targets: tuple[GaussianTarget, ...] | TargetArray
     segment_time: float = 0.5
     keypoints: bool = False
     meta: dict = field(default_factory=dict)
@@ -191,22 +193,12 @@ class StrokePlan:
     velocity_var: float = 1e-6
 
     def __post_init__(self) -> None:
-        targets = tuple(self.targets)
-        if not targets:
+        targets = self.targets
+        if not isinstance(targets, TargetArray):  # (whose arrays are checked already)
+            targets = tuple(targets)
+            _check_targets(targets)
+        elif not len(targets):
             raise PlanError("stroke: no targets")
-        if not all(isinstance(tg, GaussianTarget) for tg in targets):
-            i, tg = next(
-                (i, tg) for i, tg in enumerate(targets) if not isinstance(tg, GaussianTarget)
-            )
-            raise PlanError(
-                f"stroke target {i}: expected a GaussianTarget, got {type(tg).__name__}"
-            )
-        dims = [len(tg.mean) for tg in targets]
-        if dims.count(dims[0]) != len(dims):
-            i = next(i for i, d in enumerate(dims) if d != dims[0])
-            raise PlanError(
-                f"stroke target {i}: has {dims[i]} dimensions but target 0 has {dims[0]} (mixed dimensions)"
-            )
         st = float(self.segment_time)
         if not np.isfinite(st) or st <= 0:
             raise PlanError(
@@ -216,9 +208,10 @@ class StrokePlan:
         object.__setattr__(self, "segment_time", st)
         if self.velocities is not None:
             vel = np.asarray(self.velocities, dtype=float)
-            if vel.shape != (len(targets), dims[0]):
+            dim = len(targets[0].mean)
+            if vel.shape != (len(targets), dim):
                 raise PlanError(
-                    f"stroke velocities: expected shape {(len(targets), dims[0])}, got {vel.shape}"
+                    f"stroke velocities: expected shape {(len(targets), dim)}, got {vel.shape}"
                 )
             partial = np.isnan(vel).any(axis=1) & ~np.isnan(vel).all(axis=1)
             if partial.any() or np.isinf(vel).any():
@@ -256,11 +249,15 @@ class StrokePlan:
     @cached_property
     def means(self) -> np.ndarray:
         """(m, D) target means in [mm] (read-only)."""
+        if isinstance(self.targets, TargetArray):
+            return self.targets.means
         return _frozen(np.array([tg.mean for tg in self.targets]))
 
     @cached_property
     def covs(self) -> np.ndarray:
         """(m, D, D) target covariances in [mm^2] (read-only)."""
+        if isinstance(self.targets, TargetArray):
+            return self.targets.covs
         return _frozen(np.array([tg.cov for tg in self.targets]))
 
     @cached_property
@@ -337,12 +334,44 @@ def stroke_from_arrays(
         return None
     means = _frozen(np.array(means))  # a copy: the caller's array stays writable and theirs
     checked = _frozen(checked)
-    plan = StrokePlan(
-        tuple(map(_target, means, checked)), segment_time, keypoints, meta=dict(meta or {})
-    )
-    plan.__dict__["means"] = means  # the cached properties, at hand already
-    plan.__dict__["covs"] = checked
-    return plan
+    return StrokePlan(TargetArray(means, checked), segment_time, keypoints, meta=dict(meta or {}))
+
+
+class TargetArray(Sequence):
+    """The targets of a stroke held as arrays, means (m, D) in [mm] and covariances (m, D, D)
+    in [mm^2], both checked and read-only: each :class:`GaussianTarget` is made when asked
+    for. A page of text holds a hundred thousand targets, a dozen small objects each when
+    they are kept. Equal to, and hashed as, the tuple of its targets."""
+
+    __slots__ = ("covs", "means")
+
+    def __init__(self, means: np.ndarray, covs: np.ndarray) -> None:
+        self.means, self.covs = means, covs
+
+    def __len__(self) -> int:
+        return len(self.means)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return tuple(map(_target, self.means[i], self.covs[i]))
+        return _target(self.means[i], self.covs[i])
+
+    def __iter__(self):
+        return map(_target, self.means, self.covs)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, (tuple, TargetArray)):
+            return NotImplemented
+        return tuple(self) == tuple(other)
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+    def __reduce__(self):
+        return TargetArray, (self.means, self.covs)
 
 
 def _target(mean: np.ndarray, cov: np.ndarray) -> GaussianTarget:
@@ -356,6 +385,25 @@ def _target(mean: np.ndarray, cov: np.ndarray) -> GaussianTarget:
 def _frozen(a: np.ndarray) -> np.ndarray:
     a.flags.writeable = False
     return a
+
+
+def _check_targets(targets: tuple) -> None:
+    """Refuse no targets, a target that is not a GaussianTarget, or mixed dimensions."""
+    if not targets:
+        raise PlanError("stroke: no targets")
+    if not all(isinstance(tg, GaussianTarget) for tg in targets):
+        i, tg = next(
+            (i, tg) for i, tg in enumerate(targets) if not isinstance(tg, GaussianTarget)
+        )
+        raise PlanError(
+            f"stroke target {i}: expected a GaussianTarget, got {type(tg).__name__}"
+        )
+    dims = [len(tg.mean) for tg in targets]
+    if dims.count(dims[0]) != len(dims):
+        i = next(i for i, d in enumerate(dims) if d != dims[0])
+        raise PlanError(
+            f"stroke target {i}: has {dims[i]} dimensions but target 0 has {dims[0]} (mixed dimensions)"
+        )
 
 
 def bezier_keypoints(

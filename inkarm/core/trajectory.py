@@ -376,25 +376,24 @@ class Drawing:
         w, h = self.page_size
         style = (f'fill="none" stroke="black" stroke-width="{stroke_width}" '
                  'stroke-linecap="round" stroke-linejoin="round"')
-        lines = [
-            '<?xml version="1.0" encoding="UTF-8"?>',
-            ('<svg xmlns="http://www.w3.org/2000/svg" '
-             'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" '
-             f'width="{w}mm" height="{h}mm" viewBox="0 0 {w} {h}">'),
-        ]
-        for layer, indices in self._svg_layers():
-            if layer is None:
-                lines.append(f"<g {style}>")
-            else:
-                lines.append(f'<g inkscape:groupmode="layer" inkscape:label="{layer}" '
-                             f'id="layer{layer}" {style}>')
-            for k in indices:
-                x, y = self.strokes[k].pos[:, :2].T
-                pts = " ".join(map("{:.3f},{:.3f}".format, x.tolist(), (h - y).tolist()))
-                lines.append(f'<polyline points="{pts}"/>')
-            lines.append("</g>")
-        lines.append("</svg>")
-        Path(path).write_text("\n".join(lines) + "\n")
+        layers = self._svg_layers()  # (refused before the file is opened)
+        with open(path, "w") as f:  # a line at a time: a page of text is tens of MB
+            f.write('<?xml version="1.0" encoding="UTF-8"?>\n'
+                    '<svg xmlns="http://www.w3.org/2000/svg" '
+                    'xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" '
+                    f'width="{w}mm" height="{h}mm" viewBox="0 0 {w} {h}">\n')
+            for layer, indices in layers:
+                if layer is None:
+                    f.write(f"<g {style}>\n")
+                else:
+                    f.write(f'<g inkscape:groupmode="layer" inkscape:label="{layer}" '
+                            f'id="layer{layer}" {style}>\n')
+                for k in indices:
+                    x, y = self.strokes[k].pos[:, :2].T
+                    pts = " ".join(map("{:.3f},{:.3f}".format, x.tolist(), (h - y).tolist()))
+                    f.write(f'<polyline points="{pts}"/>\n')
+                f.write("</g>\n")
+            f.write("</svg>\n")
 
     def layer_ids(self) -> np.ndarray:
         """One vpype layer id per stroke: ``meta["layers"]`` as int64, checked (an integer >= 1

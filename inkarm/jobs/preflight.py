@@ -18,13 +18,13 @@ def check(scenario: Scenario) -> Drawing:
     the placed drawing fits the budgets and lies on the sheet within the robot's reach. Returns
     the placed drawing; raises as :func:`run` would."""
     from inkarm.control.reference import check_reachable
-    from inkarm.sim.cell import kinematic_model
+    from inkarm.jobs.calibration import believed_model
 
     cell = Cell(scenario.cell, scenario.robot)
     try:
         drawing = placed_within_budget(scenario, cell)
         require_raster_memory(cell.paper_size_mm, scenario.ink.px_per_mm)
-        check_reachable(drawing, kinematic_model(cell), scenario.controller)
+        check_reachable(drawing, believed_model(scenario, cell)[0], scenario.controller)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
     return drawing

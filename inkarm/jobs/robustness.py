@@ -56,6 +56,35 @@ SAFE_WITHIN_S = 0.1
 CAREFUL_CONTROLLER = {"controller.probe_paper": True, "controller.force_gain_mm_per_ns": 40.0}
 
 
+# Issue 23: the real sheet and the real arm. Each alone is mild; a hobby arm on a desk has them
+# all. The wave runs along page y, across the letter's long strokes (the harder direction).
+WAVY_SHEET = {"relief_wave_mm": 1.0, "relief_wavelength_mm": 30.0,
+              "relief_wave_direction_deg": 90.0}
+# On the N's diagonal (the sheet's centre lies 6.6 mm from every stroke).
+BUMP = {"relief_bump_mm": 1.0, "relief_bump_width_mm": 8.0, "relief_bump_x_mm": 110.5,
+        "relief_bump_y_mm": 152.7}
+PEN_OFF = {"pen_length_error_mm": 2.0, "pen_offset_mm": 1.0}
+ARM_OFF = {"link_length_error_mm": 1.0, "joint_offset_error_deg": 0.2}  # seeded per joint
+REAL_WORLD = {
+    "sheet with a 1 mm wave, 30 mm wavelength": WAVY_SHEET,
+    "a 1 mm bump, 8 mm wide, under the letter": BUMP,
+    "pen tip 2 mm longer and 1 mm off-axis": PEN_OFF,
+    "links off by up to 1 mm, joints by up to 0.2 deg": ARM_OFF,
+}
+# Coulomb friction 1.5x the README's row, 2 + 2 ms delays, base tilted 1 deg, 0-6 ms read-out
+# jitter, on top of every condition above.
+REAL_MIX = {**WAVY_SHEET, **BUMP, **PEN_OFF, **ARM_OFF,
+            "coulomb_nm": [7.5, 7.5, 4.5, 4.5, 3.0, 1.5, 1.5],
+            "sensing_delay_ms": 2.0, "actuation_delay_ms": 2.0,
+            "base_tilt_deg": 1.0, "base_tilt_axis_deg": 30.0, "readout_jitter_ms": 6.0}
+# An ensemble around the mix: each member's relief, pen, arm and tilt drawn from plant.seed.
+AROUND_REAL_MIX = {"relief_wave_mm": [0.5, 1.0], "relief_wave_direction_deg": [0.0, 180.0],
+                   "relief_wave_phase_deg": [0.0, 360.0], "relief_bump_mm": [-1.0, 1.0],
+                   "pen_length_error_mm": [-2.0, 2.0], "pen_offset_mm": [0.0, 1.0],
+                   "pen_offset_direction_deg": [0.0, 360.0], "base_tilt_deg": [0.0, 1.0],
+                   "base_tilt_axis_deg": [0.0, 360.0]}
+
+
 def overrides(plant: dict, knows_latency: bool = True, careful: bool = False,
               seed: int | None = None) -> dict:
     """Scenario overrides for ``plant``; with ``knows_latency`` its actuation delay is the
@@ -73,5 +102,23 @@ def overrides(plant: dict, knows_latency: bool = True, careful: bool = False,
     return out
 
 
-__all__ = ["ALL_AT_ONCE", "ALL_BUT_ELASTIC", "AROUND_ALL_AT_ONCE", "BEYOND_REACH", "BOUNDS", "CAREFUL_CONTROLLER",
-           "ELASTIC", "HARD_PAPER", "ONE_AT_A_TIME", "SAFE_WITHIN_S", "overrides"]
+__all__ = [
+    "ALL_AT_ONCE",
+    "ALL_BUT_ELASTIC",
+    "ARM_OFF",
+    "AROUND_ALL_AT_ONCE",
+    "AROUND_REAL_MIX",
+    "BEYOND_REACH",
+    "BOUNDS",
+    "BUMP",
+    "CAREFUL_CONTROLLER",
+    "ELASTIC",
+    "HARD_PAPER",
+    "ONE_AT_A_TIME",
+    "PEN_OFF",
+    "REAL_MIX",
+    "REAL_WORLD",
+    "SAFE_WITHIN_S",
+    "WAVY_SHEET",
+    "overrides",
+]

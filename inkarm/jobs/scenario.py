@@ -9,6 +9,11 @@ Schema (lengths [mm], times [s], forces [N], angles [deg]; every key optional un
 
     title = "Letter N"
     seed  = 0                      # seeds every random choice of the source
+    calibration = "auto"           # what the controller believes of the cell instead of the
+                                   # nominal (inkarm.robots.calibration): a file written by
+                                   # `inkarm calibrate`, relative to the scenario file, or
+                                   # "auto": the robot's file in the user's configuration
+                                   # folder when there is one; default none
 
     [source]                       # required: what to draw
     kind = "plan"                  # "plan", "trajectory", "text", "tag" or "trace"
@@ -80,7 +85,8 @@ same for every backend::
 
     [dynamixel]                    # keys of the robot profile's [backends.dynamixel] to change
     latency_ms = 24                # (inkarm.hardware.dynamixel.config), and
-    calibration = "arm_cal.toml"   # the arm's calibration file (default: beside the profile)
+    calibration = "arm_cal.toml"   # the arm's joint zeros (default: `inkarm calibrate joints`'s
+                                   # <config>/calibration/<robot>.joints.toml)
 
     [plotter]
     profile = "servo"              # the pen profile: "servo", "z" or a file
@@ -119,6 +125,7 @@ from inkarm.jobs.scenario_tables import (
     dataclass_table,
     plant_table,
     read_backend_tables,
+    read_calibration_key,
     read_controller,
     read_dynamixel,
     read_sim,
@@ -132,7 +139,7 @@ from inkarm.robots.registry import DEFAULT_ROBOT, load_robot, robot_names
 from inkarm.sim.cell_config import CellConfig
 from inkarm.sim.imperfections import PlantTruth
 
-TOP_KEYS = ("title", "seed", "source", "placement", "robot", "controller", "judge", "ink",
+TOP_KEYS = ("title", "seed", "calibration", "source", "placement", "robot", "controller", "judge", "ink",
             "sim", "dynamixel", "plotter", "axidraw", "cell", "plant")
 PLACEMENT_KEYS = ("centre_mm", "height_mm", "scale", "rotation_deg", "time_scale", *LAYOUT_KEYS)
 ROBOT_KEYS = ("name", "file", "gains")
@@ -202,6 +209,9 @@ class Scenario:
         robot: The robot profile, with the scenario's gain overrides applied.
         robot_ref: The robot as the scenario names it (a built-in name or a file path).
         gain_overrides: The ``[robot.gains]`` table as given (name -> tuple of numbers).
+        calibration: None, ``"auto"``, a calibration file (absolute), or a
+            :class:`~inkarm.robots.calibration.CellCalibration` in memory (library use; kept
+            by :meth:`with_overrides`, not written by :meth:`to_dict`).
     """
 
     path: str
@@ -224,6 +234,7 @@ class Scenario:
     plotter_profile: str | None = None
     plotter_placement: tuple[tuple[str, Any], ...] = ()  # [plotter] page_origin, homing
     axidraw: tuple[tuple[str, Any], ...] = ()  # [axidraw] profile, page_origin
+    calibration: Any = None
 
     def to_dict(self) -> dict:
         """The TOML tables that parse back to this scenario (file names absolute)."""
@@ -231,9 +242,12 @@ class Scenario:
                                  else {"name": self.robot_ref})
         if self.gain_overrides:
             robot["gains"] = {k: list(v) if len(v) > 1 else v[0] for k, v in self.gain_overrides}
+        calibration = ({"calibration": self.calibration}
+                       if isinstance(self.calibration, str) else {})
         return {
             "title": self.title,
             "seed": self.seed,
+            **calibration,
             "source": source_table(self.source),
             "placement": table_of(self.placement),
             "robot": robot,
@@ -269,8 +283,11 @@ class Scenario:
             used = {controller.get("law", DEFAULT_LAW), *(names if isinstance(names, list) else ())}
             for name in own - {"law", "watchdogs"} - used - touched:
                 controller.pop(name, None)
-        return parse_scenario(data, source=f"{self.path} (with overrides)",
-                              base_dir=self.base_dir, overridden=True)
+        changed = parse_scenario(data, source=f"{self.path} (with overrides)",
+                                 base_dir=self.base_dir, overridden=True)
+        if isinstance(self.calibration, str) or "calibration" in overrides:
+            return changed
+        return dataclasses.replace(changed, calibration=self.calibration)  # (one in memory)
 
 
 def _split_dotted(dotted: str) -> list[str]:
@@ -398,12 +415,13 @@ def parse_scenario(data: dict, source: str = "scenario", base_dir: str | Path = 
         base_dir=base_dir,
         title=rd.text(data.get("title", Path(source).stem), "title"),
         seed=rd.integer(data.get("seed", 0), "seed", 0, 2**63 - 1),
+        calibration=read_calibration_key(rd, data, base_dir),
         source=parse_source(rd, data["source"], base_dir),
         placement=_placement(rd, data.get("placement", {})),
         robot=robot,
         robot_ref=robot_ref,
         gain_overrides=gain_overrides,
-        **read_sim(rd, data, warn=not overridden),
+        **read_sim(rd, data, warn=not overridden, base_dir=base_dir),
         **read_controller(rd, data.get("controller", {})),
         ink=InkSpec(ink_model, dataclass_table(rd, ink, "ink", ink_cls), px_per_mm),
         judge=dataclass_table(rd, rd.table(data.get("judge", {}), "judge"), "judge", Bounds),
@@ -453,7 +471,7 @@ def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, flo
             raise e.within(key="placement") from None
         strokes = [Trajectory(t=s.t * placement.time_scale, pos=s.pos, pressure=s.pressure)
                    for s in laid.strokes]
-        return Drawing(strokes, page_size=(w, h))
+        return Drawing(strokes, page_size=(w, h), meta=dict(drawing.meta))
     target = np.array(placement.centre_mm if placement.centre_mm is not None
                       else (0.5 * page_size_mm[0], 0.5 * page_size_mm[1]))
     a = np.deg2rad(placement.rotation_deg)
@@ -462,7 +480,7 @@ def place(drawing: Drawing, placement: Placement, page_size_mm: tuple[float, flo
     for s in drawing.strokes:
         pos = (s.pos - centre) @ rot.T + target
         strokes.append(Trajectory(t=s.t * placement.time_scale, pos=pos, pressure=s.pressure))
-    return Drawing(strokes, page_size=page_size_mm)
+    return Drawing(strokes, page_size=page_size_mm, meta=dict(drawing.meta))  # (per stroke)
 
 
 __all__ = ["InkSpec", "Placement", "Scenario", "load_scenario", "parse_scenario", "place"]

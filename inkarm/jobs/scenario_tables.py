@@ -52,10 +52,14 @@ def plant_table(truth: PlantTruth) -> dict:
     return table
 
 
-def read_plant(rd: TomlReader, raw, key: str = "sim.plant") -> PlantTruth:
+def read_plant(rd: TomlReader, raw, key: str = "sim.plant", base_dir: Path | None = None
+               ) -> PlantTruth:
     """The ``[sim.plant]`` table: :class:`PlantTruth` fields, and ``[sim.plant.random]``
-    ranges."""
+    ranges; ``relief_file`` is resolved against ``base_dir`` (the scenario's folder)."""
     table = dict(rd.table(raw, key))
+    if "relief_file" in table:
+        name = Path(rd.text(table["relief_file"], f"{key}.relief_file"))
+        table["relief_file"] = str(name if base_dir is None else base_dir / name)
     random = rd.table(table.pop("random", {}), f"{key}.random")
     ranges = {}
     for name, bounds in random.items():
@@ -74,7 +78,8 @@ def read_plant(rd: TomlReader, raw, key: str = "sim.plant") -> PlantTruth:
                             choices=e.choices).within(file=rd.source, key=key) from None
 
 
-def read_sim(rd: TomlReader, data: dict, warn: bool) -> dict[str, Any]:
+def read_sim(rd: TomlReader, data: dict, warn: bool, base_dir: Path | None = None
+             ) -> dict[str, Any]:
     """The ``[sim]`` table: the simulated cell (:class:`CellConfig` fields) and, in
     ``[sim.plant]``, the plant's truth. The 0.2 tables ``[cell]`` and ``[plant]`` are read as
     these (with a warning when ``warn``: a file; overrides may use either spelling). Returns the
@@ -96,7 +101,7 @@ def read_sim(rd: TomlReader, data: dict, warn: bool) -> dict[str, Any]:
         else:
             plant, plant_key = data["plant"], "plant"
     return {"cell": dataclass_table(rd, cell, cell_key, CellConfig),
-            "plant": read_plant(rd, plant if plant is not None else {}, plant_key)}
+            "plant": read_plant(rd, plant if plant is not None else {}, plant_key, base_dir)}
 
 
 def read_dynamixel(rd: TomlReader, robot: RobotProfile, table: dict,
@@ -155,6 +160,30 @@ def read_backend_tables(rd: TomlReader, data: dict, robot: RobotProfile,
         pairs += (("calibration", str((base_dir / calibration).resolve())),)
     return {"dynamixel": pairs, "plotter_profile": profile, "plotter_placement": placement,
             "axidraw": read_axidraw(rd, data, base_dir)}
+
+
+def read_calibration_key(rd: TomlReader, data: dict, base_dir: Path) -> str | None:
+    """The top-level ``calibration``: None (none given), ``"auto"`` (the robot's file in the
+    user's configuration folder, when there is one: :func:`inkarm.jobs.calibration.
+    scenario_calibration`), or a calibration file resolved beside the scenario, read and
+    checked here so that its errors name the scenario's key."""
+    if "calibration" not in data:
+        return None
+    name = rd.text(data["calibration"], "calibration")
+    if name == "auto":
+        return name
+    from inkarm.robots.calibration import read_calibration
+
+    path = (base_dir / Path(name).expanduser()).resolve()
+    if not path.is_file():
+        raise rd.error("calibration", f'no such calibration file: {path} (expected a file '
+                       f'written by `inkarm calibrate`, or "auto")', value=name)
+    try:
+        read_calibration(path)
+    except InkarmError as e:
+        raise ScenarioError(f"{e} (the calibration file it names)", file=rd.source,
+                            key="calibration", value=name) from None
+    return str(path)
 
 
 def device_profile(rd: TomlReader, raw, key: str, load, base_dir: Path) -> str:
@@ -281,7 +310,7 @@ def dataclass_table(rd: TomlReader, table: dict, key: str, cls):
             default = fields[name].default_factory()
         if isinstance(default, bool):
             out[name] = rd.boolean(value, where)
-        elif isinstance(default, str):
+        elif isinstance(default, str) or name.endswith("_file"):
             out[name] = rd.text(value, where)
         elif isinstance(default, tuple | list | np.ndarray):
             arr = rd.array(value, where, 1)

@@ -4,7 +4,9 @@
 :func:`font_deviation` font -> drawing (font the ink misses: cut corners, skipped parts,
 dropped junction targets), :func:`text_fidelity` both. Each sample of the drawing belongs to
 the letter whose target is active at its time: targets are held stepwise for
-``segment_time`` each (seed 000 sec. 3.3).
+``segment_time`` each (seed 000 sec. 3.3). Both are measured a block of strokes or glyphs at
+a time, so a page of text (a million samples, two million outline points) costs a few tens
+of MB; the ink a font outline is compared with is :class:`inkarm.plans.ownink.OwnInk`.
 
 Coordinates: page frame in [mm], as in :mod:`inkarm.plans.layout`.
 """
@@ -18,6 +20,7 @@ import numpy as np
 
 from inkarm.core.plan import StrokePlan
 from inkarm.core.trajectory import Drawing, Trajectory
+from inkarm.plans.ownink import InkSamples, OwnInk
 from inkarm.plans.textplan import TextPlan
 
 
@@ -36,13 +39,6 @@ def sample_letters(plan: StrokePlan, traj: Trajectory) -> tuple[np.ndarray, np.n
     return np.asarray(plan.meta["letters"])[active], ~np.asarray(plan.meta["connectors"])[active]
 
 
-
-def kd_tree(points: np.ndarray):
-    """A ``scipy.spatial.cKDTree`` of ``points`` (SciPy is imported when a text's fidelity is
-    measured, not when the module is: a command that only writes needs none)."""
-    from scipy.spatial import cKDTree
-
-    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 class _Samples(NamedTuple):
     """Every sample of a written text, strokes one after the other, with its active target.
@@ -67,12 +63,9 @@ class _Samples(NamedTuple):
     means: np.ndarray
 
 
-def _samples(tp: TextPlan, drawing: Drawing) -> _Samples | None:
-    """The samples of ``drawing`` with the targets of ``tp`` active at them (as
-    :func:`_active_targets`, for all strokes at once); None for no strokes."""
-    pairs = list(zip(tp.plan.strokes, drawing.strokes))
-    if not pairs:
-        return None
+def _samples(pairs: list[tuple[StrokePlan, Trajectory]]) -> _Samples:
+    """The samples of the strokes ``pairs`` (plan, trajectory) with the targets active at them
+    (as :func:`_active_targets`, for all strokes at once), counted from the first pair's."""
     n = np.array([traj.n for _, traj in pairs])
     m = np.array([len(plan.targets) for plan, _ in pairs])
     t = np.concatenate([traj.t for _, traj in pairs])
@@ -94,6 +87,35 @@ def _samples(tp: TextPlan, drawing: Drawing) -> _Samples | None:
     )
 
 
+_BLOCK_SAMPLES = 1 << 16
+"""Samples measured at once: whole strokes, about this many (a few MB of temporaries a
+block, whatever the text's length)."""
+_BLOCK_VERTICES = 1 << 12
+"""Font outline vertices measured at once by :func:`font_deviation`: whole glyphs."""
+
+
+def _blocks(sizes: list[int], limit: int):
+    """(lo, hi) of runs of consecutive items whose ``sizes`` sum to at most ``limit`` (an
+    item larger than that alone), in order."""
+    lo = 0
+    while lo < len(sizes):
+        hi, count = lo + 1, sizes[lo]
+        while hi < len(sizes) and count + sizes[hi] <= limit:
+            count += sizes[hi]
+            hi += 1
+        yield lo, hi
+        lo = hi
+
+
+def _stroke_blocks(tp: TextPlan, drawing: Drawing):
+    """(first sample, the (plan, trajectory) pairs) of consecutive strokes, about
+    :data:`_BLOCK_SAMPLES` samples a block."""
+    pairs = list(zip(tp.plan.strokes, drawing.strokes))
+    first = np.cumsum([0] + [traj.n for _, traj in pairs])
+    for lo, hi in _blocks([traj.n for _, traj in pairs], _BLOCK_SAMPLES):
+        yield int(first[lo]), pairs[lo:hi]
+
+
 def outline_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
     """Largest distance in [mm] of the written path from the font, per letter (text index).
 
@@ -103,20 +125,35 @@ def outline_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
     last), plus the straight connector chords into targets i and i + 1 (ligatures are not
     part of any letter's outline).
 
-    All samples are measured at once, each against the segments of its own (at most three)
-    letters, in chunks of at most ``_PAIRS`` sample-segment pairs: time and memory grow
-    linearly with the drawing, a long word included.
+    Strokes are measured a block at a time (:data:`_BLOCK_SAMPLES`), each sample against the
+    segments of its own (at most three) letters, in chunks of at most ``_PAIRS``
+    sample-segment pairs: time and memory grow linearly with the drawing, a long word
+    included, and the temporaries stay a few MB.
     """
-    smp = _samples(tp, drawing)
-    if smp is None:
-        return {}
+    top = 1 + max((max(p.meta["letters"]) for p in tp.plan.strokes), default=-1)
+    segments = _outline_segments(tp.glyphs, top)
+    worst = np.zeros(top)
+    order = []  # the letters, as first drawn
+    seen = np.zeros(top, dtype=bool)
+    for _, pairs in _stroke_blocks(tp, drawing):
+        own, dist = _outline_block(_samples(pairs), segments)
+        np.maximum.at(worst, own, dist)
+        drawn, at = np.unique(own, return_index=True)
+        new = drawn[np.argsort(at)]
+        order.extend(new[~seen[new]].tolist())
+        seen[new] = True
+    return {k: float(worst[k]) for k in order}  # in writing order
+
+
+def _outline_block(smp: _Samples, segments) -> tuple[np.ndarray, np.ndarray]:
+    """The letter of each sample of ``smp`` and its distance in [mm] to the path the plan
+    prescribes around it (:func:`outline_deviation`); ``segments``: :func:`_outline_segments`."""
     i, letters, means = smp.target, smp.letters, smp.means
     before = np.maximum(i - 1, smp.first_target)
     after = np.minimum(i + 1, smp.last_target)
     near = np.stack([letters[before], letters[i], letters[after]], axis=1)
     px, py = np.ascontiguousarray(smp.pos.T)
-    ax, ay, bx, by, first, count = _outline_segments(tp.glyphs, int(near.max()) + 1)
-    d2 = _letters_distance2(px, py, near, ax, ay, bx, by, first, count)
+    d2 = _letters_distance2(px, py, near, *segments)
     into = smp.connectors.copy()  # a connector leads into the target (not a stroke's first)
     into[np.unique(smp.first_target)] = False
     for has, a, b in (
@@ -130,12 +167,7 @@ def outline_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
                 px[k], py[k], means[a[k], 0], means[a[k], 1], means[b[k], 0], means[b[k], 1]
             ),
         )
-    dist = np.sqrt(d2)  # sqrt is monotonic: the nearest in squares is the nearest
-    own = letters[i]
-    worst = np.zeros(int(own.max()) + 1)
-    np.maximum.at(worst, own, dist)
-    drawn, at = np.unique(own, return_index=True)
-    return {int(k): float(worst[k]) for k in drawn[np.argsort(at)]}  # in writing order
+    return letters[i], np.sqrt(d2)  # sqrt is monotonic: the nearest in squares is the nearest
 
 
 def _outline_segments(glyphs, n: int):
@@ -273,27 +305,41 @@ def font_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
     The ink a letter g is compared with: in every stroke, the runs of samples of the letters
     next to a letter of g - 1, g, g + 1 drawn in that stroke (so g - 1 .. g + 1, and g - 2
     or g + 2 where g - 1 or g + 1 is in the stroke too), each with the sample after it.
-    One k-d tree of all the ink answers; where the ink nearest an outline point is other ink
-    (a letter of the line above, say), a tree of the letter's own ink answers that point
-    again. The distance is 1-Lipschitz along the outline, so only every ``_COARSE``-th
-    outline point is asked first, then the points between that could exceed the largest
-    distance found: the maxima are exactly those of asking every point.
+    Glyphs are measured a block at a time (:data:`_BLOCK_VERTICES` outline vertices): one k-d
+    tree of the ink of the block's letters and their neighbours answers; where the ink
+    nearest an outline point is other ink (a letter's neighbour's neighbour, say), a tree of
+    the letter's own ink answers that point again. The distance is 1-Lipschitz along the
+    outline, so only every ``_COARSE``-th outline point is asked first, then the points
+    between that could exceed the largest distance found: the maxima are exactly those of
+    asking every point.
     """
-    smp = _samples(tp, drawing)
     glyphs = tp.glyphs
-    outlines = [s for glyph in glyphs for s in glyph.strokes]
-    spacing = _FONT_SPACING * tp.font.height
-    font, _, font_vertex = _densify_all(outlines, spacing)
-    per_glyph = np.array([sum(len(s) for s in g.strokes) for g in glyphs], dtype=np.int64)
-    vertex_glyph = np.repeat(np.arange(len(glyphs)), per_glyph)
-    point_glyph = vertex_glyph[font_vertex]  # the glyph (position in glyphs) of each point
-    if smp is None:
+    if not drawing.strokes:
         return {g.index: float("inf") for g in glyphs}
-    ink, ink_at, ink_sample = _densify_all(_split_at(smp.pos, smp.first), spacing)
-    own = _OwnInk(smp, ink_at, ink_sample, np.array([g.index for g in glyphs]), ink)
+    spacing = _FONT_SPACING * tp.font.height
+    index = np.array([g.index for g in glyphs], dtype=np.int64)
+    own = OwnInk(_ink_samples(tp, drawing, spacing, int(index.max(initial=0))), index)
+    size = max((float(np.abs(s).max()) for g in glyphs for s in g.strokes if len(s)), default=0)
+    slack = 1e-9 * max(1.0, size)  # rounding of distances
+    worst = np.full(len(glyphs), -np.inf)
+    vertices = [sum(len(s) for s in g.strokes) for g in glyphs]
+    for lo, hi in _blocks(vertices, _BLOCK_VERTICES):
+        own.block(lo, hi)
+        _font_block(glyphs, lo, hi, spacing, slack, own, worst)
+    return {g.index: float(w) for g, w in zip(glyphs, worst)}
+
+
+def _font_block(glyphs, lo: int, hi: int, spacing: float, slack: float, own, worst) -> None:
+    """Raise ``worst`` (per glyph) to the distances of the outline points of the glyphs
+    ``lo:hi`` (positions in ``glyphs``) from their ink ``own`` (:func:`font_deviation`)."""
+    outlines = [s for glyph in glyphs[lo:hi] for s in glyph.strokes]
+    if not outlines:
+        return
+    font, _, font_vertex = _densify_all(outlines, spacing)
+    per_glyph = [sum(len(s) for s in g.strokes) for g in glyphs[lo:hi]]
+    point_glyph = np.repeat(np.arange(lo, hi), per_glyph)[font_vertex]  # position in glyphs
     # every _COARSE-th point of each outline polyline, and the last
-    vertex_poly = np.repeat(np.arange(len(outlines)), [len(s) for s in outlines])
-    point_poly = vertex_poly[font_vertex]
+    point_poly = np.repeat(np.arange(len(outlines)), [len(s) for s in outlines])[font_vertex]
     start = np.flatnonzero(np.diff(point_poly, prepend=-1))  # each polyline's first point
     local = np.arange(len(font)) - np.repeat(start, np.diff(np.append(start, len(font))))
     coarse = local % _COARSE == 0
@@ -301,7 +347,6 @@ def font_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
     c = np.flatnonzero(coarse)
     dist = np.full(len(font), np.nan)
     dist[c] = own.query(font[c], point_glyph[c])
-    worst = np.full(len(glyphs), -np.inf)
     np.maximum.at(worst, point_glyph[c], dist[c])
     # a bound for the points between: the distance at a coarse neighbour plus the way to it
     prev_c = c[np.searchsorted(c, np.arange(len(font)), side="right") - 1]
@@ -310,94 +355,37 @@ def font_deviation(tp: TextPlan, drawing: Drawing) -> dict[int, float]:
         dist[prev_c] + np.linalg.norm(font - font[prev_c], axis=1),
         dist[next_c] + np.linalg.norm(font - font[next_c], axis=1),
     )
-    slack = 1e-9 * max(1.0, float(np.abs(font).max(initial=0.0)))  # rounding of distances
     ask = np.flatnonzero(~coarse & (bound >= worst[point_glyph] - slack))
     if len(ask):
         dist[ask] = own.query(font[ask], point_glyph[ask])
         np.maximum.at(worst, point_glyph[ask], dist[ask])
-    return {g.index: float(w) for g, w in zip(glyphs, worst)}
 
 
 _COARSE = 8
 """Outline points asked first by :func:`font_deviation`: every this many along a polyline."""
 
 
-class _OwnInk:
-    """The ink each letter is compared with in :func:`font_deviation`, asked through one k-d
-    tree of all the ink and, where that tree's answer is other ink, a tree of the letter's
-    own."""
-
-    def __init__(
-        self, smp: _Samples, at: np.ndarray, sample: np.ndarray, index: np.ndarray, ink: np.ndarray
-    ) -> None:
-        self.ink, self.at, self.sample, self.index = ink, at, sample, index
-        self.first = smp.first
-        self.letter = smp.letters[smp.target]  # the letter drawn at each sample
-        top = int(max(self.letter.max(), index.max())) + 3
-        self.top = top
-        # (stroke, letter) pairs drawn, as stroke * top + letter, sorted
-        self.drawn = np.unique(self.first * top + self.letter)
-        drawn_at = np.zeros(top + 3, dtype=bool)  # letter L drawn somewhere: drawn_at[L + 1]
-        drawn_at[self.letter + 1] = True
-        self.any_near = drawn_at[index[:, None] + np.arange(3)].any(axis=1)  # g - 1 .. g + 1
-        self.by_letter = np.argsort(self.letter, kind="stable")  # samples, sorted by letter
-        self.sorted_letters = self.letter[self.by_letter]
-        self.tree = kd_tree(ink)
-        self.own_trees: dict = {}  # (scipy.spatial.cKDTree per stroke)
-
-    def _in_stroke(self, sample: np.ndarray, letter: np.ndarray) -> np.ndarray:
-        key = self.first[sample] * self.top + letter
-        j = np.minimum(np.searchsorted(self.drawn, key), len(self.drawn) - 1)
-        return self.drawn[j] == key
-
-    def _includes(self, sample: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """Whether the run holding each sample is part of the ink of letter g (text index)."""
-        d = self.letter[sample] - g
-        ok = np.abs(d) <= 1
-        two = np.abs(d) == 2
-        ok[two] = self._in_stroke(sample[two], g[two] + d[two] // 2)
-        return ok
-
-    def allowed(self, j: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """Whether the ink points ``j`` are among the ink of letters ``g`` (text indices)."""
-        e = self.sample[j]
-        ok = self._includes(e, g)
-        step_out = ~ok & (j == self.at[e]) & (e > self.first[e])  # a run's sample after it
-        ok[step_out] = self._includes(e[step_out] - 1, g[step_out])
-        return ok
-
-    def own_tree(self, k: int):
-        """The tree of the ink of glyph k (position in the glyphs)."""
-        if k not in self.own_trees:
-            g = int(self.index[k])
-            lo, hi = np.searchsorted(self.sorted_letters, [g - 2, g + 3])
-            samples = np.sort(self.by_letter[lo:hi])  # those of letters g - 2 .. g + 2
-            counts = np.diff(np.append(self.at, len(self.ink)))[samples]
-            j = np.repeat(self.at[samples] - (np.cumsum(counts) - counts), counts)
-            j += np.arange(len(j))  # their ink points
-            after = samples[samples + 1 < len(self.first)] + 1
-            after = after[self.first[after] == self.first[after - 1]]  # the samples after them
-            j = np.unique(np.concatenate([j, self.at[after]]))
-            j = j[self.allowed(j, np.full(len(j), g))]
-            self.own_trees[k] = kd_tree(self.ink[j])
-        return self.own_trees[k]
-
-    def query(self, points: np.ndarray, glyph: np.ndarray) -> np.ndarray:
-        """Distance of each point (k, 2) to the ink of its glyph (positions in the glyphs)."""
-        dist, nearest = self.tree.query(points, workers=-1)
-        check = self.any_near[glyph]
-        other = np.zeros(len(points), dtype=bool)
-        other[check] = ~self.allowed(nearest[check], self.index[glyph[check]])
-        for k in np.unique(glyph[other]):
-            mine = np.flatnonzero(other & (glyph == k))
-            dist[mine] = self.own_tree(int(k)).query(points[mine], workers=-1)[0]
-        return dist
-
-
-def _split_at(pos: np.ndarray, first: np.ndarray) -> list[np.ndarray]:
-    """``pos`` (N, 2) cut into strokes; ``first`` (N,): the first sample of each sample's stroke."""
-    starts = np.unique(first)
-    return np.split(pos, starts[1:])
+def _ink_samples(tp: TextPlan, drawing: Drawing, spacing: float, top_glyph: int) -> InkSamples:
+    """The samples of ``drawing`` with the letter drawn at each and the ink points from each
+    to the next, sampled every ``spacing`` [mm] as :func:`_densify_all` samples a stroke,
+    gathered a block of strokes at a time; ``top_glyph``: the largest text index of a glyph."""
+    n = sum(traj.n for _, traj in zip(tp.plan.strokes, drawing.strokes))
+    top = 3 + max(top_glyph, *(max(plan.meta["letters"]) for plan in tp.plan.strokes))
+    pos, first = np.empty((n, 2)), np.empty(n, dtype=np.int64)
+    letter, last, count = np.empty(n, np.int32), np.empty(n, bool), np.empty(n, np.int32)
+    drawn = []
+    for done, pairs in _stroke_blocks(tp, drawing):  # blocks of whole strokes
+        smp = _samples(pairs)
+        k = slice(done, done + len(smp.pos))
+        pos[k], first[k] = smp.pos, smp.first + done
+        letter[k] = smp.letters[smp.target]
+        last[k] = end = np.append(smp.first[1:] != smp.first[:-1], True)
+        step = np.zeros_like(smp.pos)
+        step[:-1] = np.diff(smp.pos, axis=0)
+        step[end] = 0.0
+        count[k] = np.where(end, 1, np.maximum(1, np.ceil(np.linalg.norm(step, axis=1) / spacing)))
+        drawn.append(np.unique(first[k] * top + letter[k]))
+    return InkSamples(pos, first, letter, last, count, np.concatenate(drawn), top)
 
 
 def _densify(points: np.ndarray, spacing: float) -> np.ndarray:

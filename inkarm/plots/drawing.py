@@ -39,9 +39,10 @@ def plot_ink(
     new = ax is None
     if new:
         ax = new_axes(None, (6, 6))
-    speeds = [s.speed() for s in drawing.strokes]
-    top = max(float(np.percentile(np.concatenate(speeds), 95)), 1e-9)
-    paths, widths = _ink_paths(drawing, speeds, top, width)
+    speed = np.concatenate([s.speed() for s in drawing.strokes])
+    level = _width_levels(speed, max(float(np.percentile(speed, 95)), 1e-9))
+    del speed
+    paths, widths = _ink_paths(drawing, level, width)
     ax.add_collection(
         PathCollection(
             paths,
@@ -59,34 +60,53 @@ def plot_ink(
     return figure_of(ax)
 
 
+def _width_levels(speed: np.ndarray, top: float) -> np.ndarray:
+    """The width level (int8, 0 .. :data:`WIDTH_LEVELS`) of each segment between samples
+    k and k + 1 of ``speed`` (N,): rint(L (1 - clip(mean speed / top, 0, 1)))."""
+    slow = speed[:-1] + speed[1:]
+    slow *= 0.5
+    slow /= top
+    np.clip(slow, 0.0, 1.0, out=slow)
+    np.subtract(1.0, slow, out=slow)
+    slow *= WIDTH_LEVELS
+    return np.rint(slow, out=slow).astype(np.int8)
+
+
 def _ink_paths(
-    drawing: Drawing, speeds: list[np.ndarray], top: float, width: tuple[float, float]
+    drawing: Drawing, level: np.ndarray, width: tuple[float, float]
 ) -> tuple[list[Path], list[float]]:
-    """One compound path per width level in use, and its line width in points."""
-    pos = np.vstack([s.pos[:, :2] for s in drawing.strokes])
-    v = np.concatenate(speeds)
+    """One compound path per width level in use, and its line width in points; ``level``
+    (N - 1,): :func:`_width_levels` of the segments, strokes one after the other. Arrays of
+    the samples' size are few at a time (a page of text is a million samples)."""
     ends = np.cumsum([s.n for s in drawing.strokes])
-    inside = np.ones(max(len(pos) - 1, 0), dtype=bool)  # segment k: samples k, k + 1
+    inside = np.ones(len(level), dtype=bool)
     inside[ends[:-1] - 1] = False  # no segment from one stroke to the next
-    slow = 1.0 - np.clip(0.5 * (v[:-1] + v[1:]) / top, 0.0, 1.0)
-    level = np.rint(slow * WIDTH_LEVELS).astype(np.int64)
-    seg = np.flatnonzero(inside)
-    if not len(seg):
+    if not inside.any():
         return [], []
     # runs of segments of one level within a stroke: each a polyline of its samples
-    starts = np.ones(len(seg), dtype=bool)
-    starts[1:] = (seg[1:] != seg[:-1] + 1) | (level[seg[1:]] != level[seg[:-1]])
-    first = seg[starts]
-    count = np.diff(np.append(np.flatnonzero(starts), len(seg))) + 1  # samples per run
-    run_level = level[first]
+    new_run = np.ones(len(level), dtype=bool)  # a run may start at k
+    new_run[1:] = ~inside[:-1] | (level[1:] != level[:-1])
+    first = np.flatnonzero(inside & new_run)
+    new_run[:-1] = ~inside[1:] | new_run[1:]  # ... and end at k
+    new_run[-1] = True
+    count = np.flatnonzero(inside & new_run) - first + 2  # samples per run
+    run_level = level[first].astype(np.int64)
+    del level, inside, new_run
     order = np.argsort(run_level, kind="stable")  # runs of a level together, in drawing order
     first, count, run_level = first[order], count[order], run_level[order]
-    sample = np.repeat(first - (np.cumsum(count) - count), count) + np.arange(count.sum())
+    start = np.cumsum(count) - count  # each run's first vertex
+    sample = np.ones(int(count.sum()), dtype=np.intp)  # the sample of each vertex
+    sample[start] = first
+    sample[start[1:]] -= first[:-1] + count[:-1] - 1
+    np.cumsum(sample, out=sample)
     codes = np.full(len(sample), Path.LINETO, dtype=Path.code_type)
-    codes[np.cumsum(count) - count] = Path.MOVETO
-    verts = pos[sample]
+    codes[start] = Path.MOVETO
+    verts = np.empty((len(sample), 2))
+    for c in range(2):
+        verts[:, c] = np.concatenate([s.pos[:, c] for s in drawing.strokes])[sample]
+    del sample
     levels, at = np.unique(run_level, return_index=True)  # each level's first run
-    bounds = np.append((np.cumsum(count) - count)[at], len(sample))
+    bounds = np.append(start[at], len(verts))
     paths = [Path(verts[a:b], codes[a:b]) for a, b in pairwise(bounds.tolist())]
     widths = [width[0] + (width[1] - width[0]) * k / WIDTH_LEVELS for k in levels.tolist()]
     return paths, widths

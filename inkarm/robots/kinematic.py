@@ -9,11 +9,15 @@ the plant's own model, so a plant that differs from it tests the controller hone
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from inkarm.core.frames import PagePlacement
+
+if TYPE_CHECKING:
+    from inkarm.robots.calibration import HeightMap
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,6 +35,9 @@ class KinematicModel:
         nib_friction: Nib-paper sliding friction coefficient.
         pen_preload_n: Force [N] below which the pen does not move into its holder.
         paper_stiffness_n_per_mm: Stiffness of the sheet's underlay [N/mm]; 0: rigid.
+        paper_map: The calibrated height of the real sheet above the model's sheet (page frame,
+            [mm]; :class:`inkarm.robots.calibration.HeightMap`), the force loop's prior of the
+            surface; None: the sheet is believed flat.
     """
 
     model: mujoco.MjModel
@@ -43,6 +50,7 @@ class KinematicModel:
     nib_friction: float
     pen_preload_n: float = 0.0
     paper_stiffness_n_per_mm: float = 0.0
+    paper_map: HeightMap | None = None
 
     @property
     def n(self) -> int:

@@ -20,11 +20,17 @@ sensor (the forces of the step just taken, at the state it left: MujocoPlant's
 ``mj_contactForce`` after ``mj_step2``); the touches (force, tip position of that state) are
 kept per member and fed to its canvas afterwards (:meth:`BatchPlant.feed`).
 
+Stiction (:mod:`inkarm.sim.stiction`) switches each member's joint friction in its own model
+after each physics step (the batch reads the caller's models at every step), as MujocoPlant
+does; read-out jitter draws each member's reading ages from its own seed, as its MujocoPlant
+would (:mod:`inkarm.sim.senses`).
+
 Supported truths: every model-level field, and at run time ``encoder_ticks_per_rev``,
-``q_noise_rad``, ``velocity`` (all three modes), ``force_noise_n``, ``force_bias_n``, ``sensing_delay_ms`` and
-``actuation_delay_ms``, equal in every member (only model-level fields may be drawn at random per
-member). Series elasticity and backlash (a transmission per joint, with its own sub-stepping)
-are refused: :func:`check_batchable` names the field.
+``q_noise_rad``, ``velocity`` (all three modes), ``force_noise_n``, ``force_bias_n``,
+``sensing_delay_ms``, ``readout_jitter_ms``, ``stiction_nm`` and ``actuation_delay_ms``, equal
+in every member (only model-level fields may be drawn at random per member). Series elasticity
+and backlash (a transmission per joint, with its own sub-stepping) are refused:
+:func:`check_batchable` names the field.
 
 Units: SI inside (MuJoCo), page [mm] for tips as in MujocoPlant.
 """
@@ -47,10 +53,14 @@ from inkarm.sim.divergence import divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT, PlantTruth
 from inkarm.sim.lookups import address_index as _index
+from inkarm.sim.relief import has_relief
+from inkarm.sim.senses import JITTER_BLOCK, history_length, jitter_generator
+from inkarm.sim.stiction import Stiction, stuck_window
 
 # Run-time truths the batched plant reproduces (all members alike); the rest are refused.
 RUNTIME_SUPPORTED = ("encoder_ticks_per_rev", "q_noise_rad", "velocity", "force_noise_n",
-                     "force_bias_n", "sensing_delay_ms", "actuation_delay_ms")
+                     "force_bias_n", "sensing_delay_ms", "actuation_delay_ms",
+                     "readout_jitter_ms", "stiction_nm")
 RUNTIME_REFUSED = ("elasticity_nm_per_rad", "backlash_deg")
 CONTACT_SLOTS = 4  # pen-tip contacts the sensor reports (a sphere on a box makes one)
 _DIVERGENCE_WARNINGS = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQPOS,
@@ -68,6 +78,9 @@ def check_batchable(truths: list[PlantTruth], key_prefix: str = "plant") -> None
                     f"the batched ensemble does not simulate {name} (a transmission per joint); "
                     f"run these members one by one (inkarm.jobs.run.run)",
                     key=f"{key_prefix}.{name}", value=getattr(truth, name))
+        if has_relief(truth):  # (its patch moves between a step's dynamics and collisions)
+            raise InputError("the batched ensemble does not simulate paper relief; run these "
+                             "members one by one (inkarm.jobs.run.run)", key=f"{key_prefix}.relief")
     first = truths[0]
     for truth in truths[1:]:
         for name in RUNTIME_SUPPORTED:
@@ -92,7 +105,8 @@ def member_model(cell: Cell, truth: PlantTruth) -> mujoco.MjModel:
 
 @dataclass
 class BatchState:
-    """What every member's devices report, (N, ...) arrays; ``time`` is shared [s]."""
+    """What every member's devices report, (N, ...) arrays; ``time`` is shared [s], unless
+    ``times`` (N,) gives each member's (read-out jitter: each reading has its own age)."""
 
     time: float
     q: np.ndarray
@@ -100,6 +114,7 @@ class BatchState:
     torque: np.ndarray
     force: np.ndarray
     tip_mm: np.ndarray
+    times: np.ndarray | None = None
 
 
 class BatchPlant:
@@ -198,25 +213,51 @@ class BatchPlant:
         self.servo_units = truth.velocity == "servo"
         self.exact_q = self.tick == 0.0 and self.q_noise == 0.0
         self.sense_delay = round(truth.sensing_delay_ms / 1000.0 / self.h)
+        self.jitter_steps = truth.readout_jitter_ms / 1000.0 / self.h
         self.ideal = (self.exact_q and truth.velocity == "exact" and self.force_noise == 0.0
-                      and self.force_bias == 0.0 and self.sense_delay == 0)
+                      and self.force_bias == 0.0 and self.sense_delay == 0
+                      and self.jitter_steps == 0.0)
         self.act_delay = round(truth.actuation_delay_ms / 1000.0 / self.h)
         self._rngs = [np.random.default_rng([int(s), 0x5E45]) for s in seeds]
         self._draws = np.zeros((N, 0))
+        self._age_rngs = [jitter_generator(s) for s in seeds]
+        self._uniforms = np.zeros((N, 0))
+        self._aged: tuple[int, BatchState] | None = None
         self._queue: list = []
         self.steps = 0
         self.time = 0.0
         self.pen_force = np.zeros(N)
         self._tip_prev = self._tip_xpos.copy()
         self._sq_prev: np.ndarray | None = None
-        ring = self.sense_delay + 1
+        ring = history_length(self.sense_delay, self.jitter_steps)
         self._ring_time = np.zeros(ring)
         self._ring = {k: np.zeros((ring, N, *shape)) for k, shape in
                       (("q", (n,)), ("qd", (n,)), ("torque", (n,)), ("force", ()),
                        ("tip", (3,)))}
+        self._setup_stiction(truth.per_joint("stiction_nm", n), dofs)
         if not self.ideal:
             q, qd = self._qpos[:, self._qpos_adr].copy(), self._qvel[:, self._dof_adr].copy()
             self._record(q, qd)
+
+    def _setup_stiction(self, stiction: np.ndarray, dofs: np.ndarray) -> None:
+        """Each member's joints switch their dry friction between stuck and sliding, from the
+        member's own Coulomb friction (MujocoPlant's ``_setup_stiction``)."""
+        self.stiction: Stiction | None = None
+        self._friction_dofs = dofs
+        if not stiction.any():
+            return
+        coulomb = np.stack([m.dof_frictionloss[dofs] for m in self._models])
+        window = np.stack([stuck_window(m, dofs, c + stiction)
+                           for m, c in zip(self._models, coulomb)])
+        self.stiction = Stiction(coulomb, np.broadcast_to(stiction, coulomb.shape), window,
+                                 self._qvel[:, self._dof_adr])
+        self._set_friction(np.arange(self.n_members))
+        self.batch.forward()  # (the first step's constraints with the stuck levels)
+
+    def _set_friction(self, members: np.ndarray) -> None:
+        levels = self.stiction.frictionloss()
+        for k in members.tolist():
+            self._models[k].dof_frictionloss[self._friction_dofs] = levels[k]
 
     # -- measurement ---------------------------------------------------------------------
     def _normal_draws(self, k: int) -> np.ndarray:
@@ -241,12 +282,20 @@ class BatchPlant:
         x = self._tip_xpos
         return np.einsum("ki,kij->kj", x, self._to_page) - self._page_offset
 
+    def _uniform(self) -> np.ndarray:
+        """(N,) uniforms in [0, 1), each member's next from its own stream, in the blocks of
+        its MujocoPlant's Senses."""
+        if not self._uniforms.shape[1]:
+            self._uniforms = np.stack([r.random(JITTER_BLOCK) for r in self._age_rngs])
+        out, self._uniforms = self._uniforms[:, 0], self._uniforms[:, 1:]
+        return out
+
     def _record(self, q: np.ndarray, qd: np.ndarray) -> None:
         force = self.pen_force
         if self.force_noise:
             force = force + self.force_noise * self._normal_draws(1)[:, 0]
         force = force + self.force_bias
-        slot = self.steps % (self.sense_delay + 1)
+        slot = self.steps % len(self._ring_time)
         self._ring_time[slot] = self.time
         ring = self._ring
         ring["q"][slot], ring["qd"][slot], ring["torque"][slot] = q, qd, self.motor
@@ -263,11 +312,38 @@ class BatchPlant:
             return BatchState(self.time, self._qpos[:, self._qpos_adr].copy(),
                               self._qvel[:, self._dof_adr].copy(), self.motor.copy(),
                               self.pen_force.copy(), self._tip_mm())
+        if self.jitter_steps:
+            if self._aged is None or self._aged[0] != self.steps:
+                self._aged = (self.steps, self._read_aged())
+            s = self._aged[1]
+            return BatchState(s.time, s.q.copy(), s.qd.copy(), s.torque.copy(), s.force.copy(),
+                              s.tip_mm.copy(), s.times.copy())
         slot = max(0, self.steps - self.sense_delay) % (self.sense_delay + 1)
         r = self._ring
         return BatchState(float(self._ring_time[slot]), r["q"][slot].copy(),
                           r["qd"][slot].copy(), r["torque"][slot].copy(),
                           r["force"][slot].copy(), r["tip"][slot].copy())
+
+    def _read_aged(self) -> BatchState:
+        """Each member's reading ``d + u J / h`` steps old, interpolated between the two
+        recorded steps around it (:mod:`inkarm.sim.senses`, as each member's MujocoPlant)."""
+        age = self.sense_delay + self._uniform() * self.jitter_steps
+        back = np.floor(age)
+        w = age - back
+        back = back.astype(np.int64)
+        size, k = len(self._ring_time), np.arange(self.n_members)
+        new = np.maximum(self.steps - back, 0) % size
+        old = np.maximum(self.steps - back - 1, 0) % size
+
+        def blend(a: np.ndarray) -> np.ndarray:
+            a_new, a_old = a[new, k], a[old, k]
+            weight = w.reshape(-1, *([1] * (a_new.ndim - 1)))
+            return a_new + weight * (a_old - a_new)
+
+        r, t = self._ring, self._ring_time
+        times = t[new] + w * (t[old] - t[new])
+        return BatchState(self.time, blend(r["q"]), blend(r["qd"]), blend(r["torque"]),
+                          blend(r["force"]), blend(r["tip"]), times)
 
     # -- commands and steps --------------------------------------------------------------
     @property
@@ -320,6 +396,9 @@ class BatchPlant:
                     self._ctrl[np.ix_(ids, np.arange(self._ctrl.shape[1])[self._arm_ctrl])] = \
                         self.motor[ids]
             b.step(None if every else ids, 1, vel)
+            if self.stiction is not None:
+                changed = self.stiction.update(self._qvel[:, self._dof_adr])
+                self._set_friction(np.flatnonzero(changed.any(axis=1)))
             if self.native:  # the drives' torques of the step just taken
                 self.motor = self._actuator_force[:, self._arm_ctrl].copy()
             self.time += self.h

@@ -31,7 +31,8 @@ class BatchMember:
     def read(self) -> PlantState:
         s = self._members.reading()
         m = self.index
-        return PlantState(s.time, s.q[m], s.qd[m], float(s.force[m]), s.tip_mm[m],
+        time = s.time if s.times is None else float(s.times[m])  # (read-out jitter: its own)
+        return PlantState(time, s.q[m], s.qd[m], float(s.force[m]), s.tip_mm[m],
                           torque=s.torque[m])
 
     def command(self, command) -> None:

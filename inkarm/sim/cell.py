@@ -29,16 +29,22 @@ three-quarter view) and ``pen_cam`` (on the flange, looking at the pen tip).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import mujoco
 import numpy as np
 
 from inkarm.core.frames import PagePlacement
 from inkarm.errors import InputError
 from inkarm.robots.builders import arm_spec
+from inkarm.robots.geometry import apply_geometry
 from inkarm.robots.kinematic import KinematicModel
 from inkarm.robots.profile import RobotProfile
 from inkarm.robots.registry import load_robot
 from inkarm.sim.cell_config import Cell, CellConfig
+
+if TYPE_CHECKING:
+    from inkarm.robots.calibration import CellCalibration
 
 PEN_TIP = "pen_tip"
 PEN_SLIDE = "pen_slide"
@@ -268,11 +274,16 @@ def build_model(cell: Cell | None = None) -> mujoco.MjModel:
     return build_spec(cell).compile()
 
 
-def kinematic_model(cell: Cell | None = None) -> KinematicModel:
+def kinematic_model(cell: Cell | None = None,
+                    calibration: CellCalibration | None = None) -> KinematicModel:
     """What a controller believes about ``cell``: its own compiled model and the facts the
-    controller needs (page placement, home, pen spring and travel, nib friction)."""
+    controller needs (page placement, home, pen spring and travel, nib friction). With a
+    ``calibration``, the model has its geometry errors applied
+    (:func:`inkarm.robots.geometry.apply_geometry`) and ``paper_map`` is its height map."""
     cell = cell or make_cell()
     model = build_model(cell)
+    if calibration is not None and not calibration.geometry.is_zero:
+        apply_geometry(model, cell.robot.joint_names, calibration.geometry, PEN_TIP)
     tip, paper = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (PEN_TIP, PAPER))
     return KinematicModel(
         model=model,
@@ -286,6 +297,7 @@ def kinematic_model(cell: Cell | None = None) -> KinematicModel:
         nib_friction=float(max(model.geom_friction[tip][0], model.geom_friction[paper][0])),
         pen_preload_n=cell.config.pen_preload_n,
         paper_stiffness_n_per_mm=cell.config.paper_stiffness_n_per_mm,
+        paper_map=calibration.paper if calibration is not None else None,
     )
 
 

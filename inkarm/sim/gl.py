@@ -3,7 +3,9 @@
 MuJoCo chooses its backend from ``MUJOCO_GL`` once, when ``mujoco`` is first imported;
 :func:`configure_gl` (call it before that import, e.g. first thing in a CLI command) keeps a
 value already set or else picks the first of EGL and OSMesa that works here, each probed in a
-subprocess. This module imports neither ``mujoco`` nor anything that does. System packages
+subprocess. A process that renders nothing imports MuJoCo with no backend at all
+(:func:`import_mujoco_without_gl`: MuJoCo otherwise loads glfw, 25 ms of `inkarm draw`'s
+start-up). This module imports neither ``mujoco`` nor anything that does. System packages
 (Debian 12 / Ubuntu names; PyOpenGL comes from pip with mujoco):
 
 - ``MUJOCO_GL=egl``: ``libegl1`` (the GLVND EGL loader), ``libopengl0`` and ``libgl1``, plus
@@ -99,3 +101,17 @@ def configure_gl(backends: Iterable[str] = GL_BACKENDS) -> str:
         "(MUJOCO_GL=osmesa)"
     )
 
+
+def import_mujoco_without_gl() -> None:
+    """Import ``mujoco`` with OpenGL off (``MUJOCO_GL=disable`` for that import only), for a
+    process that renders nothing; nothing is done when ``MUJOCO_GL`` is set or mujoco is
+    loaded already. ``MUJOCO_GL`` is left unset again, so child processes choose their own
+    backend; in this process :func:`configure_gl` then refuses, as after any import of mujoco
+    without a choice."""
+    if os.environ.get("MUJOCO_GL", "").strip() or "mujoco" in sys.modules:
+        return
+    os.environ["MUJOCO_GL"] = "disable"
+    try:
+        import mujoco  # noqa: F401
+    finally:
+        del os.environ["MUJOCO_GL"]

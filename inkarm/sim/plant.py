@@ -16,9 +16,11 @@ at physics rate, as a real arm's drives do, with the command's velocity and torq
 the plant takes position commands only when it was given ``drive_gains`` or a ``firmware``.
 
 The plant's truth (:class:`inkarm.sim.imperfections.PlantTruth`) acts here where it is not in the
-model: measurements (:mod:`inkarm.sim.senses`), an actuation delay (commands queued for whole
-physics steps), series elasticity and backlash (:mod:`inkarm.sim.transmission`). When a joint's
-transmission mode is too fast for the time step, the step is subdivided.
+model: measurements and their ages (:mod:`inkarm.sim.senses`), an actuation delay (commands
+queued for whole physics steps), stiction (:mod:`inkarm.sim.stiction`: the joints' dry friction
+switched between stuck and sliding after each physics step), series elasticity and backlash
+(:mod:`inkarm.sim.transmission`). When a joint's transmission mode is too fast for the time
+step, the step is subdivided.
 
 Divergence (non-finite state, a MuJoCo warning about bad qpos/qvel/qacc, or a joint faster
 than ``max_joint_speed``) raises :class:`inkarm.errors.SimulationError`. MuJoCo's automatic
@@ -46,7 +48,9 @@ from inkarm.sim.divergence import DIVERGENCE_WARNINGS, divergence_error, route_m
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import PlantTruth
 from inkarm.sim.lookups import address_index, only_geom_touches
+from inkarm.sim.perturb import relief_follower
 from inkarm.sim.senses import Senses
+from inkarm.sim.stiction import Stiction, stuck_window
 from inkarm.sim.transmission import Transmission
 
 
@@ -160,6 +164,7 @@ class MujocoPlant:
         if drive_gains is None and firmware is None:
             drive_gains = cell.robot.drive
         self._setup_truth(truth or PlantTruth(), drive_gains, firmware)
+        self._relief = relief_follower(m, cell, self.truth)  # (after any mj_setConst)
 
     def _setup_truth(self, truth: PlantTruth, drive_gains, firmware) -> None:
         m, d, n = self.model, self.data, len(self.joint_names)
@@ -192,6 +197,7 @@ class MujocoPlant:
                 self._timestep = float(m.opt.timestep)
                 self.transmission = Transmission(stiffness, backlash, rotor, m.opt.timestep)
             self.transmission.reset(self._qpos[self._qpos_adr], self._qvel[self._dof_adr])
+        self._setup_stiction(truth.per_joint("stiction_nm", n), dofs)
         self.senses_model = Senses(truth, n, m.opt.timestep)
         self._delay_steps = round(truth.actuation_delay_ms / 1000.0 / m.opt.timestep)
         self._queue: list = []
@@ -221,6 +227,20 @@ class MujocoPlant:
         if not self.senses_model.ideal:
             self.senses_model.record(self._snapshot(self._qpos[self._qpos_adr].copy(),
                                                     self._qvel[self._dof_adr].copy()))
+
+    def _setup_stiction(self, stiction: np.ndarray, dofs: np.ndarray) -> None:
+        """Joints with stiction switch their dry friction between stuck and sliding
+        (:mod:`inkarm.sim.stiction`); they start stuck where they start within the window."""
+        self.stiction: Stiction | None = None
+        self._friction_dofs = dofs
+        if not stiction.any():
+            return
+        m, d = self.model, self.data
+        coulomb = m.dof_frictionloss[dofs].copy()
+        self.stiction = Stiction(coulomb, stiction, stuck_window(m, dofs, coulomb + stiction),
+                                  self._qvel[self._dof_adr])
+        m.dof_frictionloss[dofs] = self.stiction.frictionloss()
+        mujoco.mj_forward(m, d)  # (the first step's constraints with the stuck levels)
 
     def _set_affine(self, on: bool) -> None:
         """Switch the arm's motors between plain torque motors and the drive law as an affine
@@ -338,7 +358,8 @@ class MujocoPlant:
             ramp = self._affine
             ctrl, arm, u, du, drive = self._ctrl, self._arm_ctrl, self._u, self._du, self.drive
         fast = self._fast and self._position_goal is None and not self._queue
-        h, senses = self._timestep, self.senses_model
+        h, senses, stiction, relief = (self._timestep, self.senses_model, self.stiction,
+                                       self._relief)
         for _ in range(self.substeps):
             if ramp:  # the drives run in MuJoCo; the set point moves with its velocity
                 ctrl[arm] = u
@@ -358,7 +379,11 @@ class MujocoPlant:
                 self._touching = False
                 if canvas is not None:
                     canvas.lift()
+            if relief is not None:
+                relief.follow(d)
             mujoco.mj_step1(m, d)
+            if stiction is not None and stiction.step(self._qvel[self._dof_adr].tolist()):
+                m.dof_frictionloss[self._friction_dofs] = stiction.frictionloss()
             if not fast:
                 self._steps += 1
                 if not senses.ideal:
@@ -448,6 +473,7 @@ class MujocoPlant:
         by dry friction of 100 times its torque limit, motors off."""
         m = self.model
         dofs = np.arange(m.nv)[self._dof_adr]
+        self.stiction = None  # (the brakes hold whatever the joints' state)
         m.dof_frictionloss[dofs] = 100.0 * np.maximum(self._limit, 1.0)
         if self._affine:
             self._set_affine(False)

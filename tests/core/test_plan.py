@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from inkarm.core.plan import (
     GaussianTarget,
     MotorPlan,
     StrokePlan,
+    TargetArray,
     bezier_keypoints,
     check_covariance,
 )
@@ -294,3 +297,26 @@ def test_from_arrays_checks_in_bulk_and_builds_the_same_plan_and_errors(monkeypa
     assert calls == [] and len(plan.targets) == 50 and plan.meta == {"k": 1}
     means[0, 0] = 9.0
     assert plan.means[0, 0] == 0.0 and plan.targets[0].mean[0] == 0.0
+
+
+def test_targets_from_arrays_are_held_as_arrays_and_equal_the_tuple_of_targets():
+    """A stroke built from arrays keeps them (a page of text is a hundred thousand targets):
+    its targets equal, hash, index, slice and pickle as the tuple of GaussianTargets."""
+    means = np.random.default_rng(1).normal(size=(5, 2))
+    plan = StrokePlan.from_arrays(means, 0.5, meta={"letters": (0, 0, 1, 1, 2)})
+    tup = tuple(GaussianTarget(m, 0.5) for m in means)
+    targets = plan.targets
+    assert isinstance(targets, TargetArray) and len(targets) == 5
+    assert targets == tup and tup == targets and hash(targets) == hash(tup)
+    assert targets[-1] == tup[-1] and targets[1:3] == tup[1:3] and list(targets) == list(tup)
+    assert targets != tup[:4] and targets != list(tup)
+    with pytest.raises(IndexError):
+        targets[5]
+    assert plan == StrokePlan(tup, meta=plan.meta) and hash(plan) == hash(StrokePlan(tup))
+    assert pickle.loads(pickle.dumps(plan)) == plan
+    timed = StrokePlan(targets, 0.4, True, velocities=np.zeros((5, 2)))
+    assert timed.targets is targets and timed.means is plan.means and timed.dim == 2
+    with pytest.raises(PlanError, match=r"expected shape \(5, 2\)"):
+        StrokePlan(targets, velocities=np.zeros((4, 2)))
+    with pytest.raises(PlanError, match="no targets"):
+        StrokePlan(TargetArray(np.zeros((0, 2)), np.zeros((0, 2, 2))))

@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from inkarm.core.trajectory import Drawing
-from inkarm.plans import fidelity
+from inkarm.plans import fidelity, ownink
 from inkarm.plans.handstyles import PRESETS
 from inkarm.plans.layout import PageLayout
 from inkarm.plans.text import write_text
@@ -158,9 +158,9 @@ def test_a_letters_own_ink_answers_where_other_ink_is_nearer(monkeypatch):
     letter's ink first: each such letter gets a tree of its own ink, and the result is the
     reference's all the same (checked above)."""
     built = []
-    own_tree = fidelity._OwnInk.own_tree
+    own_tree = ownink.OwnInk.own_tree
     monkeypatch.setattr(
-        fidelity._OwnInk, "own_tree", lambda s, k: built.append(k) or own_tree(s, k)
+        ownink.OwnInk, "own_tree", lambda s, k: built.append(k) or own_tree(s, k)
     )
     for _, tp, _, shifted in CASES:
         fidelity.font_deviation(tp, shifted)
@@ -168,23 +168,25 @@ def test_a_letters_own_ink_answers_where_other_ink_is_nearer(monkeypatch):
 
 
 def test_measures_take_a_bounded_number_of_passes_however_many_strokes(monkeypatch):
-    """Work is done on arrays of all the samples, not stroke by stroke or run by run: the
-    point-segment distances in one pass (given memory for it), one tree of all the ink, two rounds of
-    queries (every 8th outline point, then the points between that may exceed it)."""
+    """Work is done on arrays of many samples, not stroke by stroke or run by run: in one
+    block (given memory for it), the point-segment distances in one pass, one tree of the
+    ink, two rounds of queries (every 8th outline point, then the points between that may
+    exceed it)."""
     distance_calls, trees, queries = [], [], []
     distance = fidelity._segment_distance2
     monkeypatch.setattr(
         fidelity, "_segment_distance2", lambda *a: distance_calls.append(1) or distance(*a)
     )
-    query = fidelity._OwnInk.query
+    query = ownink.OwnInk.query
     monkeypatch.setattr(
-        fidelity._OwnInk, "query", lambda s, p, g: queries.append(len(p)) or query(s, p, g)
+        ownink.OwnInk, "query", lambda s, p, g: queries.append(len(p)) or query(s, p, g)
     )
-    tree = fidelity.kd_tree
-    monkeypatch.setattr(fidelity, "kd_tree", lambda *a, **k: trees.append(1) or tree(*a, **k))
+    tree = ownink.kd_tree
+    monkeypatch.setattr(ownink, "kd_tree", lambda *a, **k: trees.append(1) or tree(*a, **k))
     _, tp, drawing, _ = CASES[0]
     assert len(drawing.strokes) >= 5
-    monkeypatch.setattr(fidelity, "_PAIRS", 1 << 40)  # one chunk
+    for name in ("_PAIRS", "_BLOCK_SAMPLES", "_BLOCK_VERTICES"):
+        monkeypatch.setattr(fidelity, name, 1 << 40)  # one chunk, one block
     fidelity.outline_deviation(tp, drawing)
     assert len(distance_calls) == 3  # the letters' outlines, the chords into i and i + 1
     fidelity.font_deviation(tp, drawing)
@@ -202,3 +204,24 @@ def test_densify_all_is_densify_of_each():
     for p, a, b in zip(polylines, at[starts], ends):
         np.testing.assert_array_equal(dense[a:b], _densify(p, 0.3))
     np.testing.assert_array_equal(np.vstack(polylines)[vertex[at]], np.vstack(polylines))
+
+
+@pytest.mark.parametrize("case", [0, 3])
+def test_blocks_of_strokes_and_glyphs_give_the_numbers_of_one_block(monkeypatch, case):
+    """Measured a few strokes and glyphs at a time (the memory of a page of text stays a few
+    MB), the fidelity is that of one block bit for bit: also where the drawing leaves letters
+    without ink (compared with all the ink) and where it is shifted off its letters."""
+    _, tp, drawing, shifted = CASES[case]
+    partial = Drawing(drawing.strokes[: len(drawing.strokes) // 2])
+    for d in (drawing, shifted, partial):
+        monkeypatch.setattr(fidelity, "_BLOCK_SAMPLES", 1 << 40)
+        monkeypatch.setattr(fidelity, "_BLOCK_VERTICES", 1 << 40)
+        whole = fidelity.outline_deviation(tp, d), fidelity.font_deviation(tp, d)
+        monkeypatch.setattr(fidelity, "_BLOCK_SAMPLES", 50)
+        monkeypatch.setattr(fidelity, "_BLOCK_VERTICES", 40)
+        blocks = fidelity.outline_deviation(tp, d), fidelity.font_deviation(tp, d)
+        for a, b in zip(whole, blocks):
+            assert list(a) == list(b)
+            np.testing.assert_array_equal(list(a.values()), list(b.values()))
+        want = reference_font_deviation(tp, d)
+        np.testing.assert_allclose(list(blocks[1].values()), list(want.values()), rtol=0, atol=1e-9)

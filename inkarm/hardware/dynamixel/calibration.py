@@ -10,7 +10,10 @@ reading grows or falls as the joint turns positive), and the whole turns ``k`` a
 at start-up so that ``q`` lies in the joint's range: a zero mark near the encoder's wrap
 (4095 -> 0) or a servo that booted a turn away reads the same.
 
-The file lives beside the robot profile, ``<profile>.calibration.toml``::
+The file lives in the user's configuration folder, beside the cell's calibration
+(:mod:`inkarm.robots.calibration`), ``<calibration_dir()>/calibration/<robot>.joints.toml``
+(:func:`calibration_path`); a file of an older inkarm beside the profile,
+``<profile>.calibration.toml``, is still read when there is no new one (:func:`find_calibration`)::
 
     robot = "wx250s"
     [joints.shoulder]
@@ -69,9 +72,30 @@ class Calibration:
 
 
 def calibration_path(profile) -> Path:
-    """``<profile>.calibration.toml`` beside the profile file."""
+    """Where the joint calibration of ``profile``'s robot is written:
+    ``<calibration_dir()>/calibration/<robot>.joints.toml`` (never inside the installed
+    package)."""
+    from inkarm.robots.calibration import calibration_path as cell_calibration
+
+    cell = cell_calibration(profile.name)
+    return cell.with_name(f"{profile.name}.joints.toml")
+
+
+def legacy_calibration_path(profile) -> Path:
+    """Where inkarm <= 0.x wrote it: ``<profile>.calibration.toml`` beside the profile file."""
     source = Path(profile.source) if profile.source else Path(f"{profile.name}.toml")
     return source.with_name(f"{source.stem}.calibration.toml")
+
+
+def find_calibration(profile) -> Path:
+    """The joint calibration file to read for ``profile``: :func:`calibration_path` when it
+    exists, else the older one beside the profile when that exists, else (neither there)
+    :func:`calibration_path`."""
+    path = calibration_path(profile)
+    if path.is_file():
+        return path
+    legacy = legacy_calibration_path(profile)
+    return legacy if legacy.is_file() else path
 
 
 def load_calibration(path: str | Path, joint_names: Sequence[str]) -> Calibration:
@@ -84,7 +108,7 @@ def load_calibration(path: str | Path, joint_names: Sequence[str]) -> Calibratio
     offsets, directions = [], []
     for name in joint_names:
         if name not in joints:
-            raise rd.error(f"joints.{name}", "missing: run `inkarm calibrate` again")
+            raise rd.error(f"joints.{name}", "missing: run `inkarm calibrate joints` again")
         j = rd.table(joints[name], f"joints.{name}")
         rd.keys(j, ("offset_ticks", "direction"), f"joints.{name}")
         offsets.append(rd.number(j.get("offset_ticks"), f"joints.{name}.offset_ticks", 0,
@@ -103,6 +127,7 @@ def save_calibration(calibration: Calibration, path: str | Path, robot: str) -> 
         lines += [f"[joints.{name}]", f"offset_ticks = {round(off)}",
                   f"direction = {int(d)}", ""]
     path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.partial")
     tmp.write_text("\n".join(lines))
     tmp.replace(path)

@@ -26,15 +26,16 @@ import numpy as np
 from inkarm.core.plant import TorqueCommand
 from inkarm.core.run import Metrics, Senses
 from inkarm.errors import InputError
-from inkarm.hardware.dynamixel.calibration import calibration_path, load_calibration
+from inkarm.hardware.dynamixel.calibration import find_calibration, load_calibration
 from inkarm.hardware.dynamixel.config import DynamixelConfig, with_dynamixel
 from inkarm.hardware.dynamixel.emulator import DynamixelEmulator, Fault, specs_for_profile
 from inkarm.jobs.backends import BackendOptions, Progress, run_backend
 from inkarm.jobs.backends.arm import ArmSession
+from inkarm.jobs.calibration import believed_model
 from inkarm.jobs.outcome import Run, failed_run, finished_run, measured
 from inkarm.jobs.preflight import placed_within_budget
 from inkarm.jobs.scenario import Scenario, load_scenario
-from inkarm.sim.cell import Cell, build_model, kinematic_model
+from inkarm.sim.cell import Cell, build_model
 from inkarm.sim.plant import MujocoPlant
 
 NO_FORCE = "a Dynamixel arm senses no pen force"
@@ -63,16 +64,16 @@ class DynamixelSession(ArmSession):
         self.scenario = scenario
         cell = Cell(scenario.cell, profile)
         self.drawing = placed_within_budget(scenario, cell)
-        self.believed = kinematic_model(cell)
+        self.believed, believed_notes = believed_model(scenario, cell)
         _check_law(scenario, DynamixelConfig.of(profile))
         given = options.profile or dict(scenario.dynamixel).get("calibration")
-        path = Path(given) if given else calibration_path(profile)
+        path = Path(given) if given else find_calibration(profile)
         cal = load_calibration(path, profile.joint_names) if (given or path.is_file()) else None
         self.canvas = (options.canvas if options.canvas is not None
                        else scenario.ink.canvas(cell.paper_size_mm))
         self.senses = dynamixel_senses(ink=options.canvas is not None)
-        self.notes = (() if cal is not None else
-                      (f"no calibration file ({path}): tick 2048 is 0 rad",))
+        self.notes = believed_notes + (
+            () if cal is not None else (f"no calibration file ({path}): tick 2048 is 0 rad",))
         self.notes += (f"{NO_FORCE} (no force metrics)",)
         if options.canvas is None:
             self.notes += (PAPER_INK,)
@@ -111,6 +112,7 @@ class DynamixelBackend:
     name = "dynamixel"
     help = "a Dynamixel X-series arm (Protocol 2.0) on a serial port"
     needs_port = True
+    senses_force = False  # (``calibrate paper`` refuses it before anything moves)
 
     def check(self, scenario: Scenario, options: BackendOptions) -> str | None:
         _check_law(scenario, DynamixelConfig.of(scenario.robot))
@@ -145,18 +147,28 @@ class TwinJoints:
 
 
 def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: int | None = None,
-                  byte_timing: bool = True, status_return_level: int = 2) -> DynamixelEmulator:
+                  byte_timing: bool = True, status_return_level: int = 2,
+                  truth: bool = False) -> DynamixelEmulator:
     """An emulator of the scenario's robot whose servos move its MuJoCo twin (module
     docstring); the servos boot holding the home pose with the profile's EEPROM settings and
     Status Return Level ``status_return_level`` (2: every instruction answered; 1: PING and
-    reads only). ``emulator.canvas`` is the twin's ink."""
+    reads only). ``emulator.canvas`` is the twin's ink. ``truth``: the twin is the arm as the
+    scenario's ``[sim.plant]`` says it really is (relief, pen and link errors, ...: what a
+    calibration through the emulator finds out); default the nominal arm."""
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
     cell = Cell(scenario.cell, scenario.robot)
     profile = scenario.robot
     cfg = DynamixelConfig.of(profile)
     canvas = scenario.ink.canvas(cell.paper_size_mm)
-    twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=1)
+    if truth:
+        from inkarm.sim.perturb import plant_model
+
+        real = scenario.plant.realised()
+        twin = MujocoPlant(plant_model(cell, real), cell=cell, canvas=canvas, substeps=1,
+                           truth=real)
+    else:
+        twin = MujocoPlant(build_model(cell), cell=cell, canvas=canvas, substeps=1)
     emulator = DynamixelEmulator(specs_for_profile(cfg, profile.n), TwinJoints(twin),
                                  baudrate=baudrate or cfg.baudrate, faults=faults,
                                  byte_timing=byte_timing)
@@ -174,7 +186,7 @@ def twin_emulator(scenario: Scenario | str | None = None, faults=(), baudrate: i
 
 def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
             progress=None, boot_status_return_level: int = 2, linger_s: float = 1.0,
-            **backend) -> Run:
+            truth: bool = False, **backend) -> Run:
     """A whole hardware-in-the-loop run on this machine: the twin emulator in a child process
     on a pty, the ``dynamixel`` backend through dynamixel-sdk, the twin's canvas brought back
     and the run judged on its ink. ``trace_path``: where the bus trace goes on a fault. ``backend`` overrides keys of the profile's
@@ -182,7 +194,8 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     ``boot_status_return_level``: the servos' Status Return Level (68) at power-on.
     ``linger_s``: how long [s] the twin goes on after the driver closed the port before its ink
     is taken, as a user's emulator (or arm) goes on: ink that an arm left by the driver makes
-    (falling on the sheet) shows."""
+    (falling on the sheet) shows. ``truth``: the twin is the scenario's real arm
+    (:func:`twin_emulator`)."""
     import functools
     import operator
 
@@ -191,7 +204,8 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     if backend:
         scenario = dataclasses.replace(scenario, robot=with_dynamixel(scenario.robot, **backend))
     emulator = EmulatorProcess(functools.partial(twin_emulator, scenario, tuple(faults),
-                                                 status_return_level=boot_status_return_level),
+                                                 status_return_level=boot_status_return_level,
+                                                 truth=truth),
                                operator.attrgetter("canvas"))  # the twin's ink comes back
     port = emulator.start()
     try:
@@ -203,7 +217,7 @@ def hil_run(scenario: Scenario, faults=(), trace_path: str | Path | None = None,
     if canvas is None:
         return result
     # Judged again on the twin's ink, by the same judge
-    believed = kinematic_model(Cell(scenario.cell, scenario.robot))
+    believed, _ = believed_model(scenario, Cell(scenario.cell, scenario.robot))
     senses = dynamixel_senses(ink=True)
     metrics = measured(result.log, result.drawing, believed, canvas, senses=senses)
     if metrics and "bus_overruns" in result.metrics:

@@ -18,11 +18,12 @@ from inkarm.core.run import Metrics
 from inkarm.hardware.dynamixel.config import DynamixelConfig
 from inkarm.jobs.backends import BackendOptions
 from inkarm.jobs.backends.arm import ArmSession
+from inkarm.jobs.calibration import believed_model
 from inkarm.jobs.outcome import SIM_SENSES
 from inkarm.jobs.preflight import placed_within_budget, substeps
 from inkarm.jobs.scenario import Scenario
 from inkarm.robots.servo import FirmwareGains, JointServos
-from inkarm.sim.cell import Cell, build_model, kinematic_model
+from inkarm.sim.cell import Cell, build_model
 from inkarm.sim.perturb import plant_model
 from inkarm.sim.plant import MujocoPlant
 
@@ -37,7 +38,9 @@ class SimSession(ArmSession):
         self.scenario = scenario
         cell = Cell(scenario.cell, scenario.robot)
         self.drawing = placed_within_budget(scenario, cell)
-        self.believed = kinematic_model(cell)  # the controller's own model, of the nominal cell
+        # the controller's own model: of the nominal cell, or as the scenario's calibration says
+        self.believed, said = believed_model(scenario, cell)
+        self.notes = (*type(self).notes, *said)  # (a subclass's own notes kept)
         self.canvas = scenario.ink.canvas(cell.paper_size_mm)
         steps = substeps(scenario.robot.control_period_s, scenario.cell.timestep)
         if servo:  # the nominal arm, its firmware as the emulator's servos run it

@@ -39,6 +39,7 @@ from inkarm.core.budget import require_memory
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, InputError, RunFault
 from inkarm.ink.canvas import require_raster_memory
+from inkarm.jobs.calibration import believed_model
 from inkarm.jobs.ensemble.workers import available_cpus, may_start_workers, stream_shares
 from inkarm.jobs.outcome import Run, failed_run, finished_run
 from inkarm.jobs.preflight import placed_within_budget, simulated_seconds, substeps
@@ -47,7 +48,7 @@ from inkarm.jobs.scenario import Scenario
 from inkarm.jobs.sweep.design import with_point
 from inkarm.sim.batch import BatchPlant, check_batchable, member_model
 from inkarm.sim.batch_members import BatchMembers
-from inkarm.sim.cell import Cell, kinematic_model
+from inkarm.sim.cell import Cell
 
 
 def run_ensemble(scenario: Scenario, seeds: Sequence[int], nthread: int = 0,
@@ -132,7 +133,7 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
             yield keep(run(with_point(scenario, {"plant.seed": seed})))
         return
     cell = Cell(scenario.cell, scenario.robot)
-    believed = kinematic_model(cell)
+    believed, notes = believed_model(scenario, cell)
     try:
         steps = substeps(scenario.robot.control_period_s, scenario.cell.timestep)
         truths = [scenario.plant.realised(s) for s in seeds]
@@ -150,10 +151,11 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
         plant.feed(k, canvas)
         log = result.log if isinstance(result, RunFault) else result
         log.wall_s *= len(seeds) / members
+        said = (*notes, *log.notes) if notes else None  # (the calibration it believed)
         if isinstance(result, RunFault):
-            yield keep(failed_run(member, drawing, result, canvas, believed))
+            yield keep(failed_run(member, drawing, result, canvas, believed, notes=said))
         else:
-            yield keep(finished_run(member, drawing, result, canvas, believed))
+            yield keep(finished_run(member, drawing, result, canvas, believed, notes=said))
 
 
 def batch_refusal(scenario: Scenario, seeds: Sequence[int]) -> str | None:

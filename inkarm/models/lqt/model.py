@@ -12,7 +12,7 @@ from inkarm.core.trajectory import Trajectory
 from inkarm.errors import InputError, SolverError
 from inkarm.models.lqt import cost, oracle, structure
 from inkarm.models.lqt.config import DEFAULT_CONFIG, LQTConfig
-from inkarm.models.lqt.problem import Problem, build_problem, extend, positions
+from inkarm.models.lqt.problem import Problem, build_problem, positions
 from inkarm.models.lqt.solvers import Factor, eigen_draws
 
 SAMPLING = ("exact", "eigen")
@@ -45,13 +45,12 @@ class LQT:
         self.references = tuple(references)
         self._factor: Factor | None = None
         self._c: np.ndarray | None = None
+        self._problem: Problem | None = None
         key = structure.shape_key(stroke, config, self.references)
         self._structure = structure.find(key, stroke)
         if self._structure is None:
-            self.problem: Problem = build_problem(stroke, config, self.references)
-            self._structure = structure.remember(key, self.problem)
-        else:
-            self.problem = self._structure.problem(stroke)
+            self._problem = build_problem(stroke, config, self.references)
+            self._structure = structure.remember(key, self._problem)
         if config.solver == "batch":
             prob = self.problem
             cost.require(
@@ -64,6 +63,14 @@ class LQT:
                 f"time of the dense LQT oracle ({prob.n_steps} steps x {prob.dim}-D; "
                 f"O((N D)^3), use another solver)", key="solver", value="batch",
             )
+
+    @property
+    def problem(self) -> Problem:
+        """The banded problem of the stroke (:mod:`.problem`); for a kept shape, assembled from
+        its structure on first use (the mean of held targets needs their A^T b only)."""
+        if self._problem is None:
+            self._problem = self._structure.problem(self.stroke)
+        return self._problem
 
     @property
     def method(self) -> str:
@@ -90,7 +97,11 @@ class LQT:
     def _coefficients(self) -> np.ndarray:
         """Free coefficients (n_free, D) of the optimum (computed once)."""
         if self._c is None:
-            self._c = self.factor.mean(self.problem)
+            kept = self._structure
+            if self._problem is None and kept.held:  # the template's rows, this stroke's b
+                self._c = self.factor.mean(kept.template, kept.rhs(self.stroke))
+            else:
+                self._c = self.factor.mean(self.problem)
         return self._c
 
     @cached_property
@@ -99,9 +110,15 @@ class LQT:
         return oracle.batch(self.stroke, self.config, self.references)[0]
 
     @property
+    def _shape(self) -> Problem:
+        """The stroke's problem if assembled, else its kept shape's template (the same rows,
+        time grid and structure; other means)."""
+        return self._structure.template if self._problem is None else self._problem
+
+    @property
     def times(self) -> np.ndarray:
         """t_k = k dt in [s], (N,) (shared, read-only)."""
-        return _times(self.problem.n_steps, self.problem.dt)
+        return _times(self._shape.n_steps, self._shape.dt)
 
     def mean(self) -> Trajectory:
         """The optimal (mean) trajectory: t from 0 in [s], pos (N, D) in [mm], vel [mm/s].
@@ -115,15 +132,17 @@ class LQT:
         per segment; with tight covariances it stops at every target and rings (the
         high-order chain overshoots and oscillates around each held mean).
         """
+        if self.config.solver != "batch":
+            c = self._coefficients
+            shape = self._shape
+            pos, vel = _outputs(shape, c, self.stroke.means[0])
+            return Trajectory.from_checked(_times(shape.n_steps, shape.dt), pos, vel)
         prob = self.problem
-        if self.config.solver == "batch":
-            states = self._batch_states
-            pos = states[:, : prob.dim].copy()
-            vel = states[:, prob.dim : 2 * prob.dim].copy() if prob.n > 1 else _control(prob, pos)
-            _check_finite(pos)
-            _check_finite(vel)
-        else:
-            pos, vel = _outputs(prob, self._coefficients)
+        states = self._batch_states
+        pos = states[:, : prob.dim].copy()
+        vel = states[:, prob.dim : 2 * prob.dim].copy() if prob.n > 1 else _control(prob, pos)
+        _check_finite(pos)
+        _check_finite(vel)
         return Trajectory.from_checked(_times(prob.n_steps, prob.dt), pos, vel)
 
     def sample(
@@ -258,23 +277,30 @@ def _times(n_steps: int, dt: float) -> np.ndarray:
     return t
 
 
-def _outputs(prob: Problem, c_free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _outputs(prob: Problem, c_free: np.ndarray, origin: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
     """Positions [mm] and velocities [mm/s] (N, D) from the free coefficients, checked
-    finite (SolverError)."""
+    finite (SolverError). ``origin``: mu_1 [mm]; an Euler ``prob`` may be the template of the
+    stroke's shape (:mod:`.structure`: all but the origin and the targets are the stroke's)."""
     if prob.discretisation == "zoh":
         pos = positions(prob, c_free)
         vel = positions(prob, c_free, 1) if prob.n > 1 else _control(prob, pos)
         _check_finite(pos)
         _check_finite(vel)
         return pos, vel
-    ext = extend(prob, c_free, with_start=True)  # Euler: c is the position
-    n_steps = prob.n_steps
-    if prob.n == 1:  # first-order chain: the velocity is the control, 0 after the last step
-        ext = np.vstack([ext, ext[-1:]])
-    vel = ext[1 : n_steps + 1] - ext[:n_steps]
+    # Euler: c_t is x_t; x_0 .. x_N from the fixed start, the free c and the tied tail (at
+    # rest, and for n = 1: the velocity is the control, 0 after the last step)
+    n, n_steps = prob.n, prob.n_steps
+    ext = np.zeros((n_steps + 1, prob.dim))
+    if prob.control_target is not None:  # a moving start: its fixed c_0 .. c_{n-1} are not 0
+        ext[:n] = prob.start
+    last = min(prob.n_coef, n_steps + 1)
+    ext[n:last] = c_free[: last - n]
+    ext[last:] = c_free[-1]
+    vel = ext[1:] - ext[:-1]
     vel /= prob.dt
     _check_finite(vel)  # every position enters a velocity: non-finite ones show there
-    return ext[:n_steps] + prob.origin, vel
+    return ext[:n_steps] + origin, vel
 
 
 def _control(prob: Problem, pos: np.ndarray) -> np.ndarray:

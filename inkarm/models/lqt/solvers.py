@@ -123,10 +123,11 @@ class Factor:
         return out if many else out[0]
 
     # public ----------------------------------------------------------------------------------
-    def mean(self, prob: Problem) -> np.ndarray:
+    def mean(self, prob: Problem, b: np.ndarray | None = None) -> np.ndarray:
         """Free coefficients (n_free, D) of the optimum of ``prob`` (this factor's problem, or
-        one of the same structure with other means, :mod:`.structure`): c_hat = H^-1 A^T b."""
-        b = rhs(prob)
+        one of the same structure with other means, :mod:`.structure`): c_hat = H^-1 A^T b;
+        ``b``: A^T b (n_free, D) if known (then ``prob`` gives the structure only)."""
+        b = rhs(prob) if b is None else b
         if self.method == "augmented":
             return self._aug_solve(b, prob.control_target)
         if prob.control_target is not None:

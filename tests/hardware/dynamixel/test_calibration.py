@@ -1,5 +1,6 @@
-"""Calibration: measured from the marks through the bus, stored beside the profile, used by
-the plant (offsets, reversed servos, the encoder's wrap)."""
+"""Calibration: measured from the marks through the bus, stored in the user's configuration
+folder (an older file beside the profile still read), used by the plant (offsets, reversed
+servos, the encoder's wrap)."""
 
 from __future__ import annotations
 
@@ -15,8 +16,11 @@ from inkarm.hardware.dynamixel.calibration import (
     Calibration,
     calibrate_arm,
     calibration_path,
+    find_calibration,
+    legacy_calibration_path,
     load_calibration,
     measure,
+    save_calibration,
 )
 from inkarm.hardware.dynamixel.plant import DynamixelPlant
 from inkarm.robots.profile import load_profile
@@ -36,7 +40,9 @@ def _copy_profile(tmp_path):
 
 
 def test_calibrate_measures_offsets_and_directions_and_the_plant_uses_them(tmp_path,
-                                                                          arm_emulator):
+                                                                          arm_emulator,
+                                                                          monkeypatch):
+    monkeypatch.setenv("INKARM_CONFIG_DIR", str(tmp_path / "config"))
     profile = _copy_profile(tmp_path)
     with arm_emulator(profile, offsets=OFFSETS, signs=SIGNS) as emu:
         joints = emu.physics
@@ -55,7 +61,9 @@ def test_calibrate_measures_offsets_and_directions_and_the_plant_uses_them(tmp_p
             return ""
 
         path = calibrate_arm(emu.port, profile, ask=ask, say=lambda text: None)
-        assert path == calibration_path(profile) == tmp_path / "my_arm.calibration.toml"
+        assert path == calibration_path(profile) == find_calibration(profile) == \
+            tmp_path / "config" / "calibration" / f"{profile.name}.joints.toml"
+        assert not legacy_calibration_path(profile).exists()  # nothing beside the profile
         cal = load_calibration(path, profile.joint_names)
         np.testing.assert_allclose(cal.offset_ticks, np.mod(OFFSETS, 4096), atol=1)
         np.testing.assert_array_equal(cal.direction, SIGNS)
@@ -67,6 +75,18 @@ def test_calibrate_measures_offsets_and_directions_and_the_plant_uses_them(tmp_p
         plant = DynamixelPlant(emu.port, profile, cal)
         np.testing.assert_allclose(plant.read().q, profile.home_q, atol=3e-3)
         plant.close()
+
+
+def test_a_file_beside_the_profile_is_read_until_there_is_a_new_one(tmp_path, monkeypatch):
+    monkeypatch.setenv("INKARM_CONFIG_DIR", str(tmp_path / "config"))
+    profile = _copy_profile(tmp_path)
+    assert find_calibration(profile) == calibration_path(profile)  # none yet: where it goes
+    old = save_calibration(Calibration.identity(profile.joint_names),
+                           legacy_calibration_path(profile), profile.name)
+    assert old == tmp_path / "my_arm.calibration.toml" == find_calibration(profile)
+    new = save_calibration(Calibration.identity(profile.joint_names), calibration_path(profile),
+                           profile.name)
+    assert find_calibration(profile) == new != old
 
 
 def test_a_mark_that_is_not_90_degrees_is_refused():
