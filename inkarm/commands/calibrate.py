@@ -15,6 +15,12 @@ it measures (so run them in the order pen, kinematics, paper: each later one dra
 earlier found). ``all`` runs pen, kinematics and paper in that order (the order that
 works: :mod:`inkarm.jobs.calibration_cell`). The old form ``inkarm calibrate --port PORT`` is
 ``calibrate joints``.
+
+A real arm's marks are on a real sheet, not on a canvas: ``pen``, ``kinematics`` and ``paper``
+then take two steps. ``--drawn FILE.npz`` draws the pattern on the backend, saves what the fit
+needs (:mod:`inkarm.jobs.calibration_files`) and stops; ``--read FILE.npz --scan SHEET.png
+[--corners "u,v u,v u,v u,v"]`` fits it to the scan's marks (nothing moves) and merges the
+result as above. ``paper`` draws ramped dashes in both steps (their ink tells the height).
 """
 
 from __future__ import annotations
@@ -81,6 +87,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                        help="calibration file to merge into (default: the robot's, in the "
                        "configuration folder)")
         s.add_argument("--quiet", action="store_true", help="no progress bar")
+        if name != "all":  # a real arm: draw, scan the sheet, then read the scan
+            s.add_argument("--drawn", metavar="FILE.npz", default=None,
+                           help="draw the pattern, save what the fit needs to FILE.npz and "
+                           "stop (then scan the sheet and run with --read)")
+            s.add_argument("--read", metavar="FILE.npz", default=None,
+                           help="fit a pattern drawn with --drawn from the scan --scan "
+                           "(nothing moves)")
+            s.add_argument("--scan", metavar="SHEET.png", default=None,
+                           help="with --read: a scan or photograph of the drawn sheet")
+            s.add_argument("--corners", metavar='"u,v u,v u,v u,v"', default=None,
+                           help="with --scan: the sheet's corners in pixels (u right, v down; "
+                           "lower-left, lower-right, upper-right, upper-left); default the "
+                           "image's own (an emulator's PNG covers the page exactly)")
         if name in ("paper", "all"):
             s.add_argument("--spacing", type=float, default=10.0 if name == "paper" else 5.0,
                            metavar="MM",
@@ -105,6 +124,19 @@ def run(args: argparse.Namespace) -> int:
         return _joints(args.legacy_port, args.legacy_robot, args.legacy_out)
     if what == "joints":
         return _joints(args.port, args.robot, args.out)
+    drawn, read = getattr(args, "drawn", None), getattr(args, "read", None)
+    scan, corners = getattr(args, "scan", None), getattr(args, "corners", None)
+    if drawn is not None and read is not None:
+        raise InputError("--drawn draws a pattern and --read fits a drawn one: give one of "
+                         "them", key="--read", value=read)
+    if read is None and (scan is not None or corners is not None):
+        raise InputError("--scan and --corners go with --read FILE.npz (the pattern they "
+                         "show)", key="--scan" if scan is not None else "--corners")
+    if read is not None:
+        if scan is None:
+            raise InputError(f"--read {read} needs the scan of its sheet: --scan SHEET.png",
+                             key="--scan")
+        return _read_scan(args, what)
     return _cell(args, what)
 
 
@@ -147,6 +179,8 @@ def _cell(args: argparse.Namespace, what: str) -> int:
         scenario = with_calibration(scenario, None)
     options = BackendOptions(port=args.port, time_scale=args.time_scale)
     bar = None if args.quiet else ProgressBar(f"calibrate {what} ({robot})")
+    if getattr(args, "drawn", None) is not None:
+        return _draw_only(args, what, scenario, options, bar, spacing)
     try:
         if what == "all":
             from inkarm.jobs.calibration_cell import calibrate_cell
@@ -212,3 +246,106 @@ def _geometry(what: str, scenario, backend: str, options, progress, out: Path):
     fitted, report = fits.calibrate_kinematics(scenario, backend, options, progress)
     return report, dataclasses.replace(held, link_length_mm=fitted.link_length_mm,
                                        joint_offset_deg=fitted.joint_offset_deg)
+
+
+def _draw_only(args: argparse.Namespace, what: str, scenario, options, bar,
+               spacing: float) -> int:
+    """``--drawn FILE``: draw the pattern of ``what`` on the backend, save what its fit needs
+    (:mod:`inkarm.jobs.calibration_files`) and say what to do next."""
+    try:
+        if what == "pen":
+            from inkarm.jobs.calibration_pen import draw_pen, save_pen
+
+            path = save_pen(draw_pen(scenario, args.backend, options, progress=bar), scenario,
+                            args.drawn)
+        elif what == "kinematics":
+            from inkarm.jobs.calibration_kinematics import draw_pattern, save_pattern
+
+            path = save_pattern(draw_pattern(scenario, args.backend, options, progress=bar),
+                                scenario, args.drawn)
+        else:  # the paper from ramped dashes' ink: what a scan shows on any arm
+            from inkarm.jobs.calibration import draw_dashes, save_dashes
+
+            path = save_dashes(draw_dashes(scenario, args.backend, options, max(spacing, 10.0),
+                                           bar), scenario, args.drawn)
+    finally:
+        if bar is not None:
+            bar.close()
+    out = f" --out {args.out}" if args.out else ""
+    print(f"drew the {what} pattern of {scenario.robot.name} ({args.backend}); wrote {path}")
+    print(f"next: scan or photograph the sheet (the whole page), then run\n"
+          f"  inkarm calibrate {what} --read {path} --scan SHEET.png{out}\n"
+          "(add --corners \"u,v u,v u,v u,v\", the sheet's lower-left, lower-right, upper-right "
+          "and upper-left corners in pixels, when the image shows more than the page)")
+    return 0
+
+
+def _read_scan(args: argparse.Namespace, what: str) -> int:
+    """``--read FILE --scan SHEET [--corners ...]``: fit the pattern drawn with ``--drawn`` to
+    the marks of the scan and merge the result into the calibration file, as the one-step
+    form does. Nothing moves."""
+    import dataclasses
+
+    from inkarm.control.calibration.marks import image_marks, read_darkness
+    from inkarm.errors import InputError
+    from inkarm.jobs.calibration import update_calibration
+    from inkarm.jobs.calibration_files import parse_corners, scan_corners
+    from inkarm.robots.calibration import calibration_path, read_calibration
+    from inkarm.robots.geometry import GeometryErrors
+    from inkarm.sim.cell_config import Cell
+
+    robot = args.robot if args.robot is not None and not args.robot.endswith(".toml") else None
+    if what == "pen":
+        from inkarm.jobs.calibration_pen import load_pen
+
+        drawn, scenario = load_pen(args.read, robot)
+    elif what == "kinematics":
+        from inkarm.jobs.calibration_kinematics import load_pattern
+
+        drawn, scenario = load_pattern(args.read, robot)
+    else:
+        from inkarm.jobs.calibration import load_dashes
+
+        drawn, scenario = load_dashes(args.read, robot)
+    corners_given = parse_corners(args.corners)
+    darkness = read_darkness(args.scan)
+    page = Cell(scenario.cell, scenario.robot).paper_size_mm
+    corners = scan_corners(darkness, corners_given, page, args.scan)
+    if len(image_marks(darkness, corners, page).page_mm) == 0:
+        raise InputError(f"no marks found in {args.scan} inside the sheet's corners "
+                         f"{corners.tolist()} (is it the drawn sheet, dark ink on light "
+                         "paper?)", key="--scan", value=str(args.scan))
+    name = scenario.robot.name
+    out = Path(args.out) if args.out else calibration_path(name)
+    held = (read_calibration(out).geometry if out.is_file() and what != "paper"
+            else GeometryErrors())
+    if what == "pen":
+        from inkarm.jobs.calibration_pen import fit_pen
+
+        found = fit_pen(drawn, darkness, corners)
+        tip = found.geometry.tip_offset_mm
+        summary = (f"tip offset ({', '.join(f'{v:+.3f}' for v in tip)}) mm in the flange "
+                   f"frame\n{found.fit.summary()}")
+        update = {"geometry": dataclasses.replace(held, tip_offset_mm=tip)}
+    elif what == "kinematics":
+        from inkarm.jobs.calibration_kinematics import fit_pattern
+
+        fit = fit_pattern(drawn, darkness, corners)
+        summary = fit.report()
+        update = {"geometry": dataclasses.replace(
+            held, link_length_mm=fit.geometry.link_length_mm,
+            joint_offset_deg=fit.geometry.joint_offset_deg)}
+    else:
+        from inkarm.jobs.calibration import read_dashes
+
+        probe = read_dashes(drawn, darkness, corners)
+        summary = probe.summary()
+        update = {"paper": probe.map}
+    first = summary.splitlines()[0] if summary else ""
+    note = f"{what}: {first} (scan {Path(args.scan).name} of {Path(args.read).name})"
+    cal, path = update_calibration(name, out, note=note, **update)
+    print(f"{what}: {summary}")
+    print(f"calibration of {name}: {cal.describe()}")
+    print(f"wrote {path} (draw with it: inkarm draw --calibration "
+          f"{'auto' if path == calibration_path(name) else path})")
+    return 0

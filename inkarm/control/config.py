@@ -149,7 +149,7 @@ class LoopConfig:
     map_lead_s: float = 0.03
     map_surface_lead_s: float = 0.0
     map_force_filter_s: float = 0.005
-    relief_accel_mm_s2: float = 2000.0
+    relief_accel_mm_s2: float = 500.0
 
     def __post_init__(self) -> None:
         for f in fields(self):

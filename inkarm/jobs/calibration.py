@@ -291,6 +291,42 @@ def draw_dashes(scenario: Scenario | str | Path | None = None, backend: str = "s
                        tuple(float(v) for v in range_mm))
 
 
+def save_dashes(drawn: DrawnDashes, scenario: Scenario, path: str | Path) -> Path:
+    """Write a :func:`draw_dashes` of ``scenario`` to a drawn file
+    (:mod:`inkarm.jobs.calibration_files`): the dashes (``starts_mm`` (k, 2) [mm], their
+    length, ramp and speed), the run's log (joint readings, force, phases, strokes), the rows'
+    ``spacing_mm`` and ``range_mm``; the calibration it believed (without a map). Returns the
+    path."""
+    from inkarm.jobs.calibration_files import log_arrays, save_drawn
+
+    d = drawn.dashes
+    base, _ = scenario_calibration(scenario)
+    base = dataclasses.replace(base, paper=None) if base is not None else None
+    arrays = {"starts_mm": d.starts_mm,
+              "dash": np.array([d.length_mm, d.top_mm, d.bottom_mm, d.speed_mm_s]),
+              "spacing_mm": np.array(drawn.spacing_mm), "range_mm": np.array(drawn.range_mm),
+              **log_arrays(drawn.run.log)}
+    return save_drawn(path, "paper", scenario, base, arrays)
+
+
+def load_dashes(path: str | Path, robot: str | None = None) -> tuple[DrawnDashes, Scenario]:
+    """The :class:`DrawnDashes` of a file by :func:`save_dashes` (a blank canvas: its ink comes
+    from a scan, ``read_dashes(drawn, image, corners_px)``) and its scenario."""
+    from inkarm.control.calibration.paper import RampDashes
+    from inkarm.jobs.calibration_files import SavedRun, load_drawn, saved_log
+
+    drawn = load_drawn(path, "paper", robot)
+    a, scenario = drawn.arrays, drawn.scenario
+    cell = Cell(scenario.cell, scenario.robot)
+    length, top, bottom, speed = (float(v) for v in a["dash"])
+    dashes = RampDashes(a["starts_mm"], length, top, bottom, speed)
+    believed, _ = believed_model(scenario, cell)
+    lo, hi = (float(v) for v in a["range_mm"])
+    return DrawnDashes(dashes, SavedRun(saved_log(a)), believed,
+                       scenario.ink.canvas(cell.paper_size_mm), float(a["spacing_mm"]),
+                       (lo, hi)), scenario
+
+
 def read_dashes(drawn: DrawnDashes, image=None, corners_px=None,
                 smoothing: float = DASH_SMOOTHING) -> PaperProbe:
     """The sheet's height map from drawn dashes (:func:`draw_dashes`): each dash read from where
@@ -408,6 +444,7 @@ def update_calibration(robot: str, path: str | Path | None = None, *,
 
 
 __all__ = ["DASH_SMOOTHING", "DWELL_S", "PARTS", "DrawnDashes", "PageSource", "PaperProbe",
-           "believed_model", "believing", "calibrate_paper", "draw_dashes", "drawing_scenario", "held",
-           "ink_threshold_n", "probe_paper", "probe_paper_marks", "read_dashes", "scenario_calibration", "update_calibration",
+           "believed_model", "believing", "calibrate_paper", "draw_dashes", "drawing_scenario",
+           "held", "ink_threshold_n", "load_dashes", "probe_paper", "probe_paper_marks",
+           "read_dashes", "save_dashes", "scenario_calibration", "update_calibration",
            "with_calibration", "without"]

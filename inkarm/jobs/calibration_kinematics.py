@@ -188,8 +188,11 @@ def fit_pattern(pattern: DrawnPattern, image: str | Path | np.ndarray | None = N
              if image is not None else None)
     shift = min(max_shift_mm, radius) if sheet is not None else max_shift_mm
     marked = []
-    for points, readings, run in zip(pattern.points_mm, pattern.readings, pattern.runs,
-                                     strict=True):
+    runs = pattern.runs or (None,) * len(pattern.points_mm)  # (read from a drawn file)
+    for points, readings, run in zip(pattern.points_mm, pattern.readings, runs, strict=True):
+        if sheet is None and (run is None or run.canvas is None):
+            raise InputError("this pattern was drawn on a real sheet (no canvas): give a scan "
+                             "of it", key="image")
         marks = sheet if sheet is not None else canvas_marks(run.canvas)
         marked.append(match_marks(points, marks, radius, shift) - readings.offset_mm)
     q = np.vstack([r.q for r in pattern.readings])
@@ -298,6 +301,41 @@ def calibrate_kinematics(scenario: Scenario | str | Path | None = None, backend:
     return result.geometry, result.report()
 
 
+def save_pattern(pattern: DrawnPattern, scenario: Scenario, path: str | Path) -> Path:
+    """Write ``pattern`` (drawn by :func:`draw_pattern` from ``scenario``) to a drawn file
+    (:mod:`inkarm.jobs.calibration_files`): per run j its dots ``points{j}`` (k, 2) [mm],
+    joint readings ``q{j}`` (k, n) [rad], compression ``compression{j}`` (k,) [mm] and mark
+    offsets ``offset{j}`` (k, 2) [mm]; the calibration it was drawn with. Returns the path."""
+    from inkarm.jobs.calibration_files import save_drawn
+
+    arrays: dict[str, np.ndarray] = {"runs": np.array(len(pattern.points_mm))}
+    for j, (points, r) in enumerate(zip(pattern.points_mm, pattern.readings, strict=True)):
+        arrays |= {f"points{j}": points, f"q{j}": r.q, f"compression{j}": r.compression_mm,
+                   f"offset{j}": r.offset_mm}
+    return save_drawn(path, "kinematics", scenario, pattern.calibration, arrays)
+
+
+def load_pattern(path: str | Path, robot: str | None = None) -> tuple[DrawnPattern, Scenario]:
+    """The :class:`DrawnPattern` of a file by :func:`save_pattern` (no runs: its marks come
+    from a scan, ``fit_pattern(pattern, image, corners_px)``) and its scenario. Raises
+    InputError as :func:`~inkarm.jobs.calibration_files.load_drawn` does."""
+    from inkarm.control.calibration.kinematics import DotReadings
+    from inkarm.jobs.calibration_files import load_drawn
+    from inkarm.sim.cell import kinematic_model
+
+    drawn = load_drawn(path, "kinematics", robot)
+    a = drawn.arrays
+    runs = range(int(a["runs"]))
+    points = tuple(a[f"points{j}"] for j in runs)
+    readings = tuple(DotReadings(a[f"q{j}"], a[f"compression{j}"], a[f"offset{j}"])
+                     for j in runs)
+    scenario = drawn.scenario
+    old = drawn.calibration
+    model = kinematic_model(Cell(scenario.cell, scenario.robot))
+    base = old.geometry if old is not None else GeometryErrors()
+    return DrawnPattern(points, readings, (), model, base, old), scenario
+
+
 def _part(progress: Progress, start: float, stop: float) -> Progress:
     if progress is None:
         return None
@@ -314,4 +352,5 @@ def _with_home(scenario: Scenario, home: np.ndarray) -> Scenario:
 
 
 __all__ = ["DrawnPattern", "KinematicsCalibration", "KinematicsOptions", "Runner",
-           "calibrate_kinematics", "calibrate_kinematics_run", "draw_pattern", "fit_pattern"]
+           "calibrate_kinematics", "calibrate_kinematics_run", "draw_pattern", "fit_pattern",
+           "load_pattern", "save_pattern"]

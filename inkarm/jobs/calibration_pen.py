@@ -37,9 +37,10 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.control.calibration.dots import settled_rows
 from inkarm.control.calibration.pen import AZIMUTHS_DEG, SPINS_DEG
 from inkarm.control.laws import DEFAULT_LAW, LawSpec
-from inkarm.core.log import DRAW, DrawLog
+from inkarm.core.log import DrawLog
 from inkarm.errors import InputError
 from inkarm.jobs.calibration import (
     Progress,
@@ -54,7 +55,6 @@ from inkarm.robots.geometry import GeometryErrors
 from inkarm.sim.cell_config import Cell
 
 PRELOAD_SHARE = 0.8  # the dots' force as a share of the pen's preload (when it has one)
-SETTLED_SHARE = 0.5  # the last half of a dot's pressed rows: the pen has settled
 POSE_TOLERANCE_DEG = 2.0  # how far a dot's measured pen tilt may be from its plan [deg]
 
 
@@ -171,10 +171,7 @@ def dot_readings(log: DrawLog, dots: int, force_n: float) -> tuple[np.ndarray, n
     q = np.zeros((dots, log.q.shape[1]))
     force = np.full(dots, np.nan)
     for k in range(dots):
-        mine = np.flatnonzero((log.stroke == k) & (log.phase == DRAW))
-        if sensed:
-            mine = mine[log.force[mine] > 0.5 * force_n]
-        mine = mine[int(len(mine) * (1.0 - SETTLED_SHARE)):]
+        mine = settled_rows(log, k, force_n if sensed else None)
         if len(mine) == 0:
             raise InputError(f"dot {k} of the pen pattern was never pressed on the paper (no "
                              "logged contact): is the sheet where the model believes it?",
@@ -209,24 +206,36 @@ def check_poses(rotations: np.ndarray, poses) -> None:
                              "meta['pen_poses'])", key="pen_poses", value=k)
 
 
-def calibrate_pen_run(scenario: Scenario | str | Path | None = None, backend: str = "sim",
-                      options=None, settings: PenOptions | None = None,
-                      progress: Progress = None) -> PenCalibration:
-    """Calibrate the pen of ``scenario`` on ``backend`` (module docstring); ``options`` are
-    the backend's (:class:`inkarm.jobs.backends.BackendOptions`), ``settings`` the
-    calibration's. Raises InputError when the pattern run fails, a dot leaves no mark or two,
-    its pen was not posed as planned, the marks cannot tell the offset, or the image's corners
-    are missing."""
-    from inkarm.control.calibration.marks import canvas_marks, image_marks, match_marks
-    from inkarm.control.calibration.pen import fit_tip_offset, pen_pattern, tip_poses
+@dataclass(frozen=True, eq=False)
+class DrawnPen:
+    """The pen pattern as drawn (:func:`draw_pen`): per dot its plan ``points_mm`` (k, 2)
+    [mm], whether it was ``upright`` (k,), the joint readings ``q`` (k, n) [rad] and the sensed
+    force ``force_n`` (k,) [N] (NaN: not sensed); the dots' ``spacing_mm``; the controller's
+    model while it drew (``believed``), the ``calibration`` it believed (or None), and the
+    ``run`` (a :class:`~inkarm.jobs.calibration_files.SavedRun` when read from a file)."""
+
+    points_mm: np.ndarray
+    upright: np.ndarray
+    q: np.ndarray
+    force_n: np.ndarray
+    spacing_mm: float
+    believed: object
+    calibration: CellCalibration | None
+    run: object
+
+
+def draw_pen(scenario: Scenario | str | Path | None = None, backend: str = "sim",
+             options=None, settings: PenOptions | None = None,
+             progress: Progress = None) -> DrawnPen:
+    """Draw the pen pattern (module docstring, steps 1 to 3, without the marks) and read the
+    joints at each dot. Raises InputError when the run fails, a dot was never pressed or its
+    pen was not posed as planned."""
+    from inkarm.control.calibration.pen import pen_pattern, tip_poses
     from inkarm.jobs.backends import get_backend, run_backend
 
     settings = settings or PenOptions()
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
-    if settings.image is not None and settings.corners_px is None:
-        raise InputError("an image of the sheet needs its four corners in pixels (lower-left, "
-                         "lower-right, upper-right, upper-left)", key="corners_px")
     cell = Cell(scenario.cell, scenario.robot)
     old, _ = scenario_calibration(scenario)
     believed, _ = believed_model(scenario, cell)
@@ -245,39 +254,108 @@ def calibrate_pen_run(scenario: Scenario | str | Path | None = None, backend: st
     law = scenario.law if settings.law in (None, scenario.law.name) else LawSpec(settings.law)
     probe = drawing_scenario(dataclasses.replace(scenario, controller=controller, law=law),
                              pattern, title=f"pen calibration of {scenario.title}")
-    run = run_backend(backend, probe, options, progress=_part(progress, 0.0, 0.4))
+    run = run_backend(backend, probe, options, progress=progress)
     if not run.finished:
         raise InputError(f"the pen pattern's run failed: {run.reason}", key="calibrate pen")
     points = np.array([s.pos[0, :2] for s in pattern.strokes])
     poses = pattern.meta["pen_poses"]
     q, sensed = dot_readings(run.log, len(points), float(force))
-    rotations, tips = tip_poses(believed, q)
+    rotations, _ = tip_poses(believed, q)
     check_poses(rotations, poses)
-    if settings.image is None:
-        marks = canvas_marks(run.canvas)
+    upright = np.array([p is None or p.tilt_deg == 0.0 for p in poses])
+    return DrawnPen(points, upright, q, sensed, float(settings.spacing_mm), believed, old, run)
+
+
+def fit_pen(drawn: DrawnPen, image=None, corners_px=None,
+            max_shift_mm: float = 10.0) -> PenCalibration:
+    """The tip offset from a :func:`draw_pen` (module docstring, step 4, without the redraw):
+    the marks on its run's canvas, or on ``image`` (a file or a darkness raster) with its
+    ``corners_px``, each matched to its dot within 0.45 of the spacing after the marks' common
+    shift (at most ``max_shift_mm``). Raises InputError when a dot has no mark or two, the
+    marks cannot tell the offset, an image comes without its corners or there is neither an
+    image nor a canvas."""
+    from inkarm.control.calibration.marks import canvas_marks, image_marks, match_marks
+    from inkarm.control.calibration.pen import fit_tip_offset, tip_poses
+
+    if image is not None and corners_px is None:
+        raise InputError("an image of the sheet needs its four corners in pixels (lower-left, "
+                         "lower-right, upper-right, upper-left)", key="corners_px")
+    believed, points, q, sensed = drawn.believed, drawn.points_mm, drawn.q, drawn.force_n
+    rotations, tips = tip_poses(believed, q)
+    if image is not None:
+        marks = image_marks(image, corners_px, believed.placement.size_mm)
+    elif getattr(drawn.run, "canvas", None) is not None:
+        marks = canvas_marks(drawn.run.canvas)
     else:
-        marks = image_marks(settings.image, settings.corners_px, cell.paper_size_mm)
-    marked = match_marks(points, marks, 0.45 * settings.spacing_mm, settings.max_shift_mm)
+        raise InputError("this pen pattern was drawn on a real sheet (no canvas): give a scan "
+                         "of it", key="image")
+    marked = match_marks(points, marks, 0.45 * drawn.spacing_mm, max_shift_mm)
     used = np.ones(len(points), dtype=bool)
     if np.isfinite(sensed).all():
         fit = fit_tip_offset(rotations, tips, marked, compression_mm(sensed, rotations, believed))
     else:  # no force sensed: the pen's compression is not known, only the upright dots tell
-        used = np.array([p is None or p.tilt_deg == 0.0 for p in poses])
+        used = np.asarray(drawn.upright, dtype=bool)
         fit = fit_tip_offset(rotations[used], tips[used], marked[used], length=False)
+    old = drawn.calibration
     base = old.geometry.tip_offset_mm if old is not None else (0.0, 0.0, 0.0)
     tip = tuple(float(a + b) for a, b in zip(base, fit.tip_offset_mm, strict=True))
-    geometry = GeometryErrors(tip_offset_mm=tip)
-    before = after = None
-    if settings.redraw:
-        before = run_backend(backend, scenario, options, progress=_part(progress, 0.4, 0.7))
-        corrected = CellCalibration(
-            robot=scenario.robot.name, paper=old.paper if old is not None else None,
-            geometry=dataclasses.replace(old.geometry if old is not None else GeometryErrors(),
-                                         tip_offset_mm=tip),
-            notes=(*(old.notes if old is not None else ()), f"pen: {fit.summary()}"))
-        after = run_backend(backend, with_calibration(scenario, corrected), options,
-                            progress=_part(progress, 0.7, 1.0))
-    return PenCalibration(fit, geometry, run, before, after, q, sensed, marked, used)
+    return PenCalibration(fit, GeometryErrors(tip_offset_mm=tip), drawn.run, None, None, q,
+                          sensed, marked, used)
+
+
+def save_pen(drawn: DrawnPen, scenario: Scenario, path: str | Path) -> Path:
+    """Write a :func:`draw_pen` of ``scenario`` to a drawn file
+    (:mod:`inkarm.jobs.calibration_files`): ``points_mm``, ``upright``, ``q``, ``force_n``,
+    ``spacing_mm``. Returns the path."""
+    from inkarm.jobs.calibration_files import save_drawn
+
+    return save_drawn(path, "pen", scenario, drawn.calibration,
+                      {"points_mm": drawn.points_mm, "upright": drawn.upright, "q": drawn.q,
+                       "force_n": drawn.force_n, "spacing_mm": np.array(drawn.spacing_mm)})
+
+
+def load_pen(path: str | Path, robot: str | None = None) -> tuple[DrawnPen, Scenario]:
+    """The :class:`DrawnPen` of a file by :func:`save_pen` (its model rebuilt believing the
+    calibration it was drawn with; no canvas) and its scenario."""
+    from inkarm.jobs.calibration_files import SavedRun, load_drawn
+
+    drawn = load_drawn(path, "pen", robot)
+    a, scenario = drawn.arrays, drawn.scenario
+    believed, _ = believed_model(scenario, Cell(scenario.cell, scenario.robot))
+    return DrawnPen(a["points_mm"], a["upright"].astype(bool), a["q"], a["force_n"],
+                    float(a["spacing_mm"]), believed, drawn.calibration, SavedRun(None)), scenario
+
+
+def calibrate_pen_run(scenario: Scenario | str | Path | None = None, backend: str = "sim",
+                      options=None, settings: PenOptions | None = None,
+                      progress: Progress = None) -> PenCalibration:
+    """Calibrate the pen of ``scenario`` on ``backend`` (module docstring): :func:`draw_pen`,
+    :func:`fit_pen`, and with ``settings.redraw`` the redraws; ``options`` are the backend's
+    (:class:`inkarm.jobs.backends.BackendOptions`), ``settings`` the calibration's. Raises
+    InputError as those do, or when the image's corners are missing (before anything
+    moves)."""
+    from inkarm.jobs.backends import run_backend
+
+    settings = settings or PenOptions()
+    if not isinstance(scenario, Scenario):
+        scenario = load_scenario(scenario)
+    if settings.image is not None and settings.corners_px is None:
+        raise InputError("an image of the sheet needs its four corners in pixels (lower-left, "
+                         "lower-right, upper-right, upper-left)", key="corners_px")
+    drawn = draw_pen(scenario, backend, options, settings, _part(progress, 0.0, 0.4))
+    result = fit_pen(drawn, settings.image, settings.corners_px, settings.max_shift_mm)
+    if not settings.redraw:
+        return result
+    old, tip = drawn.calibration, result.geometry.tip_offset_mm
+    before = run_backend(backend, scenario, options, progress=_part(progress, 0.4, 0.7))
+    corrected = CellCalibration(
+        robot=scenario.robot.name, paper=old.paper if old is not None else None,
+        geometry=dataclasses.replace(old.geometry if old is not None else GeometryErrors(),
+                                     tip_offset_mm=tip),
+        notes=(*(old.notes if old is not None else ()), f"pen: {result.fit.summary()}"))
+    after = run_backend(backend, with_calibration(scenario, corrected), options,
+                        progress=_part(progress, 0.7, 1.0))
+    return dataclasses.replace(result, before=before, after=after)
 
 
 def _part(progress: Progress, start: float, stop: float) -> Progress:
@@ -294,5 +372,6 @@ def calibrate_pen(scenario: Scenario | str | Path | None = None, backend: str = 
     return calibrate_pen_run(scenario, backend, options, settings, progress).geometry
 
 
-__all__ = ["PenCalibration", "PenOptions", "calibrate_pen", "calibrate_pen_run",
-           "check_poses", "compression_mm", "dot_readings"]
+__all__ = ["DrawnPen", "PenCalibration", "PenOptions", "calibrate_pen", "calibrate_pen_run",
+           "check_poses", "compression_mm", "dot_readings", "draw_pen", "fit_pen", "load_pen",
+           "save_pen"]

@@ -51,7 +51,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from inkarm.core.log import DRAW, DrawLog
+from inkarm.control.calibration.dots import settled_rows
+from inkarm.core.log import DrawLog
 from inkarm.core.trajectory import Drawing, Trajectory
 from inkarm.errors import InputError
 from inkarm.robots.geometry import GeometryErrors, apply_geometry
@@ -62,7 +63,6 @@ OFFSET_SCALE_DEG = 0.1
 NO_ERRORS = GeometryErrors()
 RIDGE_MM = 1.0  # the ridge's weight [mm per scale unit] on the unidentifiable directions
 DWELL_S = 0.15  # how long the pen rests on each dot [s]
-SETTLED_SHARE = 0.5  # the last half of a dot's pressed rows: the pen has settled
 
 
 def dot_pattern(page_size_mm: tuple[float, float], columns: int = 5, rows: int = 6,
@@ -268,10 +268,7 @@ def dot_readings(log: DrawLog, dots: int, force_n: float, tip: TipModel, ink=Non
     offset = np.zeros((dots, 2))
     zero = np.zeros(2 * tip.n - 1)
     for k in range(dots):
-        mine = np.flatnonzero((log.stroke == k) & (log.phase == DRAW))
-        if sensed:
-            mine = mine[log.force[mine] > 0.5 * force_n]
-        mine = mine[int(len(mine) * (1.0 - SETTLED_SHARE)):]
+        mine = settled_rows(log, k, force_n if sensed else None)
         if len(mine) == 0:
             raise InputError(f"dot {k} of the pattern was never pressed on the paper (no logged "
                              "contact): is the sheet where the model believes it?", key="dots",

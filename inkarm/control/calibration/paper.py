@@ -54,13 +54,13 @@ from pathlib import Path
 
 import numpy as np
 
+from inkarm.control.calibration.dots import settled_rows
 from inkarm.core.log import DRAW, LIFT, DrawLog
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError
 from inkarm.robots.calibration import HeightMap
 from inkarm.robots.kinematic import KinematicModel
 
-SETTLED_SHARE = 0.5  # the last half of a dot's rows are its settled samples
 MAX_GRID = 400  # grid lines per axis of a fitted map (a 400 mm drawing at 1 mm)
 
 
@@ -96,8 +96,7 @@ def contact_heights(log: DrawLog, believed: KinematicModel, dots: int,
     rows, index, missed = [], [], []
     curve = None
     for k in range(dots):
-        mine = np.flatnonzero((log.stroke == k) & (log.phase == DRAW))
-        mine = mine[int(len(mine) * (1.0 - SETTLED_SHARE)):]
+        mine = settled_rows(log, k)
         force = log.force[mine]
         mine = mine[np.abs(force - force_n) < settle_tol_n]
         if len(mine) == 0:
