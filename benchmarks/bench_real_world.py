@@ -81,6 +81,10 @@ def table(rows: dict[str, dict]) -> str:
                           f"{r['cpu_s']:.1f} |\n" for name, r in rows.items())
 
 
+def _why(reason: str) -> str:
+    return f" ({reason})" if reason else ""
+
+
 def member(seed: int) -> dict:
     return before_after(REAL_MIX, seed=seed)
 
@@ -118,7 +122,8 @@ def main() -> int:
     out += [f"### An ensemble of {members} plants around the mix\n\n",
             (f"Without calibration {ok_before}/{members} ok; after calibration "
              f"{sum(ok_after)}/{members} ok. Worst after calibration: seed {worst}, "
-             f"{cells(w['after'])} ({(w['after'] or {}).get('reason') or w.get('error', '')}). "
+             f"{cells(w['after'])}"
+             f"{_why((w['after'] or {}).get('reason') or w.get('error', ''))}. "
              f"{time.time() - start:.0f} s wall on {os.cpu_count()} processes.\n\n"),
             load_line(load_before) + "\n"]
     print("".join(out))

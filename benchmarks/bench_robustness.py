@@ -123,10 +123,12 @@ def ensemble_summary(title: str, results: list[dict]) -> str:
     meets = sum(r["meets"] for r in results)
     worst = max(range(len(results)), key=lambda k: results[k]["tracking_rms_mm"])
     w, n = results[worst], len(results)
+    missed = [f"seed {k} {r['status']} ({r['reason'] or 'outside a bound'})"
+              for k, r in enumerate(results) if not r["meets"]]
     return (f"{title}: {ok}/{n} ok, {meets}/{n} within every bound; worst tracking: seed "
             f"{worst}, {w['status']}, RMS {fmt(w['tracking_rms_mm'])} mm, chamfer "
             f"{fmt(w['ink_chamfer_mm'])} mm, force {fmt(w['force_p01'])}..{fmt(w['force_p99'])} "
-            "N.\n")
+            "N." + (f" Not within every bound: {'; '.join(missed)}." if missed else "") + "\n")
 
 
 def fmt(x: float, digits: int = 3) -> str:

@@ -71,7 +71,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
           "joint-offset corrections by least squares; store them and report before/after.")),
         ("all", "the pen, the kinematics and the paper, in that order",
          ("Calibrate the pen, then the arm's kinematics believing that pen, then the paper "
-          "through both (a backend without a force sensor: no paper); store all three.")),
+          "through both (a backend without a force sensor: ramped dashes read from their "
+          "ink); store all three.")),
     ):
         s = sub.add_parser(name, help=help_, description=description)
         s.add_argument("scenario", nargs="?", default=None,
@@ -155,7 +156,7 @@ def _cell(args: argparse.Namespace, what: str) -> int:
     from inkarm.commands.draw import ProgressBar
     from inkarm.errors import InputError
     from inkarm.jobs.backends import BackendOptions, get_backend
-    from inkarm.jobs.calibration import believing, update_calibration
+    from inkarm.jobs.calibration import believing
     from inkarm.jobs.scenario import load_scenario
     from inkarm.robots.calibration import calibration_path
 
@@ -208,9 +209,18 @@ def _cell(args: argparse.Namespace, what: str) -> int:
     finally:
         if bar is not None:
             bar.close()
+    return _merged(what, summary, f"{args.backend}, scenario {scenario.title!r}", robot, out,
+                   update)
+
+
+def _merged(what: str, summary: str, source: str, robot: str, out, update: dict) -> int:
+    """Merge ``update`` into the calibration file ``out`` with a note (the summary's first line
+    and where it came from) and say what was found and written."""
+    from inkarm.jobs.calibration import update_calibration
+    from inkarm.robots.calibration import calibration_path
+
     first = summary.splitlines()[0] if summary else ""  # (a report's first line in the file)
-    note = f"{what}: {first} ({args.backend}, scenario {scenario.title!r})"
-    cal, path = update_calibration(robot, out, note=note, **update)
+    cal, path = update_calibration(robot, out, note=f"{what}: {first} ({source})", **update)
     print(f"{what}: {summary}")
     print(f"calibration of {robot}: {cal.describe()}")
     print(f"wrote {path} (draw with it: inkarm draw --calibration "
@@ -288,7 +298,6 @@ def _read_scan(args: argparse.Namespace, what: str) -> int:
 
     from inkarm.control.calibration.marks import image_marks, read_darkness
     from inkarm.errors import InputError
-    from inkarm.jobs.calibration import update_calibration
     from inkarm.jobs.calibration_files import parse_corners, scan_corners
     from inkarm.robots.calibration import calibration_path, read_calibration
     from inkarm.robots.geometry import GeometryErrors
@@ -341,11 +350,5 @@ def _read_scan(args: argparse.Namespace, what: str) -> int:
         probe = read_dashes(drawn, darkness, corners)
         summary = probe.summary()
         update = {"paper": probe.map}
-    first = summary.splitlines()[0] if summary else ""
-    note = f"{what}: {first} (scan {Path(args.scan).name} of {Path(args.read).name})"
-    cal, path = update_calibration(name, out, note=note, **update)
-    print(f"{what}: {summary}")
-    print(f"calibration of {name}: {cal.describe()}")
-    print(f"wrote {path} (draw with it: inkarm draw --calibration "
-          f"{'auto' if path == calibration_path(name) else path})")
-    return 0
+    return _merged(what, summary, f"scan {Path(args.scan).name} of {Path(args.read).name}",
+                   name, out, update)

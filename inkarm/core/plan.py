@@ -334,7 +334,8 @@ def stroke_from_arrays(
         return None
     means = _frozen(np.array(means))  # a copy: the caller's array stays writable and theirs
     checked = _frozen(checked)
-    return StrokePlan(TargetArray(means, checked), segment_time, keypoints, meta=dict(meta or {}))
+    return StrokePlan(TargetArray._trusted(means, checked), segment_time, keypoints,
+                      meta=dict(meta or {}))
 
 
 class TargetArray(Sequence):
@@ -345,8 +346,26 @@ class TargetArray(Sequence):
 
     __slots__ = ("covs", "means")
 
-    def __init__(self, means: np.ndarray, covs: np.ndarray) -> None:
-        self.means, self.covs = means, covs
+    def __init__(self, means, covs) -> None:
+        """Checked: finite means (m, D), covariances (m, D, D) each symmetric positive
+        definite (as :func:`check_covariance` has them); both kept read-only copies."""
+        means, covs = np.array(means, dtype=float), np.array(covs, dtype=float)
+        m = len(means)
+        if means.ndim != 2 or covs.shape != (m, means.shape[1], means.shape[1]):
+            raise PlanError(f"targets: expected means (m, D) and covariances (m, D, D), got "
+                            f"{means.shape} and {covs.shape}")
+        checked = _checked_covariances(covs) if m else covs
+        if not np.isfinite(means).all() or checked is None:
+            raise PlanError("targets: expected finite means and symmetric positive definite "
+                            "covariances")
+        self.means, self.covs = _frozen(means), _frozen(checked)
+
+    @classmethod
+    def _trusted(cls, means: np.ndarray, covs: np.ndarray) -> TargetArray:
+        """Arrays already checked and frozen (:func:`stroke_from_arrays`): kept as they are."""
+        out = cls.__new__(cls)
+        out.means, out.covs = means, covs
+        return out
 
     def __len__(self) -> int:
         return len(self.means)

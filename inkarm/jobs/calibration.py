@@ -67,6 +67,13 @@ def scenario_calibration(scenario: Scenario) -> tuple[CellCalibration | None, st
         raise InputError(f"the calibration ({where}) was measured on robot {cal.robot!r}, "
                          f"the scenario's robot is {robot!r}", key="calibration",
                          value=str(spec) if isinstance(spec, str) else cal.robot)
+    n = len(scenario.robot.joint_names)
+    for name in ("link_length_mm", "joint_offset_deg"):
+        values = getattr(cal.geometry, name)
+        if len(values) not in (0, n):
+            raise InputError(f"expected {n} numbers (one per joint of {robot}), got "
+                             f"{len(values)}", key=f"geometry.{name}", value=list(values),
+                             file=where)
     return cal, f"calibration: {where}: {cal.describe()}"
 
 

@@ -231,12 +231,28 @@ def _read_geometry(rd: TomlReader, table) -> GeometryErrors:
     if len(tip) != 3:
         raise rd.error("geometry.tip_offset_mm", f"expected 3 numbers (x, y, z in the flange "
                        f"frame) [mm], got {len(tip)}", value=list(tip))
+    for key, values, bound in (("link_length_mm", links, LIMITS["mm"]),
+                               ("tip_offset_mm", tip, LIMITS["mm"]),
+                               ("joint_offset_deg", offsets, LIMITS["deg"])):
+        _within(rd, f"geometry.{key}", values, bound)
     try:
         return GeometryErrors(link_length_mm=links, joint_offset_deg=offsets,
                               tip_offset_mm=(tip[0], tip[1], tip[2]))
     except InputError as e:  # (checked above; whatever GeometryErrors adds names the file too)
         raise ScenarioError(e.message, file=rd.source, key=f"geometry.{e.key}",
                             value=e.value) from None
+
+
+# What a calibration may correct: as large as the plant truths it is measured against
+# (sim/imperfections.py RANGES); beyond, the file is not a calibration of this kind of cell.
+LIMITS = {"mm": 50.0, "deg": 10.0}
+
+
+def _within(rd: TomlReader, key: str, values, bound: float) -> None:
+    worst = max((abs(float(v)) for v in values), default=0.0)
+    if not worst <= bound:
+        raise rd.error(key, f"expected corrections within +-{bound:g} "
+                       f"{'deg' if key.endswith('deg') else 'mm'}, got {worst:g}", value=worst)
 
 
 def _vector(rd: TomlReader, value, key: str) -> tuple[float, ...]:
@@ -252,6 +268,7 @@ def _read_paper(rd: TomlReader, table) -> HeightMap:
     x = rd.array(p["x_mm"], "paper.x_mm", 1)
     y = rd.array(p["y_mm"], "paper.y_mm", 1)
     z = rd.array(p["z_mm"], "paper.z_mm", 2)
+    _within(rd, "paper.z_mm", np.ravel(z), LIMITS["mm"])
     try:
         return HeightMap(x, y, z)
     except InputError as e:

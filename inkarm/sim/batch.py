@@ -484,7 +484,10 @@ class BatchPlant:
         return out
 
     def close(self) -> None:
-        """Nothing to release (members' pens are lifted when their canvases are fed)."""
+        """The members' models get their own Coulomb friction back (stiction switched it)."""
+        if self.stiction is not None:
+            for model, coulomb in zip(self._models, self.stiction.coulomb):
+                model.dof_frictionloss[self._friction_dofs] = coulomb
 
 
 __all__ = [

@@ -229,8 +229,7 @@ class MujocoPlant:
                                                     self._qvel[self._dof_adr].copy()))
 
     def _setup_stiction(self, stiction: np.ndarray, dofs: np.ndarray) -> None:
-        """Joints with stiction switch their dry friction between stuck and sliding
-        (:mod:`inkarm.sim.stiction`); they start stuck where they start within the window."""
+        """Joints with stiction switch their friction, stuck/sliding (:mod:`inkarm.sim.stiction`)."""
         self.stiction: Stiction | None = None
         self._friction_dofs = dofs
         if not stiction.any():
@@ -358,8 +357,7 @@ class MujocoPlant:
             ramp = self._affine
             ctrl, arm, u, du, drive = self._ctrl, self._arm_ctrl, self._u, self._du, self.drive
         fast = self._fast and self._position_goal is None and not self._queue
-        h, senses, stiction, relief = (self._timestep, self.senses_model, self.stiction,
-                                       self._relief)
+        h, senses, stiction, relief = self._timestep, self.senses_model, self.stiction, self._relief
         for _ in range(self.substeps):
             if ramp:  # the drives run in MuJoCo; the set point moves with its velocity
                 ctrl[arm] = u
@@ -491,6 +489,8 @@ class MujocoPlant:
         if self._affine:
             self._set_affine(False)
         self.data.ctrl[:] = 0.0
+        if self.stiction is not None:  # (the model's own Coulomb friction back, for its next use)
+            self.model.dof_frictionloss[self._friction_dofs] = self.stiction.coulomb
         self._motor_torque = np.zeros(len(self.joint_names))
         self._position_goal = None
         self._queue.clear()

@@ -81,23 +81,27 @@ def read_relief_file(path: str | Path, cell_mm: float, size_mm: tuple[float, flo
     if not path.is_file():
         raise InputError(f"no such file: {path} (a CSV of heights in mm)", key=key,
                          value=str(path))
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not a text file (byte {e.start} is not UTF-8): expected a "
+                         "CSV of heights in mm", key=key, value=str(path)) from None
     rows = []
-    with path.open(newline="") as f:
-        for n, row in enumerate(csv.reader(f), start=1):
-            cells = [c.strip() for c in row]
-            if not any(cells) or cells[0].startswith("#"):
-                continue
-            try:
-                values = [float(c) for c in cells]
-            except ValueError:
-                bad = next(c for c in cells if not _is_number(c))
-                raise InputError(f"{path}: line {n}, column {cells.index(bad) + 1}: expected a "
-                                 f"height in mm, got {bad!r}", key=key, value=str(path)) from None
-            if rows and len(values) != len(rows[0]):
-                raise InputError(f"{path}: line {n} has {len(values)} heights, expected "
-                                 f"{len(rows[0])} as in the first row (every row one grid line "
-                                 "across the page)", key=key, value=str(path))
-            rows.append(values)
+    for n, row in enumerate(csv.reader(text.splitlines()), start=1):
+        cells = [c.strip() for c in row]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            raise InputError(f"{path}: line {n}, column {cells.index(bad) + 1}: expected a "
+                             f"height in mm, got {bad!r}", key=key, value=str(path)) from None
+        if rows and len(values) != len(rows[0]):
+            raise InputError(f"{path}: line {n} has {len(values)} heights, expected "
+                             f"{len(rows[0])} as in the first row (every row one grid line "
+                             "across the page)", key=key, value=str(path))
+        rows.append(values)
     if not rows:
         raise InputError(f"{path}: no heights (expected CSV rows of heights in mm)", key=key,
                          value=str(path))

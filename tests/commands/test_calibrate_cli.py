@@ -130,6 +130,16 @@ def test_calibrate_pen_without_its_module_says_so(capsys, monkeypatch):
            "inkarm.jobs.calibration_pen)" in err
 
 
+def test_a_calibration_of_another_joint_count_is_refused_naming_its_file(capsys, tmp_path):
+    path = tmp_path / "short.toml"
+    write_calibration(CellCalibration("iiwa14", geometry=GeometryErrors(
+        link_length_mm=(0.0, 1.0))), path)
+    status, _, err = _main(capsys, "draw", "--calibration", str(path), "--check")
+    assert status == 2
+    assert (f"{path}: geometry.link_length_mm: expected 7 numbers (one per joint of iiwa14), "
+            "got 2") in err
+
+
 def test_draw_with_a_calibration(capsys, tmp_path, config_dir):
     status, out, err = _main(capsys, "draw", "--calibration", str(tmp_path / "none.toml"),
                              "--check")

@@ -320,3 +320,16 @@ def test_targets_from_arrays_are_held_as_arrays_and_equal_the_tuple_of_targets()
         StrokePlan(targets, velocities=np.zeros((4, 2)))
     with pytest.raises(PlanError, match="no targets"):
         StrokePlan(TargetArray(np.zeros((0, 2)), np.zeros((0, 2, 2))))
+
+
+def test_target_arrays_made_by_hand_are_checked_and_read_only():
+    with pytest.raises(PlanError, match="targets: expected finite means and symmetric positive"):
+        TargetArray([[np.nan, 0.0]], [np.eye(2)])
+    with pytest.raises(PlanError, match="targets: expected finite means and symmetric positive"):
+        TargetArray([[0.0, 0.0]], -np.ones((1, 2, 2)))
+    with pytest.raises(PlanError, match=r"expected means \(m, D\) and covariances \(m, D, D\)"):
+        TargetArray([[0.0, 0.0]], np.eye(2))
+    means = np.zeros((1, 2))
+    targets = TargetArray(means, [np.eye(2)])
+    means[0, 0] = 5.0  # the caller's array is copied
+    assert targets[0].mean[0] == 0.0 and not targets.means.flags.writeable

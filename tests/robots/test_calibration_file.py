@@ -128,6 +128,12 @@ def test_a_non_finite_number_is_not_written(tmp_path):
     ('robot = "a"\n[paper]\nx_mm = [0.0, 1.0]\ny_mm = [0.0, 1.0]\nz_mm = [[1.0, 2.0], [1.0]]',
      r"paper.z_mm: rows have different lengths"),
     ('robot = "a"\npaper = 3', r"paper: expected a table"),
+    ('robot = "a"\n[geometry]\ntip_offset_mm = [0, 0, 500]',
+     r"geometry.tip_offset_mm: expected corrections within \+-50 mm, got 500"),
+    ('robot = "a"\n[geometry]\njoint_offset_deg = [0, 45]',
+     r"geometry.joint_offset_deg: expected corrections within \+-10 deg, got 45"),
+    ('robot = "a"\n[paper]\nx_mm = [0.0, 1.0]\ny_mm = [0.0]\nz_mm = [[1e9, 2.0]]',
+     r"paper.z_mm: expected corrections within \+-50 mm, got 1e\+09"),
     ('robot = "a', r"not valid TOML"),
 ])
 def test_every_error_names_the_file_and_key(tmp_path, text, match):

@@ -279,3 +279,13 @@ def test_a_drawn_relief_is_the_one_the_follower_follows():
         # (bilinear on a 1 mm grid flattens the bump's top by up to 2 %)
         assert follower.place(x, SIZE[1] / 2)[0] == pytest.approx(
             relief_height(drawn, x, SIZE[1] / 2, SIZE), abs=0.03)
+
+
+def test_a_relief_file_that_is_not_text_is_refused_naming_it(tmp_path):
+    from inkarm.errors import InputError
+    from inkarm.sim.relief import read_relief_file
+
+    path = tmp_path / "scan.csv"
+    path.write_bytes(b"0,0\n\xff\xfe,1\n")
+    with pytest.raises(InputError, match=r"scan.csv: not a text file \(byte 4 is not UTF-8\)"):
+        read_relief_file(path, 1.0, (10.0, 10.0))

@@ -250,3 +250,17 @@ def test_a_stiction_list_of_the_wrong_length_is_refused_naming_the_field(cell):
         MujocoPlant(plant_model(cell, truth), cell=cell, truth=truth)
     with pytest.raises(InputError, match=r"stiction_nm: expected a number in \[0, 500\]"):
         PlantTruth(stiction_nm=-1.0)
+
+
+def test_a_closed_plant_gives_its_model_the_coulomb_friction_back(cell):
+    """The stuck level is written into the model while the plant runs; a model used again
+    (another plant on it) must start from its own Coulomb friction, not C + S."""
+    truth = PlantTruth(coulomb_nm=2.0, stiction_nm=3.0)
+    model = plant_model(cell, truth)
+    before = model.dof_frictionloss.copy()
+    plant = MujocoPlant(model, cell=cell, truth=truth)
+    assert model.dof_frictionloss.max() > before.max()  # stuck: C + S in the model
+    plant.close()
+    assert np.array_equal(model.dof_frictionloss, before)
+    again = MujocoPlant(model, cell=cell, truth=truth)
+    assert np.array_equal(again.stiction.coulomb, plant.stiction.coulomb)
