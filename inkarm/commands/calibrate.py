@@ -303,7 +303,11 @@ def _read_scan(args: argparse.Namespace, what: str) -> int:
     from inkarm.robots.geometry import GeometryErrors
     from inkarm.sim.cell_config import Cell
 
-    robot = args.robot if args.robot is not None and not args.robot.endswith(".toml") else None
+    robot = args.robot
+    if robot is not None and robot.endswith(".toml"):  # a profile file: the name it gives
+        from inkarm.robots.registry import load_robot
+
+        robot = load_robot(robot).name
     if what == "pen":
         from inkarm.jobs.calibration_pen import load_pen
 

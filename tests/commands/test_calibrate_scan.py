@@ -250,6 +250,8 @@ def test_a_drawn_file_keeps_the_pattern_and_its_scenario(small_drawn):
     (("--read", "{drawn}", "--scan", "{blank}"), r"--scan: no marks found in .*blank.png"),
     (("--read", "{drawn}", "--scan", "{png}", "--robot", "wx250s"),
      r"--robot: .*k.npz was drawn by robot 'iiwa14', not 'wx250s'"),
+    (("--read", "{drawn}", "--scan", "{png}", "--robot", "{wx250s_file}"),
+     r"--robot: .*k.npz was drawn by robot 'iiwa14', not 'wx250s'"),
     (("--read", "{missing}", "--scan", "{png}"), r"--read: no such drawn file: .*nothing.npz"),
 ])
 def test_the_scan_step_refuses_naming_the_option(capsys, tmp_path, small_drawn, argv, match):
@@ -262,7 +264,8 @@ def test_the_scan_step_refuses_naming_the_option(capsys, tmp_path, small_drawn, 
     names = {"png": _page_png(tmp_path / "page.png", page),
              "wide": _page_png(tmp_path / "wide.png", (300, 400)),
              "blank": _page_png(tmp_path / "blank.png", page, dots=False),
-             "drawn": small_drawn, "missing": tmp_path / "nothing.npz"}
+             "drawn": small_drawn, "missing": tmp_path / "nothing.npz",
+             "wx250s_file": Path(__file__).parents[2] / "inkarm/robots/data/wx250s.toml"}
     status, _, err = _main(capsys, "calibrate", "kinematics",
                            *(a.format(**names) for a in argv))
     assert status == 2
