@@ -98,25 +98,26 @@ class HeightMap:
 
         with ``s = (x - x_i)/(x_{i+1} - x_i)``, ``t`` likewise in y, after clamping x, y to
         the grid. Returns a float for scalar input, else an array."""
-        x, y = np.broadcast_arrays(np.asarray(x_mm, float), np.asarray(y_mm, float))
-        i, s = _cell(self.x_mm, x)
-        j, t = _cell(self.y_mm, y)
+        _, _, i, s, i1, j, t, j1 = self._corners(x_mm, y_mm)
         z = self.z_mm
-        i1 = np.minimum(i + 1, z.shape[1] - 1)
-        j1 = np.minimum(j + 1, z.shape[0] - 1)
         out = ((1 - s) * (1 - t) * z[j, i] + s * (1 - t) * z[j, i1]
                + (1 - s) * t * z[j1, i] + s * t * z[j1, i1])
         return float(out) if out.ndim == 0 else out
 
-    def slope(self, x_mm, y_mm) -> tuple:
-        """(dz/dx, dz/dy) [mm/mm] of the bilinear surface at page points; 0 outside the grid
-        along a clamped axis (the height is held there)."""
+    def _corners(self, x_mm, y_mm) -> tuple:
+        """The points as arrays x, y and their cells: i, s, i + 1 (held at the last grid line)
+        across x; j, t, j + 1 across y (:func:`_cell`)."""
         x, y = np.broadcast_arrays(np.asarray(x_mm, float), np.asarray(y_mm, float))
         i, s = _cell(self.x_mm, x)
         j, t = _cell(self.y_mm, y)
+        ny, nx = self.z_mm.shape
+        return x, y, i, s, np.minimum(i + 1, nx - 1), j, t, np.minimum(j + 1, ny - 1)
+
+    def slope(self, x_mm, y_mm) -> tuple:
+        """(dz/dx, dz/dy) [mm/mm] of the bilinear surface at page points; 0 outside the grid
+        along a clamped axis (the height is held there)."""
+        x, y, i, s, i1, j, t, j1 = self._corners(x_mm, y_mm)
         z = self.z_mm
-        i1 = np.minimum(i + 1, z.shape[1] - 1)
-        j1 = np.minimum(j + 1, z.shape[0] - 1)
         dx = _spacing(self.x_mm, i)
         dy = _spacing(self.y_mm, j)
         inside_x = (x >= self.x_mm[0]) & (x <= self.x_mm[-1]) & (self.x_mm.size > 1)

@@ -35,6 +35,7 @@ import numpy as np
 
 from inkarm.core.ranges import Range
 from inkarm.errors import InputError
+from inkarm.robots.calibration import HeightMap
 from inkarm.sim.imperfections import PlantTruth
 
 MAX_SPACING_MM = 1.0
@@ -51,28 +52,8 @@ def has_relief(truth: PlantTruth) -> bool:
         truth.relief_file is not None
 
 
-@dataclass(frozen=True, eq=False)
-class FileMap:
-    """A height map read from a file: ``z_mm[j, i]`` at page ``(i cell_mm, j cell_mm)``."""
-
-    z_mm: np.ndarray
-    cell_mm: float
-
-    def height(self, x_mm, y_mm) -> np.ndarray:
-        """Bilinear height [mm] at page points inside the map."""
-        ny, nx = self.z_mm.shape
-        u = np.clip(np.asarray(x_mm, dtype=float) / self.cell_mm, 0.0, nx - 1.0)
-        v = np.clip(np.asarray(y_mm, dtype=float) / self.cell_mm, 0.0, ny - 1.0)
-        i = np.minimum(np.floor(u).astype(int), max(nx - 2, 0))
-        j = np.minimum(np.floor(v).astype(int), max(ny - 2, 0))
-        fu, fv = u - i, v - j
-        z = self.z_mm
-        i1, j1 = np.minimum(i + 1, nx - 1), np.minimum(j + 1, ny - 1)
-        return ((1 - fv) * ((1 - fu) * z[j, i] + fu * z[j, i1])
-                + fv * ((1 - fu) * z[j1, i] + fu * z[j1, i1]))
-
-
-def read_relief_file(path: str | Path, cell_mm: float, size_mm: tuple[float, float]) -> FileMap:
+def read_relief_file(path: str | Path, cell_mm: float, size_mm: tuple[float, float]
+                     ) -> HeightMap:
     """The height map in ``path`` (module docstring), checked: numbers in every cell, rows of
     one length, heights in [-20, 20] mm, and a grid that covers a sheet of ``size_mm``
     (width, height) [mm] with points ``cell_mm`` apart. Errors name ``relief_file``."""
@@ -121,7 +102,8 @@ def read_relief_file(path: str | Path, cell_mm: float, size_mm: tuple[float, flo
             f"{(nx - 1) * cell_mm:g} x {(ny - 1) * cell_mm:g} mm; expected the whole sheet, "
             f"{width:g} x {height:g} mm: at least {need_y} rows x {need_x} columns "
             "(relief_cell_mm sets the spacing)", key=key, value=str(path))
-    return FileMap(z, float(cell_mm))
+    # (the calibration's bilinear height map: a file is the same kind of map, on a grid)
+    return HeightMap(np.arange(nx) * float(cell_mm), np.arange(ny) * float(cell_mm), z)
 
 
 def _is_number(text: str) -> bool:
@@ -133,7 +115,7 @@ def _is_number(text: str) -> bool:
 
 
 def relief_height(truth: PlantTruth, x_mm, y_mm, size_mm: tuple[float, float],
-                  file_map: FileMap | None = None) -> np.ndarray:
+                  file_map: HeightMap | None = None) -> np.ndarray:
     """The relief [mm] at page points (``x_mm``, ``y_mm``: arrays of one shape) of a sheet of
     ``size_mm``; ``file_map``: the truth's file, read already (read here when None)."""
     x, y = np.asarray(x_mm, dtype=float), np.asarray(y_mm, dtype=float)
@@ -245,5 +227,5 @@ def relief_field(truth: PlantTruth, size_mm: tuple[float, float]) -> ReliefField
     return ReliefField(z, np.ascontiguousarray(zx), np.ascontiguousarray(zy), dx, dy)
 
 
-__all__ = ["FileMap", "ReliefField", "bump_centre", "check_relief", "grid_spacing", "has_relief", "read_relief_file",
+__all__ = ["ReliefField", "bump_centre", "check_relief", "grid_spacing", "has_relief", "read_relief_file",
            "relief_field", "relief_grid", "relief_height"]

@@ -15,6 +15,8 @@ from inkarm.robots.geometry import GeometryErrors, apply_geometry
 from inkarm.sim.cell import PEN_TIP, build_model, make_cell
 from inkarm.sim.imperfections import PlantTruth
 from inkarm.sim.perturb import plant_model
+from tests.robots.test_geometry import _poses as _data
+from tests.robots.test_geometry import _site
 
 pytestmark = pytest.mark.sim
 
@@ -23,15 +25,6 @@ NAMES = CELL.robot.joint_names
 N = len(NAMES)
 
 
-def _data(model: mujoco.MjModel, q: np.ndarray) -> mujoco.MjData:
-    data = mujoco.MjData(model)
-    data.qpos[:N] = q
-    mujoco.mj_kinematics(model, data)
-    return data
-
-
-def _site(model: mujoco.MjModel, name: str) -> int:
-    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
 
 
 def test_a_scalar_link_error_keeps_its_seeded_arithmetic_bit_for_bit():
