@@ -1,31 +1,38 @@
-"""Where a control period's time goes: the evidence for moving the per-period work out of Python
-(issue 22 part 2).
+"""Where a control period's time goes, with the plant's period in Python and in C (issue 22
+part 2).
 
 Run: ``python benchmarks/bench_period.py [--quick]``. The default scenario (60 mm letter N, 828
-control periods of 3 physics steps) drawn by :func:`inkarm.jobs.run.run`; its executor
+control periods of 3 physics steps) drawn by :func:`inkarm.jobs.run.run`, twice per block: with
+the compiled period (``inkarm/sim/_period.c``: the drives' set point ramp, the physics steps, the
+pen force, the tip on the page and the divergence test in one call) and with the plant's Python
+period (``INKARM_COMPILED=0``); both give the same bits. Its executor
 (:func:`inkarm.control.executor.run_drawing`: planning and the closed loop) is split by timers
 put around its parts in this process only:
 
 * planning: ``check_reachable`` and ``plan_within_speed_limits`` (the IK path and the joint
   reference), once per run;
-* physics: MuJoCo's ``mj_step1``/``mj_step2`` inside the plant's step;
+* physics: MuJoCo's ``mj_step1``/``mj_step2`` inside the plant's step; with the compiled period,
+  its calls (MuJoCo is called from C: the period's other work is counted here too);
 * canvas: the ink laid at every physics step in contact (``Canvas.touch``/``lift``);
-* the plant's own Python: the rest of ``MujocoPlant.step`` (the drives' set point ramp, the pen
-  force from the contacts, the divergence check);
+* the plant's Python: the rest of ``MujocoPlant.step`` (the new set point from the drives; in
+  the Python period the set point ramp, the pen force from the contacts, the divergence check;
+  with the compiled one the canvas's feed);
 * the member's Python: the rest of the executor's period (reading, force loop, law, watchdogs,
   log row).
 
 The timers cost about a microsecond a call, so the parts are read as shares; the uninstrumented
-executor and MuJoCo alone (the run's torques replayed open loop, ``mj_step`` three steps a
-period) run in alternating blocks beside them for the totals. Then two ways MuJoCo can take a
-period in one call, from the same state: ``mj_step(m, d, 3)`` and a persistent
-``mujoco.rollout.Rollout`` of 3 steps (the call's overhead decides whether rollout can host a
-period).
+executors (compiled and Python periods) and MuJoCo alone (the run's torques replayed open loop,
+``mj_step`` three steps a period) run in alternating blocks beside them for the totals, timed on
+this thread's CPU clock (``time.thread_time``: on a loaded machine wall time also counts the
+other processes' turns). Then two
+ways MuJoCo can take a period in one call, from the same state: ``mj_step(m, d, 3)`` and a
+persistent ``mujoco.rollout.Rollout`` of 3 steps.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -33,7 +40,6 @@ from contextlib import contextmanager
 
 import mujoco
 import numpy as np
-from bench_draw import Job, bare_mujoco_s
 from blocks import interleave
 from mujoco import rollout
 
@@ -42,6 +48,7 @@ from inkarm.control import executor
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
+from inkarm.sim import compiled
 from inkarm.sim.cell import Cell, build_model
 from inkarm.sim.plant import MujocoPlant
 
@@ -76,19 +83,29 @@ class _TimedMujoco:
         return getattr(mujoco, name)
 
 
+class _TimedPeriod:
+    """A compiled period (:mod:`inkarm.sim.compiled`) with its calls timed as physics."""
+
+    def __init__(self, period, timers: _Timers):
+        self.step = _timed(period.step, timers, "physics")
+
+
 @contextmanager
 def instrumented(timers: _Timers):
     """Timers around the executor's parts (module docstring), removed on exit."""
     saved = [(executor, "plan_within_speed_limits"), (executor, "check_reachable"),
              (executor, "execute"), (MujocoPlant, "step"), (Canvas, "touch"), (Canvas, "lift"),
-             (sim_plant, "mujoco")]
+             (sim_plant, "mujoco"), (sim_plant, "period_for")]
     originals = [getattr(owner, name) for owner, name in saved]
-    names = ["planning", "planning", "executor", "plant step", "canvas", "canvas", None]
+    names = ["planning", "planning", "executor", "plant step", "canvas", "canvas", None, None]
+    period_for = sim_plant.period_for
     try:
         for (owner, name), fn, label in zip(saved, originals, names):
             if label is not None:
                 setattr(owner, name, _timed(fn, timers, label))
         sim_plant.mujoco = _TimedMujoco(timers)
+        sim_plant.period_for = lambda plant: (None if (p := period_for(plant)) is None else
+                                              _TimedPeriod(p, timers))
         yield
     finally:
         for (owner, name), fn in zip(saved, originals):
@@ -113,77 +130,156 @@ def one_call_per_period(cell: Cell, torques: np.ndarray, substeps: int = 3
 
     def stepped() -> float:
         mujoco.mj_setState(model, data, start_state, spec)
-        start = time.perf_counter()
+        start = time.thread_time()
         for tau in torques:
             data.ctrl[:] = tau
             mujoco.mj_step(model, data, substeps)
-        return time.perf_counter() - start
+        return time.thread_time() - start
 
     def rolled() -> float:
         s = start_state[None].copy()
-        start = time.perf_counter()
+        start = time.thread_time()
         for control in controls:
             runner.rollout([model], [data], s, control, nstep=substeps, skip_checks=True,
                            state=out)
             s = out[:, -1]
-        return time.perf_counter() - start
+        return time.thread_time() - start
 
     timing = interleave({"mj_step": stepped, "rollout": rolled}, blocks=5, repeats=1,
                         clock=None)
     return {name: 1e6 * timing.median(name) / len(torques) for name in timing.times}
 
 
+@contextmanager
+def period(kind: str):
+    """The plant's period for the runs inside: "compiled" (where the extension is usable) or
+    "python" (``INKARM_COMPILED=0``)."""
+    saved = os.environ.get(compiled.SWITCH)
+    os.environ[compiled.SWITCH] = "1" if kind == "compiled" else "0"
+    try:
+        yield
+    finally:
+        if saved is None:
+            del os.environ[compiled.SWITCH]
+        else:
+            os.environ[compiled.SWITCH] = saved
+
+
+def executor_cpu_s(scenario) -> float:
+    """CPU time [s] of this thread in the executor (``execute``) while ``scenario`` runs: under
+    load, wall time counts the other processes' turns too."""
+    spent = []
+    execute = executor.execute
+
+    def timed(*args, **kwargs):
+        start = time.thread_time()
+        try:
+            return execute(*args, **kwargs)
+        finally:
+            spent.append(time.thread_time() - start)
+
+    executor.execute = timed
+    try:
+        run(scenario)
+    finally:
+        executor.execute = execute
+    return sum(spent)
+
+
+def mujoco_cpu_s(cell: Cell, torques: np.ndarray, substeps: int = 3) -> float:
+    """CPU time [s] of MuJoCo alone (``bench_draw.bare_mujoco_s`` on this thread's clock): the
+    run's torques replayed open loop, ``substeps`` physics steps a period."""
+    model = build_model(cell)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    start = time.thread_time()
+    for tau in torques:
+        data.ctrl[:] = tau
+        mujoco.mj_step(model, data, substeps)
+    return time.thread_time() - start
+
+
+def _parts(shares: list[dict[str, float]]) -> dict[str, float]:
+    """Median seconds per part over the instrumented runs; the plant's own work and the
+    member's Python as the differences (module docstring)."""
+    parts = {k: statistics.median(s.get(k, 0.0) for s in shares)
+             for k in ("planning", "physics", "canvas", "plant step", "executor")}
+    parts["plant"] = parts["plant step"] - parts["physics"] - parts["canvas"]
+    parts["member"] = parts["executor"] - parts["planning"] - parts["plant step"]
+    return parts
+
+
 def section(quick: bool) -> str:
     scenario = load_scenario()
     cell = Cell(scenario.cell, scenario.robot)
-    job = Job(scenario, cell, None, scenario.ink.px_per_mm)  # (what the replay reads: the cell)
     first = run(scenario)
     torques, periods = first.log.torque, len(first.log.time)
-    shares: list[dict[str, float]] = []
+    kinds = ("compiled", "python")
+    shares: dict[str, list[dict[str, float]]] = {kind: [] for kind in kinds}
 
-    def split_run() -> float:
+    def executor_s(kind: str) -> float:
+        with period(kind):
+            return executor_cpu_s(scenario)
+
+    def split_run(kind: str) -> float:
         timers = _Timers()
-        with instrumented(timers):
+        with period(kind), instrumented(timers):
             run(scenario)
-        shares.append(timers.total)
+        shares[kind].append(timers.total)
         return timers.total["executor"]
 
-    timing = interleave({"executor": lambda: run(scenario).log.wall_s, "split": split_run,
-                         "mujoco": lambda: bare_mujoco_s(job, torques)},
-                        blocks=3 if quick else 7, repeats=3, clock=None)
-    parts = {k: statistics.median(s[k] for s in shares) for k in shares[0]}
-    plant_python = parts["plant step"] - parts["physics"] - parts["canvas"]
-    member = parts["executor"] - parts["planning"] - parts["plant step"]
-    rows = [("planning (IK path, joint reference; once per run)", parts["planning"]),
-            ("physics (mj_step1 + mj_step2, 3 a period)", parts["physics"]),
-            ("canvas (ink at each physics step in contact)", parts["canvas"]),
-            ("the plant's Python (drive ramp, pen force, divergence check)", plant_python),
-            ("the member's Python (read, force loop, law, watchdogs, log row)", member)]
-    executor_us = 1e6 * timing.median("executor") / periods
+    cases = {f"executor {kind}": lambda kind=kind: executor_s(kind) for kind in kinds}
+    cases |= {f"split {kind}": lambda kind=kind: split_run(kind) for kind in kinds}
+    cases["mujoco"] = lambda: mujoco_cpu_s(cell, torques)
+    timing = interleave(cases, blocks=3 if quick else 9, repeats=3, clock=None)
     mujoco_us = 1e6 * timing.median("mujoco") / periods
+    total_us = {kind: 1e6 * timing.median(f"executor {kind}") / periods for kind in kinds}
+    parts = {kind: _parts(shares[kind]) for kind in kinds}
+
+    def cell_of(kind: str, key: str) -> str:
+        share = parts[kind][key] / parts[kind]["executor"]
+        return f"{share:.0%} | {share * total_us[kind]:.1f}"
+
+    rows = [("planning (IK path, joint reference; once per run)", "planning"),
+            (("physics (Python: mj_step1 + mj_step2, 3 a period; compiled: the whole C "
+              "period, its ramp, pen force, tip and divergence test included)"), "physics"),
+            ("canvas (ink at each physics step in contact)", "canvas"),
+            (("the plant's Python (the new set point; Python period: drive ramp, pen force, "
+              "divergence check; compiled: the canvas's feed)"), "plant"),
+            ("the member's Python (read, force loop, law, watchdogs, log row)", "member")]
     calls = one_call_per_period(cell, torques)
+    usable = compiled.period_module() is not None
+    note = "" if usable else (" **The compiled period is not usable here: both columns are the "
+                              "Python period** (see inkarm.sim.compiled's debug log).")
+    ratio = {kind: total_us[kind] / mujoco_us for kind in kinds}
     lines = [
         "## Period: where a control period's time goes (bench_period.py)",
         "",
-        (f"The default scenario ({periods} control periods of 3 physics steps), one process; "
-        "shares from timers around the executor's parts (instrumented runs), totals from "
-        "uninstrumented runs in alternating blocks with MuJoCo alone (the run's torques "
-        f"replayed open loop). {timing.load_line()}"),
+        (f"The default scenario ({periods} control periods of 3 physics steps), one process, the "
+         "plant's period compiled (`inkarm/sim/_period.c`) and in Python (`INKARM_COMPILED=0`), "
+         "bit-identical logs and canvas; shares from timers around the executor's parts "
+         "(instrumented runs), totals from uninstrumented runs in alternating blocks with MuJoCo "
+         "alone (the run's torques replayed open loop), on this thread's CPU clock. "
+         f"{timing.load_line()}{note}"),
         "",
-        "| part | share of the executor | per period [us] |",
-        "|---|---|---|",
+        "| part | compiled: share | per period [us] | Python: share | per period [us] |",
+        "|---|---|---|---|---|",
     ]
-    lines += [f"| {label} | {value / parts['executor']:.0%} | "
-              f"{1e6 * value / parts['executor'] * timing.median('executor') / periods:.1f} |"
-              for label, value in rows]
+    lines += [f"| {label} | {cell_of('compiled', key)} | {cell_of('python', key)} |"
+              for label, key in rows]
     lines += [
-        f"| **executor, uninstrumented** | 100% | {executor_us:.1f} |",
-        f"| MuJoCo alone, the same steps | | {mujoco_us:.1f} |",
+        (f"| **executor, uninstrumented** | 100% | {total_us['compiled']:.1f} | 100% | "
+         f"{total_us['python']:.1f} |"),
+        f"| MuJoCo alone, the same steps | | {mujoco_us:.1f} | | {mujoco_us:.1f} |",
         "",
-        (f"Executor / MuJoCo alone: {executor_us / mujoco_us:.2f} (the issue's target: <= 2, a "
-        f"real-time factor >= 0.5x MuJoCo's). MuJoCo taking a period in one call from Python: "
-        f"`mj_step(m, d, 3)` {calls['mj_step']:.1f} us, a persistent `mujoco.rollout` of 3 steps "
-        f"{calls['rollout']:.1f} us ({calls['rollout'] - calls['mj_step']:+.1f} us a call)."),
+        (f"Executor / MuJoCo alone: {ratio['compiled']:.2f} with the compiled period, "
+         f"{ratio['python']:.2f} with the Python period (the issue's target: <= 2, a real-time "
+         f"factor >= 0.5x MuJoCo's); the compiled period saves "
+         f"{1 - total_us['compiled'] / total_us['python']:.0%} of the executor's time. "
+         f"MuJoCo taking a period in one call from Python: `mj_step(m, d, 3)` "
+         f"{calls['mj_step']:.1f} us, a persistent `mujoco.rollout` of 3 steps "
+         f"{calls['rollout']:.1f} us ({calls['rollout'] - calls['mj_step']:+.1f} us a call)."),
     ]
     return "\n".join(lines) + "\n"
 

@@ -3,7 +3,10 @@
 One control period is ``substeps`` physics steps with the commanded joint torques held. Each
 physics step is split MuJoCo's way: ``mj_step2`` (constraint forces, integration) then
 ``mj_step1`` (positions, velocities, contacts of the new state), so that between control periods
-the data is evaluated at the current time and :meth:`read` returns a consistent state.
+the data is evaluated at the current time and :meth:`read` returns a consistent state. On the
+default path (drives in MuJoCo, ideal senses, no stiction or relief) the whole period runs in C
+when the extension is built (:mod:`inkarm.sim.compiled`; ``INKARM_COMPILED=0`` switches it
+off), with the same bits.
 
 After each ``mj_step2`` the contact forces belong to the state just left (time t - h): the pen
 tip's normal force comes from ``mj_contactForce`` and, while it is positive, the canvas (if any)
@@ -22,9 +25,8 @@ switched between stuck and sliding after each physics step), series elasticity a
 (:mod:`inkarm.sim.transmission`). When a joint's transmission mode is too fast for the time
 step, the step is subdivided.
 
-Divergence (non-finite state, a MuJoCo warning about bad qpos/qvel/qacc, or a joint faster
-than ``max_joint_speed``) raises :class:`inkarm.errors.SimulationError`. MuJoCo's automatic
-reset is disabled so that a diverging run cannot silently restart from the initial pose.
+Divergence (:mod:`inkarm.sim.divergence`, a joint faster than ``max_joint_speed``) raises
+:class:`inkarm.errors.SimulationError`; MuJoCo's auto-reset is off (no silent restart).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from inkarm.errors import InputError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim.actuators import affine_drives, native_drive
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_SLIDE, PEN_TIP, Cell, build_model
+from inkarm.sim.compiled import feed, period_for
 from inkarm.sim.divergence import DIVERGENCE_WARNINGS, divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import PlantTruth
@@ -121,10 +124,8 @@ class MujocoPlant:
         self._tip_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, PEN_TIP)
         origin_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, PAPER_ORIGIN)
         if min(slide, self._tip_site, self._tip_geom, origin_site) < 0:
-            raise InputError(
-                f"MujocoPlant: the model needs joint {PEN_SLIDE}, site and geom {PEN_TIP} and "
-                f"site {PAPER_ORIGIN}"
-            )
+            raise InputError(f"MujocoPlant: the model needs joint {PEN_SLIDE}, site and geom "
+                             f"{PEN_TIP} and site {PAPER_ORIGIN}")
         self._slide_adr = m.jnt_qposadr[slide]
         self._contact = np.zeros(6)
         self._only_tip_touches = only_geom_touches(m, self._tip_geom)
@@ -138,9 +139,8 @@ class MujocoPlant:
         if q0 is not None:
             q0 = np.asarray(q0, dtype=float)
             if q0.shape != (len(joint_names),):
-                raise InputError(
-                    f"MujocoPlant q0: expected {len(joint_names)} angles, got shape {q0.shape}"
-                )
+                raise InputError(f"MujocoPlant q0: expected {len(joint_names)} angles, got "
+                                 f"shape {q0.shape}")
             self.data.qpos[self._qpos_adr] = q0
         mujoco.mj_forward(m, self.data)
         # The paper is static: its frame is fixed once the model is evaluated.
@@ -159,12 +159,13 @@ class MujocoPlant:
         self._ctrl = self.data.ctrl
         self._actuator_force = self.data.actuator_force
         self._warning_stats = [self.data.warning[w] for w in DIVERGENCE_WARNINGS]
-        self._warnings = self._warning_counts()
+        self._warnings = np.array([w.number for w in self._warning_stats])
         self._warning_total = int(self._warnings.sum())
         if drive_gains is None and firmware is None:
             drive_gains = cell.robot.drive
         self._setup_truth(truth or PlantTruth(), drive_gains, firmware)
         self._relief = relief_follower(m, cell, self.truth)  # (after any mj_setConst)
+        self._period = period_for(self)  # (None off the default path, or without the extension)
 
     def _setup_truth(self, truth: PlantTruth, drive_gains, firmware) -> None:
         m, d, n = self.model, self.data, len(self.joint_names)
@@ -275,12 +276,6 @@ class MujocoPlant:
             raise InputError(f"MujocoPlant: no motor drives the joints {missing}")
         return address_index([dof_of_actuator[int(dof)] for dof in dofs])
 
-    def _warning_counts(self) -> np.ndarray:
-        return np.array([w.number for w in self._warning_stats])
-
-    def _tip_mm(self) -> np.ndarray:
-        return np.array(self._tip_page())
-
     def _tip_page(self) -> tuple[float, float, float]:
         """Pen tip (x, y, z) in page [mm], on Python floats: a 3 x 3 map is cheaper written out
         than as a numpy call (and sums in the same order as ``x @ A - o``, so gives its bits)."""
@@ -298,7 +293,7 @@ class MujocoPlant:
             torque=(self._actuator_force[self._arm_ctrl] if self._affine else
                     self._motor_torque).copy(),
             force=self.senses_model.force(self._pen_force),
-            tip_mm=self._tip_mm(),
+            tip_mm=np.array(self._tip_page()),
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
         )
 
@@ -356,6 +351,13 @@ class MujocoPlant:
                 self._apply(queue.pop(0)[1], self._qpos[self._qpos_adr])
             ramp = self._affine
             ctrl, arm, u, du, drive = self._ctrl, self._arm_ctrl, self._u, self._du, self.drive
+            if ramp and self._period is not None:  # the same period in C (u advanced in place)
+                drive.since, suspect, steps = self._period.step(u, du, drive.since)
+                self._touching, self._pen_force = feed(canvas, self._touching, steps)
+                self._steps += self.substeps
+                if suspect:  # (the C test is conservative: this one decides)
+                    self._check_divergence()
+                return
         fast = self._fast and self._position_goal is None and not self._queue
         h, senses, stiction, relief = self._timestep, self.senses_model, self.stiction, self._relief
         for _ in range(self.substeps):
@@ -453,13 +455,11 @@ class MujocoPlant:
         # speed (the norm bounds every joint's speed), one sum any new MuJoCo warning about a
         # bad qpos/qvel/qacc; the slow path sorts out which.
         qvel, stats = self._qvel, self._warning_stats
-        if (
-            qvel.dot(qvel) <= self._max_speed_sq
-            and stats[0].number + stats[1].number + stats[2].number == self._warning_total
-        ):
+        if (qvel.dot(qvel) <= self._max_speed_sq
+                and stats[0].number + stats[1].number + stats[2].number == self._warning_total):
             return
         d = self.data
-        warnings = self._warning_counts()
+        warnings = np.array([w.number for w in self._warning_stats])
         names = [w.name for w, a, b in zip(DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
         finite = bool(np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all())
         error = divergence_error(self.model, d.time, d.qvel, names, self.max_joint_speed, finite)

@@ -1,0 +1,107 @@
+"""The compiled control period (``inkarm/sim/_period.c``): whether this process may use it.
+
+The extension is built by pip from the sources when a C compiler is there (``setup.py``; it is
+optional: without a compiler the install succeeds and the plant runs its Python period). It is
+used only when all of these hold, else :func:`period_module` returns None and the plant runs the
+Python period, which gives the same bits (tests/sim/test_compiled_period.py):
+
+* the environment variable ``INKARM_COMPILED`` is not ``0`` (the switch for comparisons);
+* the extension imports;
+* it was built against the ``mujoco`` version this process runs (``MUJOCO_VERSION``, recorded
+  at build time: the C code reads MuJoCo's structs, whose layout is the version's);
+* the loaded ``libmujoco`` answers ``mj_version()`` as the headers it was built with.
+
+Why a fallback is taken is logged once at debug level on ``inkarm.sim.compiled``.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import os
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+_LOG = logging.getLogger(__name__)
+SWITCH = "INKARM_COMPILED"
+
+
+def _library() -> Path | None:
+    """The libmujoco shipped in the ``mujoco`` package (which its bindings have loaded)."""
+    found = sorted(Path(mujoco.__file__).parent.glob("libmujoco*"))
+    return found[0] if found else None
+
+
+@functools.cache
+def _load():
+    """The bound extension module, or None (why logged once)."""
+    reason = _unusable()
+    if isinstance(reason, str):
+        _LOG.debug("compiled period not used, the plant runs its Python period: %s", reason)
+        return None
+    return reason
+
+
+def _unusable():
+    """The bound extension module, or why it cannot be used (a string)."""
+    try:
+        from inkarm.sim import _period
+    except ImportError as error:
+        return f"the extension is not built ({error})"
+    if _period.MUJOCO_VERSION != mujoco.__version__:
+        return (f"the extension was built for MuJoCo {_period.MUJOCO_VERSION}, "
+                f"this is {mujoco.__version__}")
+    library = _library()
+    if library is None:
+        return f"no libmujoco beside {mujoco.__file__}"
+    try:
+        _period.bind(str(library), mujoco.FatalError)
+    except ImportError as error:
+        return str(error)
+    return _period
+
+
+def period_module():
+    """The compiled period's module (``Period``), or None: switched off with
+    ``INKARM_COMPILED=0``, or not usable here (logged once, debug)."""
+    if os.environ.get(SWITCH, "1") == "0":
+        return None
+    return _load()
+
+
+def period_for(plant):
+    """The compiled period of a :class:`inkarm.sim.plant.MujocoPlant` (its drives' ramp path:
+    the arm's actuators, the tip, the page map, the divergence threshold), or None where the
+    plant's period does more than the C one: drives not in MuJoCo, senses not ideal, stiction,
+    a relief to follow (or where the extension cannot be used: :func:`period_module`)."""
+    if not (plant._native and plant.senses_model.ideal and plant.stiction is None
+            and plant._relief is None):
+        return None
+    module = period_module()
+    if module is None:
+        return None
+    m, d = plant.model, plant.data
+    arm = np.arange(m.nu)[plant._arm_ctrl].tolist()
+    tip_geom = -1 if plant._only_tip_touches else plant._tip_geom
+    return module.Period((m, d), m._address, d._address, arm, plant._tip_site, tip_geom,
+                         plant._page_map, plant.substeps, plant._max_speed_sq,
+                         plant._warning_total)
+
+
+def feed(canvas, touching: bool, steps) -> tuple[bool, float]:
+    """Give ``canvas`` (or None) the calls of the Python period for the physics steps
+    ``steps`` = ((force [N], x [mm], y [mm], t [s]), ...) of :meth:`Period.step`: ``touch``
+    while the force is positive, ``lift`` when it ends. Returns (touching, the last force)."""
+    force = 0.0
+    for force, x, y, t in steps:
+        if force > 0.0:
+            touching = True
+            if canvas is not None:
+                canvas.touch((x, y), force, t)
+        elif touching:
+            touching = False
+            if canvas is not None:
+                canvas.lift()
+    return touching, force

@@ -1,0 +1,48 @@
+"""The optional C extension of inkarm: one control period of the simulated plant
+(``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`).
+
+It compiles against the headers shipped with MuJoCo (the ``mujoco-core`` wheel, which the build
+requirement ``mujoco>=4.0`` brings: the runtime's own requirement, so that a fresh install
+resolves both alike) and records that version; at run time it is used only by the same MuJoCo.
+It is ``optional``: without a C compiler (or the headers) the install goes on and the plant runs
+its Python period. Everything else about the package is in pyproject.toml.
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+from importlib.util import find_spec
+from pathlib import Path
+
+from setuptools import Extension, setup
+
+
+def _mujoco() -> tuple[Path, str] | None:
+    """MuJoCo's header folder and version, without importing it (None: not installed)."""
+    spec = find_spec("mujoco")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    include = Path(next(iter(spec.submodule_search_locations))) / "include"
+    for dist in ("mujoco-core", "mujoco"):  # (the library's own wheel since 4.0)
+        try:
+            return include, version(dist)
+        except PackageNotFoundError:
+            continue
+    return None
+
+
+def _extensions() -> list[Extension]:
+    found = _mujoco()
+    if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
+        return []  # (no headers: the pure-Python install)
+    include, mujoco_version = found
+    return [Extension(
+        "inkarm.sim._period",
+        sources=["inkarm/sim/_period.c"],
+        include_dirs=[str(include)],
+        define_macros=[("INKARM_MUJOCO_VERSION", f'"{mujoco_version}"')],
+        extra_compile_args=["-O2", "-ffp-contract=off"],  # (no fused multiply-add: the same bits)
+        libraries=["dl"],
+        optional=True,
+    )]
+
+
+setup(ext_modules=_extensions())
