@@ -26,8 +26,8 @@ TRAINING = "lasa:all:0-4"
 HEADER = """\
 # Handstyles fitted to people: inkarm.plans.handstyles.FITTED, read like a user's --styles file.
 # They restyle recordings with their own timing (timing = "pulses": key-points at the speed
-# minima and peaks, at the hand's times and velocities) and are refused for text, which has no
-# recording to take a timing from.
+# minima and peaks, with the hand's times, places, velocities and accelerations) and are refused
+# for text, which has no recording to take a timing from.
 #
 # human: `python scripts/fit_human_style.py`, the fit of `inkarm fit-style lasa:all:0-4 --name
 # human --held-out 0` (the LASA handwriting set, demonstrations 0-4 of the 26 single-shape sets;

@@ -2,10 +2,10 @@
 keep the recordings' own movement statistics.
 
 Each recording is restyled with timing "pulses" (:mod:`inkarm.plans.pulses`: a key-point at each
-of its speed minima and peaks, at the time and with the velocity the hand passed it) and the
-handstyle's covariances h I, order n and maximum displacement d. The LQT's optimum is linear in
-the targets' means and depends on Q and R only through their ratio, so for a given order the
-shape and timing of every restyle depend on one number, the stiffness
+of its speed minima and peaks, with the time, place, velocity and acceleration the hand passed
+it) and the handstyle's covariances h I, order n and maximum displacement d. The LQT's optimum
+is linear in the targets' means and depends on Q and R only through their ratio, so for a given
+order the shape and timing of every restyle depend on one number, the stiffness
 
     s = d / sqrt(h)                       (dimensionless: R / Q = h / (omega^n d)^2, eq. 9-10)
 
@@ -148,12 +148,12 @@ def _solved(trace: Trajectory, prepared, cfg) -> Trajectory:
     """The restyle of ``trace`` by ``cfg`` from its shared key-point plan ``prepared``: what
     :func:`restyled` gives, without finding the key-points again."""
     from inkarm.models.lqt import solve
-    from inkarm.plans.restyle import stroke_lqt_config
+    from inkarm.plans.restyle import stroke_lqt_config, stroke_references
 
     if isinstance(prepared, InputError):
         raise prepared
     plan, targets = prepared
-    return solve(plan, stroke_lqt_config(trace, targets, cfg))
+    return solve(plan, stroke_lqt_config(trace, targets, cfg), stroke_references(plan, cfg))
 
 
 def errors(human: Mapping[str, float], restyle: Mapping[str, float]) -> dict[str, float]:

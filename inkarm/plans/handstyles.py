@@ -59,7 +59,7 @@ def slanted_basis(slant_deg: float, stretch: float = 1.0) -> np.ndarray:
 
 TIMINGS = ("isochronous", "pulses")
 """How a restyle times its targets: DPPLA targets held alike (seed 000's local isochrony), or
-key-points at the trace's speed minima and peaks, at its own times and velocities
+key-points at the trace's speed minima and peaks, at its own times, velocities and accelerations
 (:mod:`inkarm.plans.pulses`)."""
 PULSE_DT = 0.005
 """The LQT time step of a restyle with timing "pulses" [s], unless told otherwise: key-points
@@ -96,8 +96,9 @@ class Handstyle:
             targets included.
         timing: How a restyle with this style times its targets: "isochronous" (DPPLA
             targets, each held alike) or "pulses" (key-points at the trace's own speed minima
-            and peaks, at its times and velocities: :mod:`inkarm.plans.pulses`). Text is always
-            isochronous (a font has no timing of its own).
+            and peaks, at its times, velocities and accelerations:
+            :mod:`inkarm.plans.pulses`). Text is always isochronous (a font has no timing of
+            its own).
         description: One line for ``--help`` and listings.
     """
 

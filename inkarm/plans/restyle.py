@@ -103,7 +103,7 @@ class RestyleConfig:
             :meth:`from_handstyle`); None otherwise.
         timing: "isochronous" (DPPLA targets at ``compression``, each held ``segment_time``)
             or "pulses" (key-points at the trace's speed minima and peaks and at its ends, at
-            its own times and velocities: :mod:`inkarm.plans.pulses`;
+            its own times, positions, velocities and accelerations: :mod:`inkarm.plans.pulses`;
             ``compression`` and ``segment_time`` are then unused).
     """
 
@@ -286,6 +286,16 @@ def stroke_lqt_config(traj: Trajectory, targets: int, cfg: RestyleConfig):
                      r=control_weight(cfg.order, cfg.d, traj.duration, targets))
 
 
+def stroke_references(plan: StrokePlan, cfg: RestyleConfig) -> tuple:
+    """The extra LQT cost terms of one stroke's ``plan``: with timing "pulses" the recording's
+    accelerations at the key-points (:func:`inkarm.plans.pulses.pulse_references`), else none."""
+    if cfg.timing != "pulses":
+        return ()
+    from inkarm.plans.pulses import pulse_references
+
+    return pulse_references(plan, cfg.order)
+
+
 def _steps_per_target(traj: Trajectory, targets: int, cfg: RestyleConfig) -> int:
     """LQT steps each of ``targets`` targets is held: segment_time / dt rounded (the LQT holds
     a target a whole number of steps), at least 1, and at least (order + 1) / targets rounded
@@ -348,7 +358,8 @@ def restyle(drawing: Drawing, cfg: RestyleConfig = RestyleConfig()) -> Restyled:
         result = (pulse_targets(traj) if cfg.timing == "pulses" else
                   stroke_targets(traj, cfg.compression, cfg.banded))
         plan = stroke_plan(traj, result, cfg, rng)
-        strokes.append(solve(plan, stroke_lqt_config(traj, len(result.breakpoints), cfg)))
+        strokes.append(solve(plan, stroke_lqt_config(traj, len(result.breakpoints), cfg),
+                             stroke_references(plan, cfg)))
         plans.append(plan)
         results.append(result)
         kept.append(i)

@@ -1,4 +1,5 @@
-"""Timing "pulses": key-points at a recording's speed minima, at its times and speeds."""
+"""Timing "pulses": key-points at a recording's speed minima and peaks, with its times and
+kinematic states."""
 
 from __future__ import annotations
 
@@ -50,8 +51,9 @@ def test_the_restyle_passes_each_minimum_at_its_time_and_keeps_the_pulses():
     stroke = out.drawing.strokes[0]
     assert stroke.duration == pytest.approx(trace.duration, abs=0.011)
     for b in out.targets[0].breakpoints:
-        at = np.argmin(np.abs(stroke.t - trace.t[b]))
-        assert np.linalg.norm(stroke.pos[at] - trace.pos[b]) < 0.5
+        at = np.argmin(np.abs(stroke.t - trace.t[b]))  # (the step the key-point lands on)
+        there = [np.interp(stroke.t[at], trace.t, trace.pos[:, k]) for k in range(2)]
+        assert np.linalg.norm(stroke.pos[at] - there) < 0.1  # (the hand's place at that time)
     assert speed_peaks(lowpass(stroke, 10.0)) == speed_peaks(lowpass(trace, 10.0)) == 3
 
 
@@ -101,3 +103,82 @@ def test_pulses_need_an_order_that_has_velocities():
     with pytest.raises(InputError, match="order: timing 'pulses' constrains velocities at its "
                                          "key-points: expected an order of 2 or more, got 1"):
         RestyleConfig(timing="pulses", order=1)
+
+
+# -- the key-points' states (issue 25: a restyle keeps the recording's speed peaks) -----------
+
+CENTRES = (0.13, 0.33, 0.45, 0.63, 0.81, 0.95)
+WIDTHS = (0.23, 0.23, 0.19, 0.24, 0.21, 0.21)
+HEIGHTS = (20.0, 20.0, 35.0, 26.0, 21.0, 30.0)
+
+
+def pulse_train(noise_mm: float = 0.0, rate: float = 300.0) -> Trajectory:
+    """Six overlapping minimum-jerk speed pulses (CENTRES, WIDTHS [s], HEIGHTS [mm/s] times
+    30/16 at the top) along a path turning by 1 rad every 11 mm, rest to rest, sampled at
+    ``rate`` [Hz] as LASA is (about 3 ms), positions with white noise of ``noise_mm``: its
+    10 Hz speed has six peaks (two of them where the pulses overlap, 35-75 % of the top)."""
+    t = np.arange(CENTRES[0] - WIDTHS[0] / 2, CENTRES[-1] + WIDTHS[-1] / 2, 1 / rate)
+    speed = np.zeros_like(t)
+    for centre, width, height in zip(CENTRES, WIDTHS, HEIGHTS):
+        s = np.clip((t - centre) / width + 0.5, 0.0, 1.0)
+        speed += height * 30 * s**2 * (1 - s) ** 2
+    heading = np.cumsum(speed) / rate / 11.0
+    pos = np.cumsum(speed[:, None] * np.column_stack([np.cos(heading), np.sin(heading)]),
+                    axis=0) / rate
+    pos += noise_mm * np.random.default_rng(0).standard_normal(pos.shape)
+    return Trajectory(t - t[0], pos)
+
+
+def test_the_key_points_are_the_peaks_and_minima_the_measure_counts():
+    from inkarm.analysis.humanlike import stroke_stats
+    from inkarm.analysis.kinematics import speed_pulses
+
+    trace = pulse_train(noise_mm=0.01)  # (noise: the raw speed has many more maxima)
+    pulses = speed_pulses(lowpass(trace, 10.0))
+    assert stroke_stats(trace, lognormal=False).peaks == len(pulses) == 6
+    assert speed_peaks(trace) > 6
+    inner_minima = [p.end for p in pulses[:-1]]
+    expected = sorted({0, trace.n - 1, *inner_minima, *(p.peak for p in pulses)})
+    assert pulse_breakpoints(trace).tolist() == expected
+
+
+def test_key_points_take_the_recordings_state_at_their_steps_before_the_measures_low_pass():
+    from inkarm.analysis.kinematics import acceleration
+    from inkarm.plans.pulses import ACCELERATION_VARIANCE, KEYPOINT_HZ, pulse_references
+
+    trace = pulse_train(noise_mm=0.01)
+    cuts = pulse_breakpoints(trace)
+    plan = pulse_plan(trace, cuts, np.repeat(0.01 * np.eye(2)[None], len(cuts), axis=0), 0.005)
+    steps = np.array(plan.meta["pulse_steps"])
+    assert np.max(np.abs(steps * 0.005 - trace.t[cuts])) > 0.001  # (the samples lie between steps)
+    smooth = lowpass(trace, KEYPOINT_HZ)
+
+    def at_steps(values):  # the oracle: each coordinate interpolated at the steps' times
+        return np.column_stack([np.interp(steps * 0.005, trace.t, values[:, k])
+                                for k in range(2)])
+
+    np.testing.assert_allclose(np.asarray(plan.velocities)[steps], at_steps(smooth.velocity()))
+    np.testing.assert_allclose(plan.targets.means[steps], at_steps(smooth.pos))
+    accelerations = np.array(plan.meta["pulse_accelerations"])
+    np.testing.assert_allclose(accelerations, at_steps(acceleration(smooth)))
+    (ref,) = pulse_references(plan, order=3)
+    assert ref.derivative == 2 and ref.steps.tolist() == steps.tolist()
+    np.testing.assert_allclose(ref.value, accelerations)
+    np.testing.assert_allclose(ref.precision, np.eye(2) / ACCELERATION_VARIANCE)
+    assert pulse_references(plan, order=2) == ()  # (an order-2 state has no acceleration)
+
+
+def test_a_restyle_measured_as_its_recording_has_its_six_peaks_where_they_are():
+    from inkarm.analysis.humanlike import stroke_stats
+    from inkarm.analysis.kinematics import speed_peak_indices
+    from inkarm.plans.handstyles import FITTED
+
+    trace = pulse_train()
+    cfg = RestyleConfig.from_handstyle(FITTED["human"])
+    stroke = restyle(Drawing([trace]), cfg).drawing.strokes[0]
+    recorded = trace.t[speed_peak_indices(lowpass(trace, 10.0))]
+    smooth = lowpass(stroke, 10.0)
+    restyled = smooth.t[speed_peak_indices(smooth)]
+    assert stroke_stats(stroke, lognormal=False).peaks == stroke_stats(trace, lognormal=False).peaks
+    assert len(restyled) == len(recorded) == 6
+    assert np.max(np.abs(restyled - recorded)) <= 0.01  # [s]: two steps of the restyle
