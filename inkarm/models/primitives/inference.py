@@ -155,7 +155,7 @@ def forward_backward(log_h: np.ndarray, transition: np.ndarray, start: np.ndarra
             matmul(a, ones, out=c[t])
             divide(a, c[t], out=a)
     if not c.min() > 0:                    # every state left has h_t = 0 to double precision
-        return _in_log_domain(log_h, transition, start, mask)
+        return log_domain_pass(log_h, transition, start, mask)
     hb = divide(h, c, out=h)                                       # h_t / c_t, then * b_t
     beta[T - 1] = 1.0
     to = transition.T
@@ -169,7 +169,7 @@ def forward_backward(log_h: np.ndarray, transition: np.ndarray, start: np.ndarra
             multiply(hb[1:], mask[1:, :, None], out=hb[1:])
             pairs = transition * np.matmul(alpha[:-1].transpose(0, 2, 1), hb[1:]).sum(axis=0)
         if not np.all(np.isfinite(pairs)):        # b overflowed where alpha had underflowed
-            return _in_log_domain(log_h, transition, start, mask)
+            return log_domain_pass(log_h, transition, start, mask)
         advance_counts = pairs[np.arange(K), (np.arange(K) + 1) % K]
         occupancy = pairs.sum(axis=1)                              # = sum_t <S_t-1> inside
     else:
@@ -184,7 +184,8 @@ def _expected(gamma: np.ndarray, log_h: np.ndarray) -> float:
     return float(np.einsum("tbk,tbk->", gamma, log_h))
 
 
-def _in_log_domain(log_h, transition, start, mask) -> ChainPosterior:
+def log_domain_pass(log_h, transition, start, mask, out=None) -> ChainPosterior:
+    """:func:`log_forward_backward` called as :func:`forward_backward` (``out`` unused)."""
     K = len(start)
     with np.errstate(divide="ignore"):
         return log_forward_backward(log_h, np.log(np.diagonal(transition)),
@@ -281,12 +282,15 @@ def _precision(model: PrimitiveModel) -> np.ndarray:
 
 
 def e_step(model: PrimitiveModel, batch: Batch, start: Posterior | None = None,
-           max_sweeps: int = 20, tol: float = 1e-4) -> Posterior:
+           max_sweeps: int = 20, tol: float = 1e-4, chain_pass=None) -> Posterior:
     """Structured variational inference (eq. 7-9), Gauss-Seidel over chains.
 
     Sweeps until no <S> changes by more than ``tol`` or ``max_sweeps`` sweeps. ``start`` is the
-    posterior to begin from (default: all chains silent).
+    posterior to begin from (default: all chains silent). ``chain_pass`` is the forward-backward
+    of one chain, called as :func:`forward_backward` (default: that one; the references pass
+    the log-domain one).
     """
+    chain_pass = forward_backward if chain_pass is None else chain_pass
     post = Posterior.silent(model, batch) if start is None else Posterior(list(start.chains))
     P = _precision(model)
     T, B, D = batch.Y.shape
@@ -306,7 +310,7 @@ def e_step(model: PrimitiveModel, batch: Batch, start: Posterior | None = None,
         for m in range(model.n_chains):
             np.add(residual, own[m], out=others[..., :D])                   # eq. 9
             log_responsibility(model, m, others, P, out=log_h)
-            new = forward_backward(log_h, transitions[m], model.start[m], batch.mask, spare)
+            new = chain_pass(log_h, transitions[m], model.start[m], batch.mask, spare)
             own[m] = new.gamma @ model.W[m]
             np.subtract(others[..., :D], own[m], out=residual)
             change = max(change, _largest_change(new.gamma, post.chains[m].gamma, scratch))

@@ -8,19 +8,28 @@ an active state lingers with probability ``stay_init`` (or never, without self l
 
 M-step, given the E-step's <S> (sums run over every real sample of every sequence):
 
-    W <- (sum_t Y_t <S_t>^T) (sum_t <S_t S_t^T>)^+                  (eq. 10)
+    W <- (sum_t Y_t <S_t>^T) (sum_t <S_t S_t^T> + lambda I)^-1      (eq. 10')
     pi^m <- <S_1^m>,  P_ij^m <- sum_t <S_t,i S_t-1,j> / sum_t <S_t-1,j>   (eq. 11)
     C <- (1/T) sum_t Y_t Y_t^T - (1/T) sum_t W <S_t> Y_t^T          (eq. 12)
 
 Eq. 10 solves for all chains together. Under q the chains are independent, so the off-diagonal
 blocks of <S S^T> are <S^m><S^l>^T, and a chain's own block is diag(<S^m>) (one state at a
-time). The silent state's column is left out of the solve (its mean stays zero); ^+ is the
-pseudo-inverse, so a state never visited gets a zero mean. Eq. 11 under the constraint of Fig.
-3: only the entries the band allows have expected counts (the others are exactly zero), so eq.
-11 reduces to a_i = E[#(i -> i+1)] / E[#(visits to i before the last sample)], a state with no
-visits keeping its a_i; pi is averaged over the sequences. Eq. 12 uses the new W; its
-eigenvalues are floored at ``min_variance`` times the data's mean variance (never active on
-data with noise; it keeps C invertible when a model fits exactly).
+time). The silent state's column is left out of the solve (its mean stays zero). Eq. 10' is
+eq. 10 under a prior on each active state's mean, N(0, C / lambda) (lambda = ``prior_samples``:
+as if each state were seen lambda more times at zero): the paper's pseudo-inverse (lambda = 0)
+leaves W free where G is singular (a state never visited, chains that always move together) and,
+where a state's occupancy is tiny, makes its mean a ratio of two tiny sums that the rounding of
+the forward-backward decides (runs then part from the second iteration). Given the new W, eq.
+12 is still C's maximiser when the prior's normaliser (lambda per state against T samples) is
+left out, since W (G + lambda I) W^T = W A^T; EM then raises F - (lambda/2) sum_k w_k^T
+C^-1 w_k (a never-visited state's mean is zero, as with the pseudo-inverse).
+
+Eq. 11 under the constraint of Fig. 3: only the entries the band allows have expected counts
+(the others are exactly zero), so eq. 11 reduces to a_i = E[#(i -> i+1)] / E[#(visits to i
+before the last sample)], a state with no visits keeping its a_i; pi is averaged over the
+sequences. Eq. 12 uses the new W; its eigenvalues are floored at ``min_variance`` times the
+data's mean variance (never active on data with noise; it keeps C invertible when a model fits
+exactly).
 
 Stopping (sec. 3): EM stops after ``max_outer`` iterations or when no entry of W, C or the
 transition probabilities moved by more than ``tol_outer`` (W alone is not enough: C can still be
@@ -31,7 +40,7 @@ shrinking, and the bound rising, while the primitives stand still); each E-step 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from functools import partial
 
@@ -46,12 +55,14 @@ from inkarm.models.primitives.model import PrimitiveModel, PrimitivesConfig
 @dataclass(frozen=True)
 class Iteration:
     """One EM iteration: its number (1-based), the bound F after its E-step, the E-step's
-    sweeps, and the largest change of W in its M-step."""
+    sweeps, the largest change of W in its M-step, and the log prior of W (:func:`log_prior`)
+    of the model its E-step used: EM never lowers ``bound + log_prior``."""
 
     number: int
     bound: float
     sweeps: int
     w_change: float
+    log_prior: float = 0.0
 
 
 @dataclass(eq=False)
@@ -115,7 +126,10 @@ def m_step(model: PrimitiveModel, batch: Batch, post: Posterior,
     for m in range(M):
         block = slice(m * (K - 1), (m + 1) * (K - 1))
         G[block, block] = np.diag(occupancy[block])          # one state at a time
-    W_active = np.linalg.lstsq(G, A.T, rcond=None)[0].T      # = A G^+ (minimum norm)
+    lam = config.prior_samples
+    G[np.diag_indices_from(G)] += lam                        # the prior on W (eq. 10')
+    W_active = (np.linalg.solve(G, A.T) if lam > 0           # = A (G + lambda I)^-1
+                else np.linalg.lstsq(G, A.T, rcond=None)[0]).T   # = A G^+ (minimum norm)
     W = np.zeros_like(model.W)
     W[:, 1:] = W_active.T.reshape(M, K - 1, D)
     C = _floored((Y.T @ Y - W_active @ A.T) / len(Y), Y, config)
@@ -130,6 +144,13 @@ def m_step(model: PrimitiveModel, batch: Batch, post: Posterior,
     if not config.self_loops:
         advance[:, 1:] = 1.0
     return replace(model, W=W, C=C, start=start, advance=advance)
+
+
+def log_prior(model: PrimitiveModel, config: PrimitivesConfig) -> float:
+    """log p(W) up to its normaliser: -(lambda/2) sum over active states of w^T C^-1 w, with
+    lambda = ``config.prior_samples`` (eq. 10')."""
+    W = model.W[:, 1:].reshape(-1, model.dim)
+    return -0.5 * config.prior_samples * float(np.sum(W.T * np.linalg.solve(model.C, W.T)))
 
 
 def fit(sequences, config: PrimitivesConfig | None = None, *, seed: int = 0,
@@ -178,19 +199,31 @@ def _fit_once(batch, config, seed, model, scale, rate_hz, channels, progress) ->
                               rate_hz=rate_hz, channels=channels)
     post = None
     history: list[Iteration] = []
+    for iteration, new, post in em_iterations(model, batch, config):
+        model = new
+        history.append(iteration)
+        if progress is not None:
+            progress(iteration)
+    post = e_step(model, batch, post, config.max_inner, config.tol_inner)
+    return FitResult(model=model, posterior=post, batch=batch, history=history,
+                     final_bound=lower_bound(model, batch, post))
+
+
+def em_iterations(model: PrimitiveModel, batch: Batch, config: PrimitivesConfig,
+                  chain_pass=None) -> Iterator[tuple[Iteration, PrimitiveModel, Posterior]]:
+    """EM from ``model``: after each iteration, (its record, the new model, the E-step's
+    posterior that made it), until ``max_outer`` iterations or the outer tolerance (module
+    docstring). ``chain_pass``: the E-step's forward-backward (:func:`.inference.e_step`)."""
+    post = None
     for number in range(1, config.max_outer + 1):
-        post = e_step(model, batch, post, config.max_inner, config.tol_inner)
+        post = e_step(model, batch, post, config.max_inner, config.tol_inner, chain_pass)
         bound = lower_bound(model, batch, post)
         new = m_step(model, batch, post, config)
         change = max(float(np.max(np.abs(new.W - model.W))),
                      float(np.max(np.abs(new.C - model.C))),
                      float(np.max(np.abs(new.advance - model.advance))))
+        prior = log_prior(model, config)
         model = new
-        history.append(Iteration(number, bound, post.sweeps, change))
-        if progress is not None:
-            progress(history[-1])
+        yield Iteration(number, bound, post.sweeps, change, prior), model, post
         if change <= config.tol_outer:
-            break
-    post = e_step(model, batch, post, config.max_inner, config.tol_inner)
-    return FitResult(model=model, posterior=post, batch=batch, history=history,
-                     final_bound=lower_bound(model, batch, post))
+            return

@@ -49,6 +49,10 @@ class PrimitivesConfig:
         self_loops: Whether active states may linger (Fig. 3's band) or must advance.
         stay_init: Initial probability that an active state lingers (with self_loops).
         min_variance: Floor on C's eigenvalues, as a fraction of the data's mean variance.
+        prior_samples: lambda, the weight [samples] of the prior on W: each active state's
+            mean is drawn from N(0, C / lambda), as if seen lambda more times at zero. It makes
+            eq. 10 determined (a state never visited, or chains that always move together,
+            would leave W free for rounding to pick).
     """
 
     n_chains: int = 8
@@ -60,6 +64,7 @@ class PrimitivesConfig:
     self_loops: bool = True
     stay_init: float = 0.1
     min_variance: float = 1e-6
+    prior_samples: float = 1.0
 
     def __post_init__(self) -> None:
         # the ceilings are budgets, checked before any allocation: past them a request is a
@@ -72,7 +77,8 @@ class PrimitivesConfig:
                 raise InputError(f"expected an integer in {low}..{high}, got {value!r}",
                                  key=name, value=value)
         for name, lo, hi in (("tol_inner", 0.0, np.inf), ("tol_outer", 0.0, np.inf),
-                             ("stay_init", 0.0, 1.0), ("min_variance", 0.0, 1.0)):
+                             ("stay_init", 0.0, 1.0), ("min_variance", 0.0, 1.0),
+                             ("prior_samples", 0.0, np.inf)):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and lo <= value < hi):
                 raise InputError(f"expected a number in [{lo}, {hi}), got {value!r}", key=name,
