@@ -37,6 +37,8 @@ import numpy as np
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.errors import InputError, UnreachableError
 
+_EYE5 = np.eye(5)
+
 
 @dataclass(frozen=True)
 class IKConfig:
@@ -80,6 +82,7 @@ class IKConfig:
         weights = [self.position_weight] * 3 + [self.tilt_weight] * 2
         object.__setattr__(self, "_row_weights",
                            None if weights == [1.0] * 5 else np.array(weights))
+        object.__setattr__(self, "_ridge5", self.damping**2 * _EYE5)  # lambda^2 I, 5 rows
 
     def converged(self, pos_error: float, tilt_error: float) -> bool:
         """Whether a tip error [m] and tilt error [rad] are within tolerance (the tilt only
@@ -98,19 +101,21 @@ class IKResult:
     iterations: int
 
 
-_EYE5 = np.eye(5)
+_dposv = None  # LAPACK's dposv, imported on first use (the planner imports without SciPy)
 
 
 def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """x of A x = b, A symmetric positive definite, by Cholesky (LAPACK dposv)."""
-    from scipy.linalg.lapack import dposv  # (here: the planner imports without SciPy)
+    global _dposv
+    if _dposv is None:
+        from scipy.linalg.lapack import dposv
 
-    return dposv(A, b)[1]
+        _dposv = dposv
+    return _dposv(A, b)[1]
 
 
-def pen_error(
-    p: np.ndarray, R: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray
-) -> np.ndarray:
+def pen_error(p: np.ndarray, R: np.ndarray, p_goal: np.ndarray,
+              axis_goal: np.ndarray) -> np.ndarray:
     """The 5-D task error e = [p* - p ; x_s . w ; y_s . w] with w = z_s x a (module docstring).
 
     In a right-handed frame the triple products reduce to x_s . (z_s x a) = -y_s . a and
@@ -123,24 +128,14 @@ def pen_error(
     return e
 
 
-def pen_jacobian(R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray) -> np.ndarray:
-    """The 5 x n task Jacobian J5 = [Jp ; x_s^T Jr ; y_s^T Jr] (module docstring)."""
-    J5 = np.empty((5, Jp.shape[1]))
+def pen_jacobian(R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray,
+                 out: np.ndarray | None = None) -> np.ndarray:
+    """The 5 x n task Jacobian J5 = [Jp ; x_s^T Jr ; y_s^T Jr] (module docstring), written
+    into ``out`` (5, n) when given."""
+    J5 = np.empty((5, Jp.shape[1])) if out is None else out
     J5[:3] = Jp
-    J5[3:] = R.T[:2] @ Jr
+    np.dot(R.T[:2], Jr, out=J5[3:])
     return J5
-
-
-def pen_task(
-    p: np.ndarray,
-    R: np.ndarray,
-    Jp: np.ndarray,
-    Jr: np.ndarray,
-    p_goal: np.ndarray,
-    axis_goal: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The 5-D error e and Jacobian J5 of the pen task (module docstring)."""
-    return pen_error(p, R, p_goal, axis_goal), pen_jacobian(R, Jp, Jr)
 
 
 def across(axis: np.ndarray, x_goal) -> np.ndarray:
@@ -155,26 +150,16 @@ def across(axis: np.ndarray, x_goal) -> np.ndarray:
     return x / norm
 
 
-def with_spin(e: np.ndarray, J: np.ndarray, R: np.ndarray, Jr: np.ndarray,
-              spin_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The 5-row pen task (e, J) with the spin row of the module docstring appended:
-    e_6 = y_s . x*, J_6 = z_s^T Jr."""
+def pose_task(p: np.ndarray, R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray, p_goal: np.ndarray,
+              axis_goal: np.ndarray, spin_goal: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The pen task's error e (5,) and Jacobian J5 (5, n) (:func:`pen_error`,
+    :func:`pen_jacobian`), and with a ``spin_goal`` x* (unit, across ``axis_goal``) the sixth
+    row of the module docstring: e_6 = y_s . x*, J_6 = z_s^T Jr."""
+    e, J = pen_error(p, R, p_goal, axis_goal), pen_jacobian(R, Jp, Jr)
+    if spin_goal is None:
+        return e, J
     return np.append(e, R[:, 1] @ spin_goal), np.vstack([J, R[:, 2] @ Jr])
-
-
-def pose_task(
-    p: np.ndarray,
-    R: np.ndarray,
-    Jp: np.ndarray,
-    Jr: np.ndarray,
-    p_goal: np.ndarray,
-    axis_goal: np.ndarray,
-    spin_goal: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`pen_task`, and with a ``spin_goal`` x* (unit, across ``axis_goal``) its sixth
-    row (module docstring)."""
-    e, J = pen_task(p, R, Jp, Jr, p_goal, axis_goal)
-    return (e, J) if spin_goal is None else with_spin(e, J, R, Jr, spin_goal)
 
 
 def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
@@ -183,24 +168,16 @@ def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: floa
     return np.minimum(np.maximum(q, lower + margin), upper - margin) - q
 
 
-def null_space_motion(
-    q: np.ndarray, q_posture: np.ndarray, lower: np.ndarray, upper: np.ndarray, cfg: IKConfig
-) -> np.ndarray:
+def null_space_motion(q: np.ndarray, q_posture: np.ndarray, lower: np.ndarray,
+                      upper: np.ndarray, cfg: IKConfig) -> np.ndarray:
     """dq_0 = k_posture (q_posture - q) + k_limit * limit_push(q) in [rad]."""
     dq0 = cfg.posture_gain * (q_posture - q)
     dq0 += cfg.limit_gain * limit_push(q, lower, upper, cfg.limit_margin)
     return dq0
 
 
-def dls_update(
-    q: np.ndarray,
-    e: np.ndarray,
-    J: np.ndarray,
-    dq0: np.ndarray | None,
-    cfg: IKConfig,
-    lower: np.ndarray,
-    upper: np.ndarray,
-) -> np.ndarray:
+def dls_update(q: np.ndarray, e: np.ndarray, J: np.ndarray, dq0: np.ndarray | None,
+               cfg: IKConfig, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """q + dq, the step of the module docstring from the pen-task error ``e`` (5,) and
     Jacobian ``J`` (5, n) at ``q`` (6 rows with a set spin: :func:`pose_task`; task only when
     ``dq0`` is None), scaled to ``cfg.max_step`` and clipped to the limits.
@@ -215,39 +192,31 @@ def dls_update(
             w = np.append(w, [cfg.tilt_weight] * (rows - 5))
         J = w[:, None] * J
         e = w * e
-    A = J @ J.T
-    A += cfg.damping**2 * (_EYE5 if rows == 5 else np.eye(rows))
-    rhs = e if dq0 is None else e - J @ dq0
+    # (ndarray.dot: the same BLAS calls as @, for a third of its overhead on these sizes)
+    A = J.dot(J.T)
+    A += cfg._ridge5 if rows == 5 else cfg.damping**2 * np.eye(rows)
+    rhs = e if dq0 is None else e - J.dot(dq0)
     # A >= lambda^2 I, so the factorisation cannot fail on finite numbers (and non-finite ones
     # propagate to q, where the callers' error checks catch them).
     y = _solve_spd(A, rhs)
-    dq = J.T @ y
+    dq = J.T.dot(y)
     if dq0 is not None:
         dq += dq0
     # (a max over a Python list: a numpy reduction costs more than the whole list on 7 numbers)
     biggest = max(map(abs, dq.tolist()))
     if biggest > cfg.max_step:
         dq *= cfg.max_step / biggest
-    return np.minimum(np.maximum(q + dq, lower), upper)
+    dq += q
+    np.maximum(dq, lower, out=dq)
+    return np.minimum(dq, upper, out=dq)
 
 
-def dls_step(
-    kin: ArmKinematics,
-    q: np.ndarray,
-    p_goal: np.ndarray,
-    axis_goal: np.ndarray,
-    q_posture: np.ndarray,
-    cfg: IKConfig,
-    null_space: bool = True,
-    spin_goal: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+def dls_step(kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray,
+             q_posture: np.ndarray, cfg: IKConfig, null_space: bool = True,
+             spin_goal: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``
     (``spin_goal``: the site's x axis x* (3,) in the robot frame, a 6-row task)."""
-    p, R, Jp, Jr = kin.jacobian_views(q)
-    e = pen_error(p, R, p_goal, axis_goal)
-    J = pen_jacobian(R, Jp, Jr)
-    if spin_goal is not None:
-        e, J = with_spin(e, J, R, Jr, spin_goal)
+    e, J = pose_task(*kin.jacobian_views(q), p_goal, axis_goal, spin_goal)
     dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg) if null_space else None
     return dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper), e
 
@@ -263,48 +232,10 @@ def task_error(e: np.ndarray) -> tuple[float, float]:
     return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(tx * tx + ty * ty)
 
 
-def pose_error(
-    kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray
-) -> tuple[float, float]:
-    """(position error [m], tilt error [rad]) at ``q`` from forward kinematics alone (cheaper
-    than a Jacobian): |p* - p| and |z_s x a|, the sine of the pen's tilt from ``axis_goal``."""
-    p, R = kin.fk(q)
-    return task_error(pen_error(p, R, p_goal, axis_goal))
-
-
-def solve_ik(
-    kin: ArmKinematics,
-    p_goal,
-    axis_goal,
-    q0,
-    q_posture=None,
-    cfg: IKConfig = IKConfig(),
-    spin_goal=None,
-) -> IKResult:
-    """Iterate :func:`dls_step` from ``q0`` until the tip is within tolerance of ``p_goal`` [m]
-    and the pen points along ``axis_goal`` (unit, 3,) (and, given ``spin_goal``, the site's x
-    axis along it: a :class:`PenPose`'s spin). Never raises on failure: check ``converged``.
-    The null-space term acts during the first half of the iterations (until the posture has
-    settled), task-only steps after."""
-    q = np.clip(np.asarray(q0, float).copy(), kin.lower, kin.upper)
-    q_posture = q.copy() if q_posture is None else np.asarray(q_posture, float)
-    p_goal = np.asarray(p_goal, float)
-    axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
-    if spin_goal is not None:
-        spin_goal = across(axis_goal, spin_goal)
-    e = np.zeros(5)
-    for it in range(1, cfg.max_iter + 1):
-        null_space = it <= cfg.max_iter // 2
-        q_next, e = dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=null_space,
-                             spin_goal=spin_goal)
-        pos_err, tilt_err = task_error(e)
-        # (the largest joint move as a list max: cheaper than numpy's on 7 numbers)
-        settled = not null_space or max(map(abs, (q_next - q).tolist())) < 1e-4
-        if cfg.converged(pos_err, tilt_err) and settled:
-            return IKResult(q, True, pos_err, tilt_err, it)
-        q = q_next
-    pos_err, tilt_err = task_error(e)
-    return IKResult(q, False, pos_err, tilt_err, cfg.max_iter)
+def _unit(axis) -> np.ndarray:
+    """``axis`` (3,) over its norm (np.linalg.norm's sum, in one BLAS call)."""
+    axis = np.ascontiguousarray(axis, float)
+    return axis / math.sqrt(axis.dot(axis))
 
 
 class PathTracker:
@@ -315,65 +246,128 @@ class PathTracker:
     within tolerance (at most ``max_refine``). The Jacobian at the joint angles reached for
     one goal serves the first step towards the next, so each step costs one evaluation.
 
+    The solvers' loops run on its parts, :func:`dls_step`'s numbers in fewer NumPy calls: the
+    task at the last evaluation (J5, or J6 with a ``spin_goal``, in a buffer of its own; the
+    tip and tilt as floats, from which the error comes) and the null-space motion with its
+    limit bands made once.
+
     Args:
         kin: The controller's kinematics.
-        axis_goal: Pen direction (3,) in the robot frame (normalised here).
+        axis_goal: Pen direction (3,) in the robot frame (normalised here unless ``unit``).
         q0: Starting joint angles [rad].
         q_posture: Posture the null space pulls towards [rad].
         cfg: Solver settings; pass posture and limit gains that are rates times the goal
             spacing.
+        max_refine: Most task-only steps a goal of :meth:`step` takes.
+        spin_goal: x* (3,), unit and across the axis (:func:`across`); None: the spin is free.
+        unit: Whether ``axis_goal`` is unit already (taken as it is).
     """
 
-    def __init__(
-        self,
-        kin: ArmKinematics,
-        axis_goal,
-        q0,
-        q_posture,
-        cfg: IKConfig = IKConfig(),
-        max_refine: int = 20,
-    ):
-        self.kin = kin
-        self.cfg = cfg
-        self.max_refine = int(max_refine)
-        self.axis_goal = np.asarray(axis_goal, float) / np.linalg.norm(axis_goal)
+    def __init__(self, kin: ArmKinematics, axis_goal, q0, q_posture, cfg: IKConfig = IKConfig(),
+                 max_refine: int = 20, spin_goal: np.ndarray | None = None, unit: bool = False):
+        self.kin, self.cfg, self.max_refine = kin, cfg, int(max_refine)
+        self.axis_goal = np.asarray(axis_goal, float) if unit else _unit(axis_goal)
         self.q_posture = np.asarray(q_posture, float)
         self.q = np.asarray(q0, float).copy()
-        self._evaluate()
+        self._spin = spin_goal
+        self._band = kin.lower + cfg.limit_margin, kin.upper - cfg.limit_margin
+        self._J = np.empty((5 if spin_goal is None else 6, kin.n))
+        self._rows = self._J[:3], self._J[3:5]
+        self._R = self._tip = self._tilt = self._turn = None
+        self._evaluate(self.q)
 
-    def _evaluate(self) -> None:
-        p, R, Jp, Jr = self.kin.jacobian_views(self.q)
-        self._p, self._R = p.copy(), R.copy()
-        self._J = pen_jacobian(R, Jp, Jr)
+    def _evaluate(self, q: np.ndarray) -> None:
+        p, R, Jp, Jr = self.kin.jacobian_views(q)
+        if R is not self._R:  # (the same array at every evaluation: its views made once)
+            self._R, self._RT, self._RT2 = R, R.T, R.T[:2]
+        self._rows[0][...] = Jp  # pen_jacobian
+        np.dot(self._RT2, Jr, out=self._rows[1])
+        self._tip, self._tilt = p.tolist(), self._RT.dot(self.axis_goal).tolist()  # x_s . a, ..
+        if self._spin is not None:  # pose_task's sixth row
+            self._J[5] = R[:, 2] @ Jr
+            self._turn = float(R[:, 1] @ self._spin)
+
+    def _error(self, goal: list[float]) -> tuple[float, float, list[float]]:
+        """(tip error [m], tilt error [rad], e) towards ``goal`` (3 floats, [m]) at the last
+        evaluation: :func:`task_error` of :func:`pose_task`'s e."""
+        (gx, gy, gz), (px, py, pz), (xa, ya, _) = goal, self._tip, self._tilt
+        ex, ey, ez = gx - px, gy - py, gz - pz
+        tilt = ya * ya + xa * xa
+        e = [ex, ey, ez, -ya, xa]
+        if self._turn is not None:
+            tilt += self._turn * self._turn
+            e.append(self._turn)
+        return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(tilt), e
+
+    def _dls(self, q: np.ndarray, e: list[float], null_space: bool) -> np.ndarray:
+        """:func:`dls_update` from ``q`` with the error ``e`` of the last evaluation (there)."""
+        cfg, (low, high) = self.cfg, self._band
+        dq0 = None
+        if null_space:  # null_space_motion
+            dq0 = cfg.posture_gain * (self.q_posture - q)
+            dq0 += cfg.limit_gain * (np.minimum(np.maximum(q, low), high) - q)
+        return dls_update(q, np.array(e), self._J, dq0, cfg, self.kin.lower, self.kin.upper)
+
+    def solve(self, p_goal) -> IKResult:
+        """:func:`solve_ik` from ``q`` (within the limits) towards ``p_goal`` (3,) [m], ``q``
+        left at the result's joint angles: a chain of solves, each from the last one's result,
+        evaluates each result once."""
+        cfg, goal, q = self.cfg, np.asarray(p_goal, float).tolist(), self.q
+        pos_err = tilt_err = 0.0
+        for it in range(1, cfg.max_iter + 1):
+            null_space = it <= cfg.max_iter // 2
+            if it > 1:
+                self._evaluate(q)
+            pos_err, tilt_err, e = self._error(goal)
+            converged = cfg.converged(pos_err, tilt_err)
+            if converged and not null_space:
+                break
+            q_next = self._dls(q, e, null_space)
+            # (the largest joint move as a list max: cheaper than numpy's on 7 numbers)
+            if converged and max(map(abs, (q_next - q).tolist())) < 1e-4:
+                break
+            q = q_next
+        else:
+            self.q = q
+            self._evaluate(q)
+            return IKResult(q, False, pos_err, tilt_err, cfg.max_iter)
+        self.q = q
+        return IKResult(q, True, pos_err, tilt_err, it)
 
     def step(self, p_goal: np.ndarray) -> tuple[float, float]:
         """Move ``q`` towards ``p_goal`` (3,) in [m]; returns (tip error [m], tilt error
         [rad]) at the new ``q``."""
-        kin, cfg, axis = self.kin, self.cfg, self.axis_goal
-        lower, upper = kin.lower, kin.upper
-        e = pen_error(self._p, self._R, p_goal, axis)
-        dq0 = null_space_motion(self.q, self.q_posture, lower, upper, cfg)
-        self.q = dls_update(self.q, e, self._J, dq0, cfg, lower, upper)
-        self._evaluate()
+        return self._step(np.asarray(p_goal, float).tolist())
+
+    def _step(self, goal: list[float]) -> tuple[float, float]:
+        self.q = self._dls(self.q, self._error(goal)[2], null_space=True)
+        self._evaluate(self.q)
         for _ in range(self.max_refine):
-            e = pen_error(self._p, self._R, p_goal, axis)
-            pos_err, tilt_err = task_error(e)
-            if cfg.converged(pos_err, tilt_err):
+            pos_err, tilt_err, e = self._error(goal)
+            if self.cfg.converged(pos_err, tilt_err):
                 return pos_err, tilt_err
-            self.q = dls_update(self.q, e, self._J, None, cfg, lower, upper)
-            self._evaluate()
-        return task_error(pen_error(self._p, self._R, p_goal, axis))
+            self.q = self._dls(self.q, e, null_space=False)
+            self._evaluate(self.q)
+        return self._error(goal)[:2]
 
 
-def track_path(
-    kin: ArmKinematics,
-    points: np.ndarray,
-    axis_goal,
-    q0,
-    q_posture,
-    cfg: IKConfig = IKConfig(),
-    label: Callable[[int], str] | None = None,
-) -> np.ndarray:
+def solve_ik(kin: ArmKinematics, p_goal, axis_goal, q0, q_posture=None,
+             cfg: IKConfig = IKConfig(), spin_goal=None) -> IKResult:
+    """Iterate :func:`dls_step` from ``q0`` until the tip is within tolerance of ``p_goal`` [m]
+    and the pen points along ``axis_goal`` (unit, 3,) (and, given ``spin_goal``, the site's x
+    axis along it: a :class:`PenPose`'s spin). Never raises on failure: check ``converged``.
+    The null-space term acts during the first half of the iterations (until the posture has
+    settled), task-only steps after (:meth:`PathTracker.solve`)."""
+    q = np.minimum(np.maximum(np.asarray(q0, float), kin.lower), kin.upper)  # (np.clip's)
+    axis = _unit(axis_goal)
+    spin = None if spin_goal is None else across(axis, spin_goal)
+    return PathTracker(kin, axis, q, q.copy() if q_posture is None else q_posture, cfg,
+                       spin_goal=spin, unit=True).solve(p_goal)
+
+
+def track_path(kin: ArmKinematics, points: np.ndarray, axis_goal, q0, q_posture,
+               cfg: IKConfig = IKConfig(), label: Callable[[int], str] | None = None
+               ) -> np.ndarray:
     """Joint path (N, n) [rad] through ``points`` (N, 3) [m], warm-started from ``q0``.
 
     Closed-loop inverse kinematics (:class:`PathTracker`): one null-space step per sample (so
@@ -383,35 +377,39 @@ def track_path(
     (``label(i)`` when given) whose tip error stays above ``100 * tol_pos`` or which sits at a
     joint limit.
     """
-    points = np.asarray(points, float)
     tracker = PathTracker(kin, axis_goal, q0, q_posture, cfg)
-    path = np.empty((points.shape[0], kin.n))
-    for i, p_goal in enumerate(points):
-        pos_err, tilt_err = tracker.step(p_goal)
-        q = tracker.q
-        _check_tracked(kin, cfg, q, pos_err, tilt_err, i, label, "with the pen perpendicular")
-        path[i] = q
-    return path
+    rows, errors = [], []
+    for goal in np.asarray(points, float).tolist():
+        errors.append(tracker._step(goal))
+        rows.append(tracker.q)
+    return _checked(kin, cfg, rows, errors, label, "with the pen perpendicular")
 
 
-def _check_tracked(kin: ArmKinematics, cfg: IKConfig, q: np.ndarray, pos_err: float,
-                   tilt_err: float, i: int, label: Callable[[int], str] | None,
-                   how: str) -> None:
-    """Raise UnreachableError naming sample ``i`` (``label(i)`` when given) when its tip error
-    [m] stays above ``100 * tol_pos``, its tilt error [rad] above ``100 * tol_tilt`` (when
-    the tilt counts), or ``q`` sits at a joint limit; ``how``: the pen's pose, in words."""
-    # (q is clipped to the limits: the smallest distance to one, as a list min)
-    clearance = min(np.minimum(q - kin.lower, kin.upper - q).tolist())
-    tilt_bad = cfg.tilt_weight > 0 and tilt_err > 100 * cfg.tol_tilt
-    if pos_err > 100 * cfg.tol_pos or tilt_bad or not clearance > 1e-9:
-        at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
-        where = label(i) if label is not None else f"sample {i}"
-        why = (
-            f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"
-            if at_limit.any()
-            else f"tip error {1000 * pos_err:.3f} mm, pen tilt {np.rad2deg(tilt_err):.3f} deg"
-        )
-        raise UnreachableError(f"{where}: out of reach {how} ({why})")
+def _checked(kin: ArmKinematics, cfg: IKConfig, rows: list[np.ndarray],
+             errors: list[tuple[float, float]], label: Callable[[int], str] | None,
+             how: str) -> np.ndarray:
+    """The path of joint angles ``rows`` (N, n) [rad], or UnreachableError naming the first
+    sample ``i`` (``label(i)`` when given) whose tip error [m] (``errors[i][0]``) stays above
+    ``100 * tol_pos``, whose tilt error [rad] stays above ``100 * tol_tilt`` (when the tilt
+    counts), or whose joint angles (clipped to the limits) sit at a joint limit; ``how``: the
+    pen's pose, in words."""
+    path, err = np.array(rows).reshape(-1, kin.n), np.array(errors).reshape(-1, 2)
+    bad = (err[:, 0] > 100 * cfg.tol_pos) | ~(
+        np.minimum(path - kin.lower, kin.upper - path).min(axis=1) > 1e-9)
+    if cfg.tilt_weight > 0:
+        bad |= err[:, 1] > 100 * cfg.tol_tilt
+    if not bad.any():
+        return path
+    i = int(np.argmax(bad))
+    q, (pos_err, tilt_err) = path[i], errors[i]
+    at_limit = (q <= kin.lower + 1e-9) | (q >= kin.upper - 1e-9)
+    where = label(i) if label is not None else f"sample {i}"
+    why = (
+        f"joint {kin.joint_names[int(np.argmax(at_limit))]} at its limit"
+        if at_limit.any()
+        else f"tip error {1000 * pos_err:.3f} mm, pen tilt {np.rad2deg(tilt_err):.3f} deg"
+    )
+    raise UnreachableError(f"{where}: out of reach {how} ({why})")
 
 
 MAX_TILT_DEG = 60.0  # the largest pen tilt a stroke may ask for [deg]
@@ -465,36 +463,25 @@ class PenPose:
         return axis, x
 
 
-def track_poses(
-    kin: ArmKinematics,
-    points: np.ndarray,
-    axes: np.ndarray,
-    spins: np.ndarray,
-    q0,
-    q_posture,
-    cfg: IKConfig = IKConfig(),
-    label: Callable[[int], str] | None = None,
-) -> np.ndarray:
+def track_poses(kin: ArmKinematics, points: np.ndarray, axes: np.ndarray, spins: np.ndarray,
+                q0, q_posture, cfg: IKConfig = IKConfig(),
+                label: Callable[[int], str] | None = None) -> np.ndarray:
     """:func:`track_path` with a pen direction per sample: ``axes`` (N, 3) unit, and spin goals
     ``spins`` (N, 3) (a row of NaN: the spin is free there), robot frame. Each sample: one
     null-space step, then task-only steps until within tolerance (at most 20); raises
     UnreachableError as :func:`track_path` does."""
-    points = np.asarray(points, float)
     q = np.asarray(q0, float).copy()
-    q_posture = np.asarray(q_posture, float)
-    path = np.empty((points.shape[0], kin.n))
-    for i, p_goal in enumerate(points):
-        axis = axes[i]
-        spin = None if np.isnan(spins[i]).any() else across(axis, spins[i])
-        dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg)
-        for _ in range(21):
-            p, R, Jp, Jr = kin.jacobian_views(q)
-            e, J = pose_task(p, R, Jp, Jr, p_goal, axis, spin)
-            pos_err, tilt_err = task_error(e)
-            if dq0 is None and cfg.converged(pos_err, tilt_err):
+    rows, errors = [], []
+    for goal, axis, spin in zip(np.asarray(points, float).tolist(), axes, spins):
+        solver = PathTracker(kin, axis, q, q_posture, cfg, unit=True,
+                             spin_goal=None if np.isnan(spin).any() else across(axis, spin))
+        for k in range(21):  # (the first step from an evaluation at the sample's own axis)
+            if k:
+                solver._evaluate(q)
+            pos_err, tilt_err, e = solver._error(goal)
+            if k and cfg.converged(pos_err, tilt_err):
                 break
-            q = dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper)
-            dq0 = None
-        _check_tracked(kin, cfg, q, pos_err, tilt_err, i, label, "with the pen's pose")
-        path[i] = q
-    return path
+            q = solver._dls(q, e, null_space=not k)
+        rows.append(q)
+        errors.append((pos_err, tilt_err))
+    return _checked(kin, cfg, rows, errors, label, "with the pen's pose")

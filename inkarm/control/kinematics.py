@@ -64,6 +64,18 @@ class ArmKinematics:
         self._qvel = self.data.qvel
         self._site_xpos = self.data.site_xpos[sid]
         self._site_xmat = self.data.site_xmat[sid].reshape(3, 3)
+        # The arm's columns of the Jacobians, inertia matrix and bias: views made once when the
+        # joints' dofs are consecutive (a slice), else taken (copied) at each evaluation.
+        self._arm_views = None
+        if isinstance(self.dof_adr, slice):
+            self._arm_views = self._arm_parts()
+
+    def _arm_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The arm's (Jp, Jr, M, c) in the buffers of the whole model's dofs."""
+        if self._arm_views is not None:
+            return self._arm_views
+        a = self.dof_adr
+        return self._jacp[:, a], self._jacr[:, a], self._dense_mass[a][:, a], self._bias[a]
 
     def _set(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
         self._qpos[self.qpos_adr] = q
@@ -87,18 +99,31 @@ class ArmKinematics:
         self, q: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`jacobian` without the copies: views into this object's buffers, valid until
-        its next evaluation (for the IK iterations, which use them at once)."""
+        its next evaluation (for the IK iterations, which use them at once; p and R are the
+        same arrays at every call, and Jp and Jr too when the arm's dofs are consecutive)."""
         m, d = self.model, self.data
         self._set(q)
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.site_id)
-        return (
-            self._site_xpos,
-            self._site_xmat,
-            self._jacp[:, self.dof_adr],
-            self._jacr[:, self.dof_adr],
-        )
+        return (self._site_xpos, self._site_xmat, *self._arm_parts()[:2])
+
+    def plan_terms(
+        self, q: np.ndarray, qd: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(p, R, Jp, Jr, M, c): :meth:`jacobian_views`, :meth:`mass` and :meth:`bias` at
+        (``q``, ``qd``) from one forward-kinematics pass (the same numbers as the three
+        calls); views valid until this object's next evaluation (the planner's slow terms)."""
+        m, d = self.model, self.data
+        self._set(q, qd)
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.site_id)
+        mujoco.mj_makeM(m, d)
+        mujoco.mj_fullM(m, d, self._dense_mass)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_rne(m, d, 0, self._bias)
+        return (self._site_xpos, self._site_xmat, *self._arm_parts())
 
     def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Bias force c(q, qd) = C(q, qd) qd + g(q) in [N m] (n,): gravity, Coriolis and
@@ -109,7 +134,7 @@ class ArmKinematics:
         mujoco.mj_comPos(m, d)
         mujoco.mj_comVel(m, d)
         mujoco.mj_rne(m, d, 0, self._bias)
-        return self._bias[self.dof_adr]
+        return self._arm_parts()[3]
 
     def mass(self, q: np.ndarray) -> np.ndarray:
         """Joint-space inertia M(q) (n, n) in [kg m^2], armature included."""
@@ -119,7 +144,7 @@ class ArmKinematics:
         mujoco.mj_comPos(m, d)
         mujoco.mj_makeM(m, d)
         mujoco.mj_fullM(m, d, self._dense_mass)
-        return self._dense_mass[self.dof_adr][:, self.dof_adr].copy()
+        return self._arm_parts()[2].copy()
 
 
     @classmethod

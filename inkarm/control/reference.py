@@ -40,7 +40,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from inkarm.control.config import LoopConfig
-from inkarm.control.ik import IKConfig, PenPose, pen_jacobian, solve_ik, track_path, track_poses
+from inkarm.control.ik import (
+    IKConfig,
+    PathTracker,
+    PenPose,
+    pen_jacobian,
+    solve_ik,
+    track_path,
+    track_poses,
+)
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.relief_speed import slowed_over_relief
 from inkarm.control.sequencing import PenPath, minimum_jerk, pen_depth_mm, sequence_pen, ticks
@@ -125,9 +133,11 @@ def check_reachable(
     depth = pen_depth_mm(config, model.pen_stiffness_n_per_mm, model.pen_travel_mm,
                          model.pen_preload_n, model.paper_stiffness_n_per_mm)
     posture = model.home_q
-    q = posture.copy()
-    # Task-only steps (no posture pull) warm-started along the stroke: a cheap yes/no.
+    # Task-only steps (no posture pull) warm-started along the stroke: a cheap yes/no; each
+    # solve starts from the last one's result (solve_ik's, from one PathTracker).
     cfg = dataclasses.replace(ik, posture_gain=0.0, tol_pos=1e-5, tol_tilt=1e-4, max_iter=200)
+    tracker = PathTracker(kin, placement.pen_axis,
+                          np.minimum(np.maximum(posture, kin.lower), kin.upper), posture, cfg)
     for k, s in enumerate(drawing.strokes):
         pos = s.pos[:, :2]
         off = ~placement.contains(pos)
@@ -142,15 +152,13 @@ def check_reachable(
             np.searchsorted(arc, np.arange(0.0, arc[-1], spacing_mm)).tolist() + [len(pos) - 1]
         )
         for i in picks:
-            goal = placement.to_robot([pos[i, 0], pos[i, 1], -depth])
-            result = solve_ik(kin, goal, placement.pen_axis, q, posture, cfg)
+            result = tracker.solve(placement.to_robot([pos[i, 0], pos[i, 1], -depth]))
             if not result.converged:
                 raise UnreachableError(
                     f"stroke {k}, point ({pos[i, 0]:.1f}, {pos[i, 1]:.1f}) mm: out of reach "
                     f"with the pen perpendicular to the paper (closest tip "
                     f"{1000 * result.pos_error:.1f} mm away)"
                 )
-            q = result.q
 
 
 def plan_joint_reference(
@@ -251,17 +259,17 @@ def plan_joint_reference(
     n_k = len(all_knots)
     tip_k = np.empty((n_k, 3))
     jac5_k = np.empty((n_k, 5, kin.n))
-    mass_k = np.empty((n_k, kin.n * kin.n))
+    mass_k = np.empty((n_k, kin.n, kin.n))
     bias_k = np.empty((n_k, kin.n))
     spin_k = np.empty((n_k, kin.n)) if poses is not None else None
-    for j, i in enumerate(all_knots):
-        p, R, Jp, Jr = kin.jacobian_views(q[i])
+    for j, (q_j, qd_j) in enumerate(zip(q[all_knots], qd[all_knots])):
+        p, R, Jp, Jr, M, c = kin.plan_terms(q_j, qd_j)
         tip_k[j] = p
-        jac5_k[j] = pen_jacobian(R, Jp, Jr)
+        pen_jacobian(R, Jp, Jr, out=jac5_k[j])
         if spin_k is not None:
             spin_k[j] = R[:, 2] @ Jr
-        mass_k[j] = kin.mass(q[i]).ravel()
-        bias_k[j] = kin.bias(q[i], qd[i])
+        mass_k[j] = M
+        bias_k[j] = c
     page_k = placement.to_page(tip_k)
     jac_k = jac5_k[:, :3].transpose(0, 2, 1).reshape(n_k, kin.n * 3)  # rows of Jp^T
     # J5^+ (-n): the joint motion that presses the pen along -n, tilt unchanged.
@@ -276,9 +284,10 @@ def plan_joint_reference(
         normal_q_k[cart] = _press_along(jac5_k[cart], spin_k[cart],
                                         lean[all_knots[cart] - len(approach)]
                                         @ placement.rotation.T)
-    mass = _lerp_rows(all_knots, mass_k, len(q)).reshape(len(q), kin.n, kin.n)
-    jac_t = _lerp_rows(all_knots, jac_k, len(q)).reshape(len(q), kin.n, 3)
-    page_all = _lerp_rows(all_knots, page_k, len(q))
+    lerp = _Lerp(all_knots, len(q))
+    mass = lerp(mass_k)
+    jac_t = lerp(jac_k).reshape(len(q), kin.n, 3)
+    page_all = lerp(page_k)
     offset = len(approach)
     page_all[offset : offset + len(page)] = page  # the exact plan where there is one
 
@@ -298,10 +307,10 @@ def plan_joint_reference(
         page_mm=page_all,
         phase=np.concatenate(parts_phase),
         stroke=np.concatenate(parts_stroke),
-        normal_q=_lerp_rows(all_knots, normal_q_k, len(q)),
+        normal_q=lerp(normal_q_k),
         contact_tau=contact_tau,
         inertia=np.einsum("kij,kj->ki", mass, qdd),
-        bias=_lerp_rows(all_knots, bias_k, len(q)),
+        bias=lerp(bias_k),
         settle=frozenset(offset + r for r in pen.settle),
     )
 
@@ -366,15 +375,25 @@ def _knots(n: int, stride: int) -> np.ndarray:
     return np.unique(np.append(np.arange(0, n, stride), n - 1))
 
 
-def _lerp_rows(knots: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """Rows ``values`` (len(knots), m) given at indices ``knots``, linearly interpolated to
-    (n, m)."""
-    if len(knots) == 1:
-        return np.repeat(values, n, axis=0)
-    i = np.arange(n)
-    k = np.clip(np.searchsorted(knots, i, side="right") - 1, 0, len(knots) - 2)
-    w = ((i - knots[k]) / (knots[k + 1] - knots[k]))[:, None]
-    return values[k] * (1.0 - w) + values[k + 1] * w
+class _Lerp:
+    """Rows given at the indices ``knots`` (increasing), linearly interpolated to range(n):
+    v_i = v_k (1 - w) + v_{k+1} w, w = (i - i_k) / (i_{k+1} - i_k); the pieces and weights
+    found once for every array of rows (called with ``values`` (len(knots), ...))."""
+
+    def __init__(self, knots: np.ndarray, n: int):
+        self.n, self.single = n, len(knots) == 1
+        if not self.single:
+            i = np.arange(n)
+            k = np.clip(np.searchsorted(knots, i, side="right") - 1, 0, len(knots) - 2)
+            self.k, self.k1 = k, k + 1
+            self.w = (i - knots[k]) / (knots[k + 1] - knots[k])
+            self.w0 = 1.0 - self.w
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        if self.single:
+            return np.repeat(values, self.n, axis=0)
+        shape = (-1,) + (1,) * (values.ndim - 1)
+        return values[self.k] * self.w0.reshape(shape) + values[self.k1] * self.w.reshape(shape)
 
 
 def _joint_move(q0: np.ndarray, q1: np.ndarray, peak_speed: np.ndarray, dt: float) -> np.ndarray:

@@ -10,14 +10,15 @@ from hypothesis import strategies as st
 from inkarm.control.ik import (
     IKConfig,
     PathTracker,
+    across,
     dls_step,
     dls_update,
     limit_push,
     null_space_motion,
     pen_error,
-    pen_task,
-    pose_error,
+    pose_task,
     solve_ik,
+    task_error,
     track_path,
 )
 from inkarm.control.kinematics import ArmKinematics
@@ -26,6 +27,12 @@ from inkarm.robots.registry import load_robot
 from inkarm.sim.cell import PEN_TIP, kinematic_model
 
 pytestmark = pytest.mark.sim
+
+
+def pose_error(kin, q, p_goal, axis_goal):
+    """(position error [m], tilt error [rad]) at ``q`` from forward kinematics alone."""
+    p, R = kin.fk(q)
+    return task_error(pen_error(p, R, np.asarray(p_goal, float), axis_goal))
 
 HOME = np.array(load_robot("iiwa14").home_q)
 Q_TEST = np.array([0.2, 0.7, -0.3, -1.4, 0.4, 0.8, 0.5])
@@ -75,11 +82,11 @@ def test_bias_and_mass_match_a_full_forward_pass(kin):
 
 def test_task_error_is_zero_on_the_goal_and_measures_tilt(kin):
     p, R, Jp, Jr = kin.jacobian(Q_TEST)
-    e, J = pen_task(p, R, Jp, Jr, p, R[:, 2])
+    e, J = pose_task(p, R, Jp, Jr, p, R[:, 2])
     np.testing.assert_allclose(e, 0.0, atol=1e-15)
     assert J.shape == (5, 7)
     tilted = np.cos(0.1) * R[:, 2] + np.sin(0.1) * R[:, 0]
-    e, _ = pen_task(p, R, Jp, Jr, p + [0.001, 0, 0], tilted)
+    e, _ = pose_task(p, R, Jp, Jr, p + [0.001, 0, 0], tilted)
     np.testing.assert_allclose(e[:3], [0.001, 0, 0])
     assert np.linalg.norm(e[3:]) == pytest.approx(np.sin(0.1))
 
@@ -112,7 +119,7 @@ def test_tilt_rows_equal_the_cross_product_definition(quaternion, axis):
 def test_one_solve_step_equals_the_task_plus_projected_null_space_terms(kin, page):
     p, R, Jp, Jr = kin.jacobian(Q_TEST)
     goal = p + [0.01, -0.02, 0.005]
-    e, J = pen_task(p, R, Jp, Jr, goal, page.pen_axis)
+    e, J = pose_task(p, R, Jp, Jr, goal, page.pen_axis)
     cfg = IKConfig(max_step=10.0, posture_gain=0.3)
     dq0 = null_space_motion(Q_TEST, HOME, kin.lower, kin.upper, cfg)
     # module docstring: J^T (J J^T + l^2 I)^-1 e + (I - J^+ J) dq0 with the damped J^+
@@ -154,9 +161,49 @@ def test_path_tracker_steps_as_the_per_sample_scheme_it_documents(kin, page):
                 break
             q, _ = dls_step(kin, q, goal, page.pen_axis, HOME, cfg, null_space=False)
         errors = tracker.step(goal)
-        np.testing.assert_allclose(tracker.q, q, atol=1e-12)
+        np.testing.assert_array_equal(tracker.q, q)  # the same numbers, bit for bit
         np.testing.assert_allclose(errors, pose_error(kin, q, goal, page.pen_axis), atol=1e-12)
         assert errors[0] < cfg.tol_pos and errors[1] < cfg.tol_tilt
+
+
+def test_plan_terms_are_the_jacobian_mass_and_bias_of_one_pass(kin):
+    qd = np.linspace(-0.5, 0.5, 7)
+    expected = (*kin.jacobian(Q_TEST), kin.mass(Q_TEST), kin.bias(Q_TEST, qd).copy())
+    kin.jacobian_views(HOME)  # another pose first: nothing is left over from it
+    for got, want in zip(kin.plan_terms(Q_TEST, qd), expected, strict=True):
+        np.testing.assert_array_equal(got, want)
+
+
+def documented_solve(kin, goal, axis, q0, posture, cfg, spin=None):
+    """solve_ik's loop as its docstring states it, on dls_step: (q, iterations)."""
+    q = np.clip(q0, kin.lower, kin.upper)
+    axis = axis / np.linalg.norm(axis)
+    spin = None if spin is None else across(axis, spin)
+    for it in range(1, cfg.max_iter + 1):
+        null_space = it <= cfg.max_iter // 2
+        q_next, e = dls_step(kin, q, goal, axis, posture, cfg, null_space, spin)
+        settled = not null_space or np.max(np.abs(q_next - q)) < 1e-4
+        if cfg.converged(*task_error(e)) and settled:
+            return q, it
+        q = q_next
+    return q, cfg.max_iter
+
+
+@pytest.mark.parametrize("case", ["posture", "task only", "spin", "unreachable"])
+def test_solve_ik_takes_the_documented_steps_bit_for_bit(kin, page, case):
+    goal = page.to_robot([120.0, 160.0, -0.5])
+    cfg, spin = IKConfig(), None
+    if case == "task only":  # as check_reachable asks
+        cfg = IKConfig(posture_gain=0.0, tol_pos=1e-5, tol_tilt=1e-4, max_iter=200)
+    elif case == "spin":
+        spin = np.array([1.0, 0.3, 0.2])
+    elif case == "unreachable":
+        goal, cfg = np.array([2.0, 0.0, 0.0]), IKConfig(max_iter=40)
+    result = solve_ik(kin, goal, page.pen_axis, HOME, HOME, cfg, spin_goal=spin)
+    q, iterations = documented_solve(kin, goal, page.pen_axis, HOME, HOME, cfg, spin)
+    np.testing.assert_array_equal(result.q, q)
+    assert result.iterations == iterations
+    assert result.converged == (case != "unreachable")
 
 
 def test_path_tracker_reports_the_error_it_could_not_remove(kin, page):
@@ -172,7 +219,7 @@ def test_spin_about_the_pen_axis_is_not_part_of_the_task(kin):
     p, R, _Jp, _Jr = kin.jacobian(q)
     q[6] += 0.7  # joint 7 spins the pen about its own axis
     p2, R2, Jp2, Jr2 = kin.jacobian(q)
-    e, _ = pen_task(p2, R2, Jp2, Jr2, p, R[:, 2])
+    e, _ = pose_task(p2, R2, Jp2, Jr2, p, R[:, 2])
     np.testing.assert_allclose(e, 0.0, atol=1e-12)
 
 
@@ -242,6 +289,9 @@ def test_track_path_names_the_first_unreachable_sample(kin, page):
         UnreachableError, match=r"^point C: out of reach with the pen perpendicular"
     ):
         track_path(kin, points, page.pen_axis, q0, HOME, label=lambda i: "point " + "ABC"[i])
+    # the samples are checked after tracking: the first that fails is named, not a later one
+    with pytest.raises(UnreachableError, match=r"^sample 1: out of reach .*tip error"):
+        track_path(kin, points[[0, 2, 0, 2]], page.pen_axis, q0, HOME)
 
 
 def test_unknown_names_are_refused(kin):
@@ -281,7 +331,7 @@ def test_converged_counts_the_tilt_only_when_its_rows_count():
 
 def test_weights_scale_the_task_rows(kin):
     p, R, Jp, Jr = kin.jacobian(Q_TEST)
-    e, J = pen_task(p, R, Jp, Jr, p + [0.01, -0.02, 0.005], np.array([0.0, 0.0, -1.0]))
+    e, J = pose_task(p, R, Jp, Jr, p + [0.01, -0.02, 0.005], np.array([0.0, 0.0, -1.0]))
     cfg = IKConfig(max_step=10.0, position_weight=2.0, tilt_weight=0.5)
     w = np.array([2.0, 2.0, 2.0, 0.5, 0.5])
     Jw, ew = w[:, None] * J, w * e

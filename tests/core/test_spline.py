@@ -68,6 +68,36 @@ def test_a_tridiagonal_solve_pivots_where_the_diagonal_is_small():
     np.testing.assert_allclose(dense @ np.array(rows)[:, 0], [1.0, 2.0, 3.0], rtol=1e-15)
 
 
+def test_the_python_elimination_is_lapacks_dgtsv_bit_for_bit():
+    # spline_slopes calls dgtsv itself where SciPy's LAPACK is loaded, else tridiagonal_solve
+    from scipy.linalg.lapack import dgtsv
+
+    rng = np.random.default_rng(25)
+    for k in range(300):  # half of them with a small diagonal, where rows are interchanged
+        n = int(rng.integers(2, 30))
+        lower, upper = rng.normal(size=n - 1), rng.normal(size=n - 1)
+        diagonal = rng.normal(size=n) * (3.0 if k % 2 else 0.3)
+        rhs = rng.normal(size=(n, int(rng.integers(1, 8))))
+        *_, x, info = dgtsv(lower, diagonal, upper, rhs)
+        if info == 0:
+            rows = tridiagonal_solve(lower.tolist(), diagonal.tolist(), upper.tolist(),
+                                     rhs.tolist())
+            assert np.array_equal(np.array(rows), x), f"case {k}, {n} rows"
+
+
+def test_a_spline_is_the_same_with_and_without_scipys_lapack_loaded(monkeypatch):
+    import sys
+
+    import scipy.linalg.lapack  # noqa: F401 (loaded: spline_slopes calls dgtsv)
+
+    splines = [(x, y, kind) for kind, x, y, _, _ in cases(30) if kind != "hermite"]
+    with_lapack = [cubic_spline(*case).c for case in splines]
+    monkeypatch.delitem(sys.modules, "scipy.linalg.lapack")
+    for case, expected in zip(splines, with_lapack, strict=True):
+        assert np.array_equal(cubic_spline(*case).c, expected), f"{case[2]}, {len(case[0])} points"
+    assert "scipy.linalg.lapack" not in sys.modules  # (the Python elimination was the one used)
+
+
 @pytest.mark.parametrize("x, y, boundary, match", [
     ([0.0, 1.0, 2.0], [0.0, 1.0, 0.0], "not-a-knot", "at least 4 points"),
     ([0.0, 1.0], [0.0, 1.0], "natural", "expected one of"),

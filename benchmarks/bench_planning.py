@@ -1,0 +1,199 @@
+"""The run's planning: the IK path and the joint reference, once per run (issue 22 part 2).
+
+Run: ``python benchmarks/bench_planning.py [--quick] [--all]``. The executor plans before the
+first control period: :func:`inkarm.control.reference.check_reachable` (static IK at points
+about 10 mm apart along each stroke) and
+:func:`inkarm.control.reference.plan_within_speed_limits` (the pen's phases on the control grid,
+the IK path on knots every ``ik_period_s``, a clamped spline through them, the slowly varying
+feed-forward terms). The default scenario is drawn once to record the two calls' arguments and
+the run's torques; then the two calls are timed on this thread's CPU clock
+(``time.thread_time``) in alternating blocks with MuJoCo alone on the same run (its torques
+replayed open loop, 3 physics steps a control period: ``bench_period.mujoco_cpu_s``), and split
+into parts by timers around them in one more pass (about a microsecond a timer, a few calls).
+
+With ``--all``, every shipped scenario (``load_scenario()`` and ``scenarios/*.toml``) is planned
+too, its run stopped once planned: planning per run and per control period, and a digest of the
+planned reference (q, qd, qdd, normal_q, page_mm, phase, stroke, contact_tau, inertia, bias) to
+compare before and after a change to the planner that must not change what it plans.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_period import mujoco_cpu_s
+from blocks import interleave
+
+from inkarm.control import executor, reference
+from inkarm.jobs.run import run
+from inkarm.jobs.scenario import load_scenario
+from inkarm.sim.cell import Cell
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+FIELDS = ("q", "qd", "qdd", "normal_q", "page_mm", "phase", "stroke", "contact_tau", "inertia",
+          "bias")
+# Timed parts of planning: (label, the name in inkarm.control.reference that is timed).
+PARTS = (("check_reachable: static IK along the strokes", "check_reachable"),
+         ("the pen's phases on the control grid (sequence_pen)", "sequence_pen"),
+         ("IK path on the knots (track_path)", "track_path"),
+         ("clamped joint spline through the knots", "cubic_spline"))
+
+
+class _Planned(Exception):
+    """Stops a run once its reference is planned."""
+
+
+def planning_calls(scenario, stop: bool):
+    """The arguments of the executor's two planning calls for ``scenario``, and the run (None
+    when ``stop``: the run ends once planned)."""
+    calls = {}
+    check, plan = executor.check_reachable, executor.plan_within_speed_limits
+
+    def check_(*args, **kwargs):
+        calls["check"] = (args, kwargs)
+        return check(*args, **kwargs)
+
+    def plan_(*args, **kwargs):
+        calls["plan"] = (args, kwargs)
+        planned = plan(*args, **kwargs)
+        if stop:
+            raise _Planned
+        return planned
+
+    executor.check_reachable, executor.plan_within_speed_limits = check_, plan_
+    try:
+        result = run(scenario)
+    except _Planned:
+        result = None
+    finally:
+        executor.check_reachable, executor.plan_within_speed_limits = check, plan
+    return calls, result
+
+
+def planner(calls):
+    """A callable that plans again from the recorded ``calls``: the joint reference."""
+    (check_args, check_kwargs), (plan_args, plan_kwargs) = calls["check"], calls["plan"]
+
+    def plan():
+        reference.check_reachable(*check_args, **check_kwargs)
+        return reference.plan_within_speed_limits(*plan_args, **plan_kwargs)[0]
+    return plan
+
+
+def digest(ref) -> str:
+    """The first 12 hex digits of the SHA-256 of the reference's arrays (FIELDS)."""
+    h = hashlib.sha256()
+    for name in FIELDS:
+        h.update(np.ascontiguousarray(getattr(ref, name)).tobytes())
+    return h.hexdigest()[:12]
+
+
+def parts_s(plan, passes: int = 5) -> dict[str, float]:
+    """Median seconds per run in each of PARTS (thread CPU), over ``passes`` instrumented
+    passes."""
+    spent: dict[str, list[float]] = {name: [] for _, name in PARTS}
+    saved = {name: getattr(reference, name) for _, name in PARTS}
+
+    def timer(name):
+        fn = saved[name]
+
+        def timed(*args, **kwargs):
+            start = time.thread_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[name][-1] += time.thread_time() - start
+        return timed
+
+    for name in saved:
+        setattr(reference, name, timer(name))
+    try:
+        for _ in range(passes):
+            for times in spent.values():
+                times.append(0.0)
+            plan()
+    finally:
+        for name, fn in saved.items():
+            setattr(reference, name, fn)
+    return {name: statistics.median(times) for name, times in spent.items()}
+
+
+def default_section(quick: bool) -> list[str]:
+    scenario = load_scenario()
+    calls, first = planning_calls(scenario, stop=False)
+    plan = planner(calls)
+    ref = plan()
+    periods = len(ref)
+    torques = first.log.torque
+    cell = Cell(scenario.cell, scenario.robot)
+    timing = interleave({"planning": plan, "mujoco": lambda: mujoco_cpu_s(cell, torques)},
+                        blocks=3 if quick else 9, repeats={"planning": 5, "mujoco": 1},
+                        clock=time.thread_time)
+    total, mujoco = timing.median("planning"), timing.median("mujoco")
+    parts = parts_s(plan)
+    lines = [
+        "## Planning: the IK path and the joint reference (bench_planning.py)",
+        "",
+        (f"The default scenario ({periods} control periods), planned again from the executor's "
+         "recorded calls (`check_reachable`, `plan_within_speed_limits`), on this thread's CPU "
+         "clock in alternating blocks with MuJoCo alone on the same run (its torques replayed "
+         "open loop, 3 physics steps a period); the parts from timers in 5 more passes. "
+         f"{timing.load_line()}"),
+        "",
+        "| part | share | per run [ms] | per control period [us] |",
+        "|---|---|---|---|",
+    ]
+    for label, name in PARTS:
+        lines.append(f"| {label} | {parts[name] / total:.0%} | {1e3 * parts[name]:.2f} | "
+                     f"{1e6 * parts[name] / periods:.2f} |")
+    rest = total - sum(parts.values())
+    lines += [
+        (f"| the rest (the first IK solve, feed-forward terms on knots 40 ms apart, gradients) | "
+         f"{rest / total:.0%} | {1e3 * rest:.2f} | {1e6 * rest / periods:.2f} |"),
+        (f"| **planning, uninstrumented** | 100% | {1e3 * total:.2f} | "
+         f"{1e6 * total / periods:.2f} |"),
+        (f"| MuJoCo alone, the run's steps | | {1e3 * mujoco:.2f} | "
+         f"{1e6 * mujoco / periods:.2f} |"),
+        "",
+        (f"Planning / MuJoCo alone: {total / mujoco:.2f}, {total / mujoco / 2:.0%} of issue 22's "
+         f"budget for the whole executor (2x MuJoCo alone). Reference digest `{digest(ref)}`."),
+    ]
+    return lines
+
+
+def all_section() -> list[str]:
+    paths = [None] + sorted(SCENARIOS.glob("*.toml"))
+    lines = ["", "| scenario | periods | planning [ms] | per period [us] | reference digest |",
+             "|---|---|---|---|---|"]
+    for path in paths:
+        calls, _ = planning_calls(load_scenario(path), stop=True)
+        plan = planner(calls)
+        ref = plan()
+        seconds = interleave({"planning": plan}, blocks=3, repeats=3,
+                             clock=time.thread_time).median("planning")
+        name = "default" if path is None else path.stem
+        lines.append(f"| {name} | {len(ref)} | {1e3 * seconds:.2f} | "
+                     f"{1e6 * seconds / len(ref):.2f} | `{digest(ref)}` |")
+    return lines
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer blocks")
+    parser.add_argument("--all", action="store_true", help="every shipped scenario too")
+    args = parser.parse_args()
+    lines = default_section(args.quick)
+    if args.all:
+        lines += all_section()
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
