@@ -216,8 +216,8 @@ def test_restarts_keep_the_best_bound():
     seqs = generated(small_model(rng), rng, n=5)
     config = PrimitivesConfig(n_chains=2, n_states=3, max_outer=8)
     best = fit(seqs, config, seed=10, restarts=3)
-    singles = [fit(seqs, config, seed=10 + r).final_bound for r in range(3)]
-    assert best.final_bound == pytest.approx(max(singles))
+    singles = [fit(seqs, config, seed=10 + r).objective for r in range(3)]
+    assert best.objective == pytest.approx(max(singles))
     seen = []
     fit(seqs, config, seed=10, restarts=2, progress=lambda r, it: seen.append((r, it.number)))
     assert seen[0] == (0, 1) and seen[-1][0] == 1
@@ -337,6 +337,8 @@ def test_unreadable_model_files(tmp_path):
     ({"stay_init": 1.0}, "stay_init: expected a number in"),
     ({"tol_outer": -1.0}, "tol_outer: expected a number in"),
     ({"prior_samples": -1.0}, r"prior_samples: expected a number in \[0.0, inf\), got -1.0"),
+    ({"prior_samples": 1e-300}, r"prior_samples: expected 0 \(the paper's pseudo-inverse\) or "
+                                r">= 1e-6 samples, got 1e-300"),
 ])
 def test_config_errors(kwargs, message):
     with pytest.raises(InputError, match=message):

@@ -114,7 +114,7 @@ def test_reseed_and_search_never_lower_the_bound():
     config = PrimitivesConfig(n_chains=2, n_states=7, self_loops=False, max_outer=5)
     plain = fit(seqs, config, seed=0)
     moved = reseed(plain, config, SearchConfig(moves=2, move_iterations=3))
-    assert moved.final_bound >= plain.final_bound
+    assert moved.objective >= plain.objective
     result = search_fit(seqs, config, SearchConfig(starts=2, temperatures=(3.0,),
                                                    anneal_iterations=2, moves=1), seed=0)
     assert np.isfinite(result.final_bound) and result.model.n_chains == 2

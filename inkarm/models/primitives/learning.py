@@ -68,13 +68,20 @@ class Iteration:
 @dataclass(eq=False)
 class FitResult:
     """A trained model, the posterior of the training data under it (one more E-step after
-    the last M-step), the history, and the bound F of that final posterior."""
+    the last M-step), the history, the bound F of that final posterior and the model's log
+    prior (:func:`log_prior`); EM maximises their sum, :attr:`objective`."""
 
     model: PrimitiveModel
     posterior: Posterior
     batch: Batch
     history: list[Iteration] = field(default_factory=list)
     final_bound: float = -np.inf
+    final_log_prior: float = 0.0
+
+    @property
+    def objective(self) -> float:
+        """F + log p(W): what EM raises, and what restarts and moves are compared by."""
+        return self.final_bound + self.final_log_prior
 
     @property
     def bounds(self) -> np.ndarray:
@@ -182,7 +189,7 @@ def fit(sequences, config: PrimitivesConfig | None = None, *, seed: int = 0,
     for restart in range(1 if model is not None else int(restarts)):
         runs.append(_fit_once(batch, config, seed + restart, model, scale, rate_hz, channels,
                               None if progress is None else partial(progress, restart)))
-    return max(runs, key=lambda r: r.final_bound)
+    return max(runs, key=lambda r: r.objective)
 
 
 def em_bytes(batch: Batch, config: PrimitivesConfig) -> float:
@@ -206,7 +213,8 @@ def _fit_once(batch, config, seed, model, scale, rate_hz, channels, progress) ->
             progress(iteration)
     post = e_step(model, batch, post, config.max_inner, config.tol_inner)
     return FitResult(model=model, posterior=post, batch=batch, history=history,
-                     final_bound=lower_bound(model, batch, post))
+                     final_bound=lower_bound(model, batch, post),
+                     final_log_prior=log_prior(model, config))
 
 
 def em_iterations(model: PrimitiveModel, batch: Batch, config: PrimitivesConfig,

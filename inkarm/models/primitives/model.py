@@ -83,6 +83,10 @@ class PrimitivesConfig:
             if not (isinstance(value, (int, float)) and lo <= value < hi):
                 raise InputError(f"expected a number in [{lo}, {hi}), got {value!r}", key=name,
                                  value=value)
+        if 0.0 < self.prior_samples < 1e-6:  # (G + lambda I would be as singular as G)
+            raise InputError(f"expected 0 (the paper's pseudo-inverse) or >= 1e-6 samples, got "
+                             f"{self.prior_samples!r}", key="prior_samples",
+                             value=self.prior_samples)
 
 
 @dataclass(frozen=True, eq=False)

@@ -119,7 +119,7 @@ def em_iteration_loops(model: PrimitiveModel, sequences, gammas, config: Primiti
     for m in range(M):
         block = slice(m * (K - 1), (m + 1) * (K - 1))
         G[block, block] = np.diag(sum(g[m][:, 1:].sum(axis=0) for g in gammas))
-    W_active = A @ np.linalg.inv(G + config.prior_samples * np.eye(len(G)))
+    W_active = A @ np.linalg.pinv(G + config.prior_samples * np.eye(len(G)))  # (eq. 10 at 0)
     W = np.zeros_like(model.W)
     W[:, 1:] = W_active.T.reshape(M, K - 1, D)
     C = (YY - W_active @ A.T) / n

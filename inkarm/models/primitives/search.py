@@ -69,7 +69,7 @@ class SearchConfig:
     """How the outer search spends its EM runs.
 
     Attributes:
-        starts: Independent EM starts; the best by F is kept (and then moved).
+        starts: Independent EM starts; the best by F + log p(W) is kept (and then moved).
         init: ``random`` (the paper's) or ``segments`` (windows of the data, k-means++).
         temperatures: Annealing temperatures tau > 1, hottest first, each held for
             ``anneal_iterations`` EM iterations before EM at tau = 1 (() for none).
@@ -110,7 +110,7 @@ class SearchConfig:
 
 DEFAULT = SearchConfig()
 """The settings chosen on evidence (module docstring): 3 random starts, each annealed at
-tau = 4 and 2 for 5 EM iterations, the best by F kept; no moves."""
+tau = 4 and 2 for 5 EM iterations, the best by F + log p(W) kept; no moves."""
 
 
 def windows(batch: Batch, length: int) -> tuple[np.ndarray, np.ndarray]:
@@ -238,7 +238,7 @@ def reseed(result: FitResult, config: PrimitivesConfig, search: SearchConfig,
         advance = best.model.advance.copy()
         advance[chain, 0] = max(advance[chain, 0], best.model.advance[:, 0].mean())
         trial = fit(best.batch, short, model=replace(best.model, W=W, advance=advance))
-        accepted = trial.final_bound > best.final_bound + 1e-6 * abs(best.final_bound)
+        accepted = trial.objective > best.objective + 1e-6 * abs(best.objective)
         if progress is not None:
             progress(f"move: chain {chain} re-seeded, bound {trial.final_bound:.6g} "
                      f"({'kept' if accepted else 'rejected'}; best {best.final_bound:.6g})")
@@ -273,7 +273,7 @@ def search_fit(sequences, config: PrimitivesConfig | None = None,
     """Learn primitives by EM with the outer search of ``search`` (module docstring).
 
     Starts ``seed``, ``seed + 1``, ... each run EM to convergence (``config``); the best by F
-    is then improved by re-seeding moves. Returns the best :class:`FitResult`.
+    + log p(W) (what EM raises) is then improved by re-seeding moves. Returns the best :class:`FitResult`.
     """
     config = PrimitivesConfig() if config is None else config
     batch = sequences if isinstance(sequences, Batch) else Batch.of(sequences)
@@ -290,6 +290,6 @@ def search_fit(sequences, config: PrimitivesConfig | None = None,
 
         model = anneal(model, batch, config, search.temperatures, search.anneal_iterations)
         runs.append(fit(batch, config, model=model, progress=lambda _, it: report(it)))
-    best = max(runs, key=lambda r: r.final_bound)
+    best = max(runs, key=lambda r: r.objective)
     return reseed(best, config, search, progress) if search.moves else best
 
