@@ -337,8 +337,8 @@ def test_unreadable_model_files(tmp_path):
     ({"stay_init": 1.0}, "stay_init: expected a number in"),
     ({"tol_outer": -1.0}, "tol_outer: expected a number in"),
     ({"prior_samples": -1.0}, r"prior_samples: expected a number in \[0.0, inf\), got -1.0"),
-    ({"prior_samples": 1e-300}, r"prior_samples: expected 0 \(the paper's pseudo-inverse\) or "
-                                r">= 1e-6 samples, got 1e-300"),
+    ({"prior_samples": 1e-300}, (r"prior_samples: expected 0 \(the paper's pseudo-inverse\) or "
+                                r">= 1e-6 samples, got 1e-300")),
 ])
 def test_config_errors(kwargs, message):
     with pytest.raises(InputError, match=message):
