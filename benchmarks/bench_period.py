@@ -14,9 +14,10 @@ put around its parts in this process only:
 * physics: MuJoCo's ``mj_step1``/``mj_step2`` inside the plant's step; with the compiled period,
   its calls (MuJoCo is called from C: the period's other work is counted here too);
 * canvas: the ink laid at every physics step in contact (``Canvas.touch``/``lift``);
-* the plant's Python: the rest of ``MujocoPlant.step`` (the new set point from the drives; in
-  the Python period the set point ramp, the pen force from the contacts, the divergence check;
-  with the compiled one the canvas's feed);
+* the plant's Python: the rest of ``MujocoPlant.step`` (the new set point from the drives: with
+  the compiled period its arithmetic in one C call, ``compiled.set_point``; in the Python
+  period the set point ramp, the pen force from the contacts, the divergence check; with the
+  compiled one the canvas's feed);
 * the member's Python: the rest of the executor's period (reading, force loop, law, watchdogs,
   log row).
 
@@ -84,10 +85,12 @@ class _TimedMujoco:
 
 
 class _TimedPeriod:
-    """A compiled period (:mod:`inkarm.sim.compiled`) with its calls timed as physics."""
+    """A compiled period (:mod:`inkarm.sim.compiled`) with its steps timed as physics (its new
+    set points stay the plant's own work)."""
 
     def __init__(self, period, timers: _Timers):
         self.step = _timed(period.step, timers, "physics")
+        self.command = period.command
 
 
 @contextmanager
@@ -245,8 +248,9 @@ def section(quick: bool) -> str:
             (("physics (Python: mj_step1 + mj_step2, 3 a period; compiled: the whole C "
               "period, its ramp, pen force, tip and divergence test included)"), "physics"),
             ("canvas (ink at each physics step in contact)", "canvas"),
-            (("the plant's Python (the new set point; Python period: drive ramp, pen force, "
-              "divergence check; compiled: the canvas's feed)"), "plant"),
+            (("the plant's Python (the new set point, compiled: its arithmetic in C; Python "
+              "period: drive ramp, pen force, divergence check; compiled: the canvas's feed)"),
+             "plant"),
             ("the member's Python (read, force loop, law, watchdogs, log row)", "member")]
     calls = one_call_per_period(cell, torques)
     usable = compiled.period_module() is not None

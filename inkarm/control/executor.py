@@ -363,12 +363,16 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
             # that was current when it was taken (and the fraction of the way to the next).
             commanded[row] = i
             lag = (t_first + row * dt - state.time) / dt
-            if abs(lag - round(lag)) < 1e-6:  # whole periods, up to the clock's rounding
-                lag = float(round(lag))
-            lag = max(0.0, lag)
-            back, frac = int(lag), lag - int(lag)
-            seen = commanded[max(row - back - (frac > 0), 0)]
-            ref_blend[row] = blend = 1.0 - frac if frac > 0 else 0.0
+            whole = round(lag)
+            if abs(lag - whole) < 1e-6:  # whole periods, up to the clock's rounding
+                lag = float(whole)
+            if lag > 0.0:
+                back, frac = int(lag), lag - int(lag)
+                seen = commanded[max(row - back - (frac > 0), 0)]
+                blend = 1.0 - frac if frac > 0 else 0.0
+            else:  # (a reading of this period's state: the common case)
+                seen, blend = i, 0.0
+            ref_blend[row] = blend
             pressing = phase == DRAW or (holding and waited > 0)
             if senses_force:
                 force = state.force

@@ -11,6 +11,11 @@
  *
  * and after the period the cheap divergence test (|qd|^2 against the threshold, the count of
  * MuJoCo's bad-state warnings), conservatively: a period it flags goes to the plant's exact test.
+ * Before it, a new set point of the drives (JointDrive.set_point then affine_control, in the
+ * order of their numpy operations), when the period was given the drives' gains:
+ *
+ *     I = clip(I + K_i since (q*_old + qd*_old since - q_link), -limit, limit)   (since > 0)
+ *     u = K_p q* + (K_d qd* + tau_ff + I),   du = (K_p h) qd*
  * Every sum runs in the Python path's order; built with -ffp-contract=off (no fused multiply-add)
  * so that both paths give the same bits.
  *
@@ -29,6 +34,8 @@
 #ifndef INKARM_MUJOCO_VERSION
 #define INKARM_MUJOCO_VERSION "unknown"
 #endif
+/* What this file offers, as inkarm.sim.compiled.API expects it (2: Period.command, the gains) */
+#define INKARM_PERIOD_API 2
 
 typedef void (*step_fn)(const mjModel*, mjData*);
 typedef void (*force_fn)(const mjModel*, const mjData*, int, mjtNum*);
@@ -43,8 +50,8 @@ static force_fn contact_force = NULL;
 typedef void (*error_fn)(const char*);
 static error_fn* user_error = NULL;
 static PyObject* fatal_error = NULL;
-static jmp_buf* error_jump = NULL;
-static char error_message[512];
+static _Thread_local jmp_buf* error_jump = NULL;  /* (per thread: a period per plant) */
+static _Thread_local char error_message[512];
 
 static void period_error(const char* message) {
   strncpy(error_message, message, sizeof(error_message) - 1);
@@ -94,6 +101,7 @@ typedef struct {
   double page[12];         /* a00 a01 a02 a10 a11 a12 a20 a21 a22 o0 o1 o2 (_page_map) */
   int substeps;
   double* out;             /* per physics step: force, x, y, t */
+  double* gains;           /* the drives' K_p, K_d, K_i, K_p h, integral limit (narm each) */
   double max_speed_sq;
   int warning_total;
 } Period;
@@ -102,15 +110,41 @@ static void period_dealloc(Period* self) {
   Py_XDECREF(self->owners);
   PyMem_Free(self->arm);
   PyMem_Free(self->out);
+  PyMem_Free(self->gains);
   Py_TYPE(self)->tp_free((PyObject*)self);
 }
 
+/* n doubles of the sequence seq into a new array (NULL and an exception on failure). */
+static double* doubles_of(PyObject* seq, Py_ssize_t n, const char* what) {
+  PyObject* fast = PySequence_Fast(seq, what);
+  if (fast == NULL) return NULL;
+  if (PySequence_Fast_GET_SIZE(fast) != n) {
+    Py_DECREF(fast);
+    PyErr_Format(PyExc_ValueError, "%s: expected %zd numbers", what, n);
+    return NULL;
+  }
+  double* out = PyMem_New(double, n);
+  if (out == NULL) {
+    Py_DECREF(fast);
+    PyErr_NoMemory();
+    return NULL;
+  }
+  for (Py_ssize_t i = 0; i < n; i++)
+    out[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(fast, i));
+  Py_DECREF(fast);
+  if (PyErr_Occurred()) {
+    PyMem_Free(out);
+    return NULL;
+  }
+  return out;
+}
+
 static int period_init(Period* self, PyObject* args, PyObject* kwds) {
-  PyObject *owners, *arm, *page;
+  PyObject *owners, *arm, *page, *gains = Py_None;
   unsigned long long m_addr, d_addr;
-  if (!PyArg_ParseTuple(args, "OKKOiiOidi", &owners, &m_addr, &d_addr, &arm, &self->tip_site,
+  if (!PyArg_ParseTuple(args, "OKKOiiOidi|O", &owners, &m_addr, &d_addr, &arm, &self->tip_site,
                         &self->tip_geom, &page, &self->substeps, &self->max_speed_sq,
-                        &self->warning_total))
+                        &self->warning_total, &gains))
     return -1;
   if (step1 == NULL) {
     PyErr_SetString(PyExc_RuntimeError, "_period: bind() the MuJoCo library first");
@@ -134,10 +168,26 @@ static int period_init(Period* self, PyObject* args, PyObject* kwds) {
     PyErr_NoMemory();
     return -1;
   }
-  for (Py_ssize_t i = 0; i < n; i++)
-    self->arm[i] = (int)PyLong_AsLong(PySequence_Fast_GET_ITEM(arm_seq, i));
+  const mjModel* m = (const mjModel*)(uintptr_t)m_addr;
+  for (Py_ssize_t i = 0; i < n; i++) {
+    long a = PyLong_AsLong(PySequence_Fast_GET_ITEM(arm_seq, i));
+    if ((a == -1 && PyErr_Occurred()) || a < 0 || a >= m->nu) {
+      Py_DECREF(arm_seq);
+      if (!PyErr_Occurred())
+        PyErr_Format(PyExc_ValueError, "_period: actuator %ld not in the model's 0..%d", a,
+                     m->nu - 1);
+      return -1;
+    }
+    self->arm[i] = (int)a;
+  }
   Py_DECREF(arm_seq);
   self->narm = (int)n;
+  if (self->tip_site < 0 || self->tip_site >= m->nsite || self->tip_geom < -1 ||
+      self->tip_geom >= m->ngeom) {
+    PyErr_Format(PyExc_ValueError, "_period: tip site %d / geom %d not in the model's %d sites"
+                 " / %d geoms", self->tip_site, self->tip_geom, m->nsite, m->ngeom);
+    return -1;
+  }
   PyObject* page_seq = PySequence_Fast(page, "_period: the page map must be a sequence");
   if (page_seq == NULL) return -1;
   if (PySequence_Fast_GET_SIZE(page_seq) != 12) {
@@ -149,7 +199,14 @@ static int period_init(Period* self, PyObject* args, PyObject* kwds) {
     self->page[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(page_seq, i));
   Py_DECREF(page_seq);
   if (PyErr_Occurred()) return -1;
-  self->m = (const mjModel*)(uintptr_t)m_addr;
+  PyMem_Free(self->gains);
+  self->gains = NULL;
+  if (gains != Py_None) {
+    self->gains = doubles_of(gains, 5 * n, "_period: the drives' gains (K_p, K_d, K_i, K_p h, "
+                             "limit per actuator)");
+    if (self->gains == NULL) return -1;
+  }
+  self->m = m;
   self->d = (mjData*)(uintptr_t)d_addr;
   Py_INCREF(owners);
   Py_XSETREF(self->owners, owners);
@@ -161,6 +218,10 @@ static int period_init(Period* self, PyObject* args, PyObject* kwds) {
 static PyObject* period_step(Period* self, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 3) {
     PyErr_SetString(PyExc_TypeError, "step(u, du, since)");
+    return NULL;
+  }
+  if (self->m == NULL) {
+    PyErr_SetString(PyExc_RuntimeError, "_period: the period was not initialised");
     return NULL;
   }
   Py_buffer ub, dub;
@@ -244,9 +305,95 @@ static PyObject* period_step(Period* self, PyObject* const* args, Py_ssize_t nar
   return Py_BuildValue("(dON)", since, suspect ? Py_True : Py_False, steps);
 }
 
+/* The float64 buffer of args[i], narm long (writable if asked), or NULL for None (where
+ * allowed); views[*held] is kept for release_all. Returns 0, or -1 with an exception set. */
+static int doubles_arg(Period* self, PyObject* arg, int writable, int optional, double** out,
+                       Py_buffer* views, int* held, const char* name) {
+  *out = NULL;
+  if (arg == Py_None && optional) return 0;
+  Py_buffer* view = views + *held;
+  int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+  if (PyObject_GetBuffer(arg, view, flags) < 0) return -1;
+  (*held)++;
+  if (view->len != (Py_ssize_t)self->narm * (Py_ssize_t)sizeof(double) || view->format == NULL ||
+      strcmp(view->format, "d") != 0) {
+    PyErr_Format(PyExc_ValueError, "_period.command: %s must be %d float64", name, self->narm);
+    return -1;
+  }
+  *out = (double*)view->buf;
+  return 0;
+}
+
+static void release_all(Py_buffer* views, int held) {
+  for (int i = 0; i < held; i++) PyBuffer_Release(views + i);
+}
+
+/* command(u, du, integral, q_old, qd_old, q, qd, tau_ff, q_link, since): a new set point of the
+ * drives, JointDrive.set_point(q, qd, tau_ff, q_link) then affine_control() with the same bits
+ * (the file's docstring). The drives' state is the caller's: the integral is updated in place
+ * from the old set point (q_old, qd_old; q_old None: none yet), u and du are written. qd,
+ * tau_ff, qd_old None: zeros; q_link None: no integration. */
+static PyObject* period_command(Period* self, PyObject* const* args, Py_ssize_t nargs) {
+  if (nargs != 10) {
+    PyErr_SetString(PyExc_TypeError,
+                    "command(u, du, integral, q_old, qd_old, q, qd, tau_ff, q_link, since)");
+    return NULL;
+  }
+  if (self->gains == NULL) {
+    PyErr_SetString(PyExc_RuntimeError, "_period.command: the period was made without gains");
+    return NULL;
+  }
+  double since = PyFloat_AsDouble(args[9]);
+  if (since == -1.0 && PyErr_Occurred()) return NULL;
+  static const char* names[] = {"u", "du", "integral", "q_old", "qd_old", "q", "qd", "tau_ff",
+                                "q_link"};
+  static const int writable[] = {1, 1, 1, 0, 0, 0, 0, 0, 0};
+  static const int optional[] = {0, 0, 0, 1, 1, 0, 1, 1, 1};
+  double* v[9];
+  Py_buffer views[9];
+  int held = 0;
+  for (int k = 0; k < 9; k++) {
+    if (doubles_arg(self, args[k], writable[k], optional[k], v + k, views, &held, names[k]) < 0) {
+      release_all(views, held);
+      return NULL;
+    }
+  }
+  double *u = v[0], *du = v[1], *integral = v[2];
+  const double *q_old = v[3], *qd_old = v[4], *q = v[5], *qd = v[6], *tau_ff = v[7];
+  const double* q_link = v[8];
+  const int n = self->narm;
+  const double *kp = self->gains, *kd = kp + n, *ki = kp + 2 * n, *kp_h = kp + 3 * n;
+  const double* limit = kp + 4 * n;
+  if (q_old != NULL && q_link != NULL && since > 0.0) {
+    for (int i = 0; i < n; i++) {
+      double x = q_old[i] + (qd_old ? qd_old[i] : 0.0) * since;
+      x = x - q_link[i];
+      x = x * (ki[i] * since);
+      x = x + integral[i];
+      double floor = -limit[i];
+      /* np.maximum, np.minimum: NaN stays NaN; of two equal values the second (signed 0) */
+      x = (x > floor || x != x) ? x : floor;
+      integral[i] = (x < limit[i] || x != x) ? x : limit[i];
+    }
+  }
+  for (int i = 0; i < n; i++) {
+    double qdi = qd ? qd[i] : 0.0;
+    double rest = kd[i] * qdi;
+    rest = rest + (tau_ff ? tau_ff[i] : 0.0);
+    rest = rest + integral[i];
+    u[i] = kp[i] * q[i] + rest;
+    du[i] = kp_h[i] * qdi;
+  }
+  release_all(views, held);
+  Py_RETURN_NONE;
+}
+
 static PyMethodDef period_methods[] = {
     {"step", (PyCFunction)(void (*)(void))period_step, METH_FASTCALL,
      "step(u, du, since) -> (since, suspect, ((force, x, y, t), ...)): one control period"},
+    {"command", (PyCFunction)(void (*)(void))period_command, METH_FASTCALL,
+     "command(u, du, integral, q_old, qd_old, q, qd, tau_ff, q_link, since): a new set point "
+     "of the drives (JointDrive.set_point then affine_control), u, du, integral in place"},
     {NULL, NULL, 0, NULL}};
 
 static PyTypeObject PeriodType = {
@@ -255,14 +402,16 @@ static PyTypeObject PeriodType = {
     .tp_dealloc = (destructor)period_dealloc,
     .tp_flags = Py_TPFLAGS_DEFAULT,
     .tp_doc = "Period(owners, model_address, data_address, arm, tip_site, tip_geom, page_map, "
-              "substeps, max_speed_sq, warning_total)",
+              "substeps, max_speed_sq, warning_total[, gains])",
     .tp_methods = period_methods,
     .tp_init = (initproc)period_init,
     .tp_new = PyType_GenericNew,
 };
 
 static PyMethodDef module_methods[] = {
-    {"bind", bind, METH_VARARGS, "bind(path): MuJoCo's functions from the loaded libmujoco"},
+    {"bind", bind, METH_VARARGS,
+     "bind(path, fatal_error): MuJoCo's functions from the loaded libmujoco; its fatal errors "
+     "inside a period raise fatal_error"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_period",
@@ -275,7 +424,10 @@ PyMODINIT_FUNC PyInit__period(void) {
   if (mod == NULL) return NULL;
   Py_INCREF(&PeriodType);
   if (PyModule_AddObject(mod, "Period", (PyObject*)&PeriodType) < 0 ||
-      PyModule_AddStringConstant(mod, "MUJOCO_VERSION", INKARM_MUJOCO_VERSION) < 0) {
+      PyModule_AddStringConstant(mod, "MUJOCO_VERSION", INKARM_MUJOCO_VERSION) < 0 ||
+      PyModule_AddIntConstant(mod, "API", INKARM_PERIOD_API) < 0 ||
+      PyModule_AddObject(mod, "WARNINGS", Py_BuildValue("(iii)", mjWARN_BADQPOS, mjWARN_BADQVEL,
+                                                        mjWARN_BADQACC)) < 0) {
     Py_DECREF(mod);
     return NULL;
   }

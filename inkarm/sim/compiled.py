@@ -6,7 +6,8 @@ used only when all of these hold, else :func:`period_module` returns None and th
 Python period, which gives the same bits (tests/sim/test_compiled_period.py):
 
 * the environment variable ``INKARM_COMPILED`` is not ``0`` (the switch for comparisons);
-* the extension imports;
+* the extension imports, and is of this source (``API``: an extension left from an older
+  checkout is not used until it is built again);
 * it was built against the ``mujoco`` version this process runs (``MUJOCO_VERSION``, recorded
   at build time: the C code reads MuJoCo's structs, whose layout is the version's);
 * the loaded ``libmujoco`` answers ``mj_version()`` as the headers it was built with.
@@ -26,6 +27,7 @@ import numpy as np
 
 _LOG = logging.getLogger(__name__)
 SWITCH = "INKARM_COMPILED"
+API = 2  # (inkarm/sim/_period.c's INKARM_PERIOD_API)
 
 
 def _library() -> Path | None:
@@ -50,6 +52,9 @@ def _unusable():
         from inkarm.sim import _period
     except ImportError as error:
         return f"the extension is not built ({error})"
+    if getattr(_period, "API", 1) != API:
+        return (f"the extension is of another inkarm (API {getattr(_period, 'API', 1)}, this "
+                f"is {API}): build it again (pip install -e .)")
     if _period.MUJOCO_VERSION != mujoco.__version__:
         return (f"the extension was built for MuJoCo {_period.MUJOCO_VERSION}, "
                 f"this is {mujoco.__version__}")
@@ -73,7 +78,8 @@ def period_module():
 
 def period_for(plant):
     """The compiled period of a :class:`inkarm.sim.plant.MujocoPlant` (its drives' ramp path:
-    the arm's actuators, the tip, the page map, the divergence threshold), or None where the
+    the arm's actuators, the tip, the page map, the divergence threshold; the drives' gains for
+    :func:`set_point`, as they are now, as the affine actuators take theirs), or None where the
     plant's period does more than the C one: drives not in MuJoCo, senses not ideal, stiction,
     a relief to follow (or where the extension cannot be used: :func:`period_module`)."""
     if not (plant._native and plant.senses_model.ideal and plant.stiction is None
@@ -85,9 +91,30 @@ def period_for(plant):
     m, d = plant.model, plant.data
     arm = np.arange(m.nu)[plant._arm_ctrl].tolist()
     tip_geom = -1 if plant._only_tip_touches else plant._tip_geom
+    drive = plant.drive
+    gains = [x for g in (drive.kp, drive.kd, drive.ki, drive.kp_h, drive.limit)
+             for x in np.broadcast_to(g, (len(arm),)).tolist()]
     return module.Period((m, d), m._address, d._address, arm, plant._tip_site, tip_geom,
                          plant._page_map, plant.substeps, plant._max_speed_sq,
-                         plant._warning_total)
+                         plant._warning_total, gains)
+
+
+def set_point(period, drive, command, q_link: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``drive.set_point(command.q, command.qd, command.torque, q_link)`` then
+    ``drive.affine_control()`` (:class:`inkarm.sim.drive.JointDrive`, rigid joints: the drives of
+    a compiled period) with their arithmetic in one call of the compiled ``period``, the same
+    bits: the drive's integral in place, its goals kept as ``set_point`` keeps them. Returns
+    (u, du) [N m] as ``affine_control``."""
+    q, qd, _, tau_ff = command
+    q = np.ascontiguousarray(q, dtype=float)  # (the C call takes contiguous float64 arrays)
+    n = len(q)
+    qd = np.zeros(n) if qd is None else np.ascontiguousarray(qd, dtype=float)
+    tau_ff = np.zeros(n) if tau_ff is None else np.ascontiguousarray(tau_ff, dtype=float)
+    u, du = np.empty(n), np.empty(n)
+    period.command(u, du, drive.integral, drive.q_goal, drive.qd_goal, q, qd, tau_ff, q_link,
+                   drive.since)
+    drive.q_goal, drive.qd_goal, drive.tau_ff, drive.since = q, qd, tau_ff, 0.0
+    return u, du
 
 
 def feed(canvas, touching: bool, steps) -> tuple[bool, float]:

@@ -25,7 +25,9 @@ D terms are affine in (q_m, v), so on exact encoders the whole law is a MuJoCo a
     tau = u(t) - K_p q - K_d qd,   u(t) = K_p q*(t) + tau_ff + K_d qd* + I        (affine bias)
 
 and runs in C (:meth:`JointDrive.affine_control`; Euler integrates its damping explicitly, as a
-sampled drive holds its torque).
+sampled drive holds its torque). With the compiled control period the new set point's arithmetic
+(:meth:`JointDrive.set_point` then :meth:`JointDrive.affine_control`) is one C call as well
+(:func:`inkarm.sim.compiled.set_point`, the same bits): the methods here are its reference.
 
 On a joint with series elasticity (stiffness k, which the drive knows: drives with joint torque
 sensors calibrate it, :meth:`JointDrive.elastic`) the P and D terms act on the motor's own

@@ -36,17 +36,12 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from inkarm.core.plant import (
-    PlantState,
-    PositionCommand,
-    TorqueCommand,
-    unsupported,
-)
+from inkarm.core.plant import PlantState, PositionCommand, TorqueCommand, unsupported
 from inkarm.errors import InputError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim.actuators import affine_drives, native_drive
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_SLIDE, PEN_TIP, Cell, build_model
-from inkarm.sim.compiled import feed, period_for
+from inkarm.sim.compiled import feed, period_for, set_point
 from inkarm.sim.divergence import DIVERGENCE_WARNINGS, divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import PlantTruth
@@ -333,11 +328,14 @@ class MujocoPlant:
                 self._set_affine(False)
         elif self.drive is not None:
             self._position_goal = command.q
-            self.drive.set_point(command.q, command.qd, command.torque, q_link)
-            if self._native:
-                self._u, self._du = self.drive.affine_control()
-                if not self._affine:
-                    self._set_affine(True)
+            if self._period is not None:  # (set_point and affine_control in C: the same bits)
+                self._u, self._du = set_point(self._period, self.drive, command, q_link)
+            else:
+                self.drive.set_point(command.q, command.qd, command.torque, q_link)
+                if self._native:
+                    self._u, self._du = self.drive.affine_control()
+            if self._native and not self._affine:
+                self._set_affine(True)
         else:
             self._position_goal = np.asarray(command.q, dtype=float)
 

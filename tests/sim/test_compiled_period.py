@@ -1,6 +1,6 @@
 """The compiled control period (inkarm/sim/_period.c via inkarm.sim.compiled) against the plant's
-Python period: the same bits in the logs and on the canvas, the same faults, and the Python
-period whenever the extension cannot be used."""
+Python period: the same bits in the logs and on the canvas and in each new set point of the
+drives, the same faults, and the Python period whenever the extension cannot be used."""
 
 from __future__ import annotations
 
@@ -19,8 +19,10 @@ from inkarm.errors import SimulationError
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario, parse_scenario
+from inkarm.robots.gains import PIDGains
 from inkarm.sim import compiled
 from inkarm.sim.cell import build_model
+from inkarm.sim.drive import JointDrive
 
 pytestmark = pytest.mark.sim
 
@@ -30,12 +32,20 @@ LINE = {"source": {"kind": "plan", "plan": {"strokes": [{"targets": [
     "ink": {"px_per_mm": 4.0}}
 
 
+REQUIRE = "INKARM_REQUIRE_COMPILED"
+"""Set to 1 where the extension must be there (CI): a build that broke fails, not skips."""
+
+
 @pytest.fixture
 def built():
-    """The extension, or a skip that says why it is not usable here."""
+    """The extension, or a skip that says why it is not usable here (a failure with
+    INKARM_REQUIRE_COMPILED=1)."""
     compiled._load.cache_clear()
     if compiled.period_module() is None:
-        pytest.skip(f"the compiled period is not usable here: {compiled._unusable()}")
+        why = f"the compiled period is not usable here: {compiled._unusable()}"
+        if os.environ.get(REQUIRE) == "1":
+            pytest.fail(why)
+        pytest.skip(why)
 
 
 def _run_both(scenario, monkeypatch):
@@ -103,6 +113,66 @@ def test_divergence_is_found_after_a_compiled_period(built, monkeypatch, tmp_pat
     assert errors[0] == errors[1] and states[0].tobytes() == states[1].tobytes()
 
 
+TWO_FEET = """<mujoco><option timestep="0.002"/><worldbody><geom type="plane" size="1 1 .1"/>
+<body pos="0 0 .05"><joint name="x" type="slide" axis="1 0 0"/><joint name="z" type="slide"
+axis="0 0 1"/><geom name="tip" type="sphere" size=".01" pos="0 0 -.04" mass=".1"/>
+<geom name="other" type="sphere" size=".012" pos=".05 0 -.038" mass=".1"/><site name="s"
+pos="0 0 -.04"/></body></worldbody><actuator><motor joint="x"/></actuator></mujoco>"""
+
+
+def _periods_of(m: mujoco.MjModel, tip_geom: int, steps: int = 60):
+    """The C period's pen forces over ``steps`` periods, and the same sums in Python (the
+    contacts of ``tip_geom`` only, or every contact at -1) after each mj_step2."""
+    d_c, d_py = mujoco.MjData(m), mujoco.MjData(m)
+    for d in (d_c, d_py):
+        mujoco.mj_forward(m, d)
+    page = [1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]
+    period = compiled.period_module().Period((m, d_c), m._address, d_c._address, [0], 0,
+                                             tip_geom, page, 3, 1e9, 0)
+    contact, ours, theirs = np.zeros(6), [], []
+    for _ in range(steps):
+        ours += [row[0] for row in period.step(np.array([0.2]), np.zeros(1), 0.0)[2]]
+        for _ in range(3):
+            d_py.ctrl[0] = 0.2
+            mujoco.mj_step2(m, d_py)
+            force = 0.0
+            for i in range(d_py.ncon):
+                if tip_geom < 0 or tip_geom in d_py.contact.geom[i]:
+                    mujoco.mj_contactForce(m, d_py, i, contact)
+                    force += contact[0]
+            theirs.append(force)
+            mujoco.mj_step1(m, d_py)
+    return ours, theirs
+
+
+def test_the_compiled_pen_force_counts_only_the_tips_contacts(built):
+    """Two feet on the floor: the pen force is the tip's contacts alone (the same bits as the
+    Python sum), and every contact's where the plant says only the tip touches (-1)."""
+    m = mujoco.MjModel.from_xml_string(TWO_FEET)
+    tip = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "tip")
+    tip_only, expected = _periods_of(m, tip)
+    assert tip_only == expected and max(expected) > 0.5  # (the tip carries part of the weight)
+    every, expected_every = _periods_of(m, -1)
+    assert every == expected_every and max(every) > max(tip_only) + 0.5
+
+
+def test_a_period_refuses_what_is_not_in_its_model(built):
+    m = mujoco.MjModel.from_xml_string(TWO_FEET)
+    d = mujoco.MjData(m)
+    make = compiled.period_module().Period
+    page = [1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]
+    with pytest.raises(ValueError, match="actuator 3 not in the model's 0..0"):
+        make((m, d), m._address, d._address, [3], 0, -1, page, 3, 1e9, 0)
+    with pytest.raises(ValueError, match="tip site 1 / geom -1 not in the model's 1 sites"):
+        make((m, d), m._address, d._address, [0], 1, -1, page, 3, 1e9, 0)
+    with pytest.raises(RuntimeError, match="the period was not initialised"):
+        make.__new__(make).step(np.zeros(1), np.zeros(1), 0.0)
+    from inkarm.sim import _period
+    from inkarm.sim.divergence import DIVERGENCE_WARNINGS
+
+    assert _period.WARNINGS == tuple(int(w) for w in DIVERGENCE_WARNINGS)
+
+
 def test_a_fatal_mujoco_error_in_a_compiled_period_raises_as_in_python(built):
     """MuJoCo's mju_error inside the C period (here: its arena overflows) is the bindings'
     FatalError, as from mj_step in Python, and leaves MuJoCo's own error handler in place."""
@@ -153,6 +223,20 @@ def test_an_extension_built_for_another_mujoco_is_not_used(built, monkeypatch, c
     assert f"built for MuJoCo {_period.MUJOCO_VERSION}, this is 0.0.1" in caplog.text
 
 
+def test_an_extension_of_an_older_checkout_is_not_used(built, monkeypatch, caplog):
+    from inkarm.sim import _period
+
+    monkeypatch.delattr(_period, "API")  # (as the extension before Period.command)
+    compiled._load.cache_clear()
+    try:
+        with caplog.at_level(logging.DEBUG, logger="inkarm.sim.compiled"):
+            assert compiled.period_module() is None
+            assert sim_plant.MujocoPlant(build_model())._period is None
+    finally:
+        compiled._load.cache_clear()
+    assert "of another inkarm (API 1, this is 2): build it again" in caplog.text
+
+
 def test_the_switch_and_a_library_not_loaded_leave_the_python_period(built, monkeypatch):
     monkeypatch.setenv(compiled.SWITCH, "0")
     assert compiled.period_module() is None
@@ -161,3 +245,56 @@ def test_the_switch_and_a_library_not_loaded_leave_the_python_period(built, monk
 
     with pytest.raises(ImportError, match="libnothing.so is not loaded"):
         _period.bind(os.path.join(os.sep, "nowhere", "libnothing.so"), mujoco.FatalError)
+
+
+def test_a_new_set_point_in_c_gives_the_bits_of_the_drives_python(built):
+    """compiled.set_point against JointDrive.set_point then affine_control: the same u, du,
+    integral and goals, bit for bit, through the first set point, zero and negative times since
+    the last, missing velocities, feed-forwards and link positions, goals not contiguous, NaN,
+    and integrals clipped at their limits (one of them 0: the signed zeros of np.maximum and
+    np.minimum)."""
+    gains = PIDGains(kp=np.full(7, 800.0), ki=np.full(7, 4e5), kd=np.full(7, 30.0),
+                     integral_limit=np.array([0.0, 5.0, 5.0, 5.0, 5.0, 5.0, 1e9]),
+                     torque_limit=np.full(7, 300.0))
+    plant = sim_plant.MujocoPlant(build_model(), drive_gains=gains)
+    python = JointDrive(gains, plant.model.opt.timestep)
+    rng = np.random.default_rng(5)
+    clipped = set()
+    for k in range(400):
+        q = rng.normal(size=(7, 2))[:, 0] if k % 9 == 4 else rng.normal(size=7)  # (a view too)
+        q[k % 7] = np.nan if k % 97 == 5 else q[k % 7]
+        qd, tau_ff = (None if k % m == 1 else rng.normal(size=7) for m in (5, 7))
+        q_link = None if k % 11 == 2 else q + rng.normal(size=7) * 1e-3 * (k % 3)
+        python.since = plant.drive.since = (0.0, 0.006, -0.002, 0.004)[k % 4]
+        python.set_point(q, qd, tau_ff, q_link)
+        expected = (*python.affine_control(), python.integral, python.qd_goal, python.tau_ff)
+        got = (*compiled.set_point(plant._period, plant.drive, PositionCommand(q, qd, None,
+                                                                              tau_ff), q_link),
+               plant.drive.integral, plant.drive.qd_goal, plant.drive.tau_ff)
+        assert [x.tobytes() for x in got] == [x.tobytes() for x in expected], k
+        assert plant.drive.q_goal.tobytes() == q.tobytes() and plant.drive.since == 0.0
+        clipped |= set(python.integral[:6].tolist()) & {5.0, -5.0}
+    assert clipped == {5.0, -5.0} and np.isnan(python.integral).any()
+
+
+def test_a_set_point_refuses_arrays_of_another_size_or_kind(built):
+    """The C call names the array it refuses (its length, dtype, layout), its arguments when
+    it is given too few, and a period made without the drives' gains."""
+    plant = sim_plant.MujocoPlant(build_model())
+    n, drive = 7, plant.drive
+    args = [np.zeros(n), np.zeros(n), drive.integral, None, None, np.zeros(n), None, None, None,
+            0.0]
+    for k, bad, message in ((5, np.zeros(n - 1), "q must be 7 float64"),
+                            (2, np.zeros(n, dtype=np.float32), "integral must be 7 float64"),
+                            (0, np.zeros(2 * n)[::2], "not C-contiguous")):
+        wrong = list(args)
+        wrong[k] = bad
+        with pytest.raises((ValueError, BufferError), match=message):
+            plant._period.command(*wrong)
+    with pytest.raises(TypeError, match=r"command\(u, du, integral"):
+        plant._period.command(*args[:9])
+    m, d = plant.model, plant.data
+    bare = compiled.period_module().Period((m, d), m._address, d._address, [0], 0, -1,
+                                           [1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0], 3, 1e9, 0)
+    with pytest.raises(RuntimeError, match="made without gains"):
+        bare.command(*args)
