@@ -106,18 +106,20 @@ def draw_once(job: Job) -> tuple[dict, np.ndarray]:
     return metrics, log.torque
 
 
-def bare_mujoco_s(job: Job, torques: np.ndarray, substeps: int = 3) -> float:
-    """Wall time [s] of MuJoCo alone: the run's torques replayed open loop (the pen pressed where
-    the run pressed it), ``substeps`` physics steps per period, on a fresh plant model."""
-    model = build_model(job.cell)
+def bare_mujoco_s(cell, torques: np.ndarray, substeps: int = 3,
+                  clock=time.perf_counter) -> float:
+    """Time [s] of MuJoCo alone on ``clock`` (default the wall): the run's torques replayed open
+    loop (the pen pressed where the run pressed it), ``substeps`` physics steps per period, on a
+    fresh model of ``cell``."""
+    model = build_model(cell)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
-    start = time.perf_counter()
+    start = clock()
     for tau in torques:
         data.ctrl[:] = tau
         mujoco.mj_step(model, data, substeps)
-    return time.perf_counter() - start
+    return clock() - start
 
 
 def fresh_process_rtfs(count: int, cpu: int | None) -> list[float]:
@@ -144,7 +146,7 @@ def drawing_rows(job: Job, blocks: int, cpu: int | None) -> tuple[list[tuple[str
         runs.append(draw_once(job)[0])
         return runs[-1]["wall_s"]
 
-    timing = interleave({"run": whole_run, "mujoco": lambda: bare_mujoco_s(job, torques)},
+    timing = interleave({"run": whole_run, "mujoco": lambda: bare_mujoco_s(job.cell, torques)},
                         blocks=blocks, repeats=3, clock=None)
     bare = sim / timing.median("mujoco")
     rtf_run = sim / timing.median("run")

@@ -41,6 +41,7 @@ from contextlib import contextmanager
 
 import mujoco
 import numpy as np
+from bench_draw import bare_mujoco_s
 from blocks import interleave
 from mujoco import rollout
 
@@ -190,17 +191,8 @@ def executor_cpu_s(scenario) -> float:
 
 
 def mujoco_cpu_s(cell: Cell, torques: np.ndarray, substeps: int = 3) -> float:
-    """CPU time [s] of MuJoCo alone (``bench_draw.bare_mujoco_s`` on this thread's clock): the
-    run's torques replayed open loop, ``substeps`` physics steps a period."""
-    model = build_model(cell)
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, 0)
-    mujoco.mj_forward(model, data)
-    start = time.thread_time()
-    for tau in torques:
-        data.ctrl[:] = tau
-        mujoco.mj_step(model, data, substeps)
-    return time.thread_time() - start
+    """CPU time [s] of MuJoCo alone on this thread's clock (:func:`bench_draw.bare_mujoco_s`)."""
+    return bare_mujoco_s(cell, torques, substeps, clock=time.thread_time)
 
 
 def _parts(shares: list[dict[str, float]]) -> dict[str, float]:
