@@ -8,6 +8,7 @@ It is ``optional``: without a C compiler (or the headers) the install goes on an
 its Python period. Everything else about the package is in pyproject.toml.
 """
 
+import platform
 from importlib.metadata import PackageNotFoundError, version
 from importlib.util import find_spec
 from pathlib import Path
@@ -30,6 +31,10 @@ def _mujoco() -> tuple[Path, str] | None:
 
 
 def _extensions() -> list[Extension]:
+    if platform.machine() not in ("x86_64", "AMD64"):
+        # (its bits equal NumPy's only where NumPy's maximum/minimum break ties as x86's
+        # maxsd/minsd do; elsewhere, aarch64's FMAX orders -0 below +0: the Python period runs)
+        return []
     found = _mujoco()
     if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
         return []  # (no headers: the pure-Python install)

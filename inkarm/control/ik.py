@@ -24,6 +24,10 @@ goal x* (both across the pen):
     e_6 = z_s . (x_s x x*) = y_s . x*,    J_6 = z_s^T Jr
 
 and the solve is the same with 6 rows (:func:`pose_task`). Without poses nothing changes.
+
+:func:`pose_task`, :func:`null_space_motion`, :func:`dls_step` and :func:`task_error` state one
+step plainly, as above; :class:`PathTracker`, which every solver here runs on, computes the same
+numbers in fewer NumPy calls, and the tests hold it to them bit for bit.
 """
 
 from __future__ import annotations
@@ -472,7 +476,7 @@ def track_poses(kin: ArmKinematics, points: np.ndarray, axes: np.ndarray, spins:
     UnreachableError as :func:`track_path` does."""
     q = np.asarray(q0, float).copy()
     rows, errors = [], []
-    for goal, axis, spin in zip(np.asarray(points, float).tolist(), axes, spins):
+    for goal, axis, spin in zip(np.asarray(points, float).tolist(), axes, spins, strict=True):
         solver = PathTracker(kin, axis, q, q_posture, cfg, unit=True,
                              spin_goal=None if np.isnan(spin).any() else across(axis, spin))
         for k in range(21):  # (the first step from an evaluation at the sample's own axis)

@@ -16,15 +16,12 @@ of C2 continuity at the inner breaks,
 
 closed by a clamped end (s = 0) or not-a-knot (the third derivative continuous at x_1 and
 x_{m-1}), and solved as LAPACK's dgtsv solves it (Gaussian elimination with partial pivoting,
-in the same order of operations, :func:`tridiagonal_solve`; dgtsv itself where SciPy's LAPACK
-is loaded already, as the arm planner's IK loads it: the same numbers, several times faster).
-Evaluation sums (1) in SciPy's order, beyond the ends extrapolating the end pieces. Units:
-whatever x and y carry.
+in the same order of operations, :func:`tridiagonal_solve`). Evaluation sums (1) in SciPy's
+order, beyond the ends extrapolating the end pieces. Units: whatever x and y carry.
 """
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 
 import numpy as np
@@ -103,9 +100,6 @@ def spline_slopes(x: np.ndarray, y: np.ndarray, boundary: str) -> np.ndarray:
         b[0] = ((h[0] + 2 * d) * h[1] * m[0] + h[0] ** 2 * m[1]) / d
         diagonal[-1], lower[-1], d = dx[-2], x[-1] - x[-3], x[-1] - x[-3]
         b[-1] = (h[-1] ** 2 * m[-2] + (2 * d + h[-1]) * h[-2] * m[-1]) / d
-    lapack = sys.modules.get("scipy.linalg.lapack")
-    if lapack is not None and b.size:  # dgtsv itself where a caller has loaded it (the arm's IK)
-        return lapack.dgtsv(lower, diagonal, upper, b.reshape(n, -1))[3].reshape(b.shape)
     rows = tridiagonal_solve(lower.tolist(), diagonal.tolist(), upper.tolist(),
                              b.reshape(n, -1).tolist())
     return np.array(rows).reshape(b.shape)

@@ -50,7 +50,9 @@ static force_fn contact_force = NULL;
 typedef void (*error_fn)(const char*);
 static error_fn* user_error = NULL;
 static PyObject* fatal_error = NULL;
-static _Thread_local jmp_buf* error_jump = NULL;  /* (per thread: a period per plant) */
+/* (thread-local for safety; a period holds the GIL throughout, and mju_user_error itself is one
+ * process-wide handler, saved and restored around each period) */
+static _Thread_local jmp_buf* error_jump = NULL;
 static _Thread_local char error_message[512];
 
 static void period_error(const char* message) {
@@ -146,6 +148,7 @@ static int period_init(Period* self, PyObject* args, PyObject* kwds) {
                         &self->tip_geom, &page, &self->substeps, &self->max_speed_sq,
                         &self->warning_total, &gains))
     return -1;
+  self->m = NULL;  /* (unusable until this initialisation succeeds: a failed re-init included) */
   if (step1 == NULL) {
     PyErr_SetString(PyExc_RuntimeError, "_period: bind() the MuJoCo library first");
     return -1;
@@ -225,14 +228,16 @@ static PyObject* period_step(Period* self, PyObject* const* args, Py_ssize_t nar
     return NULL;
   }
   Py_buffer ub, dub;
-  if (PyObject_GetBuffer(args[0], &ub, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0) return NULL;
-  if (PyObject_GetBuffer(args[1], &dub, PyBUF_C_CONTIGUOUS) < 0) {
+  if (PyObject_GetBuffer(args[0], &ub, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+    return NULL;
+  if (PyObject_GetBuffer(args[1], &dub, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
     PyBuffer_Release(&ub);
     return NULL;
   }
   double since = PyFloat_AsDouble(args[2]);
   Py_ssize_t want = (Py_ssize_t)self->narm * (Py_ssize_t)sizeof(double);
-  if (ub.len != want || dub.len != want || (since == -1.0 && PyErr_Occurred())) {
+  if (ub.len != want || dub.len != want || ub.format == NULL || strcmp(ub.format, "d") != 0 ||
+      dub.format == NULL || strcmp(dub.format, "d") != 0 || (since == -1.0 && PyErr_Occurred())) {
     PyBuffer_Release(&ub);
     PyBuffer_Release(&dub);
     if (!PyErr_Occurred())

@@ -105,9 +105,11 @@ def set_point(period, drive, command, q_link: np.ndarray) -> tuple[np.ndarray, n
     a compiled period) with their arithmetic in one call of the compiled ``period``, the same
     bits: the drive's integral in place, its goals kept as ``set_point`` keeps them. Returns
     (u, du) [N m] as ``affine_control``."""
-    q, qd, _, tau_ff = command
-    q = np.ascontiguousarray(q, dtype=float)  # (the C call takes contiguous float64 arrays)
-    n = len(q)
+    q = np.ascontiguousarray(command.q, dtype=float)  # (the C call takes contiguous float64)
+    qd, tau_ff, n = command.qd, command.torque, len(q)
+    if n != len(drive.integral):
+        raise ValueError(f"a position command for {n} joints; the drives have "
+                         f"{len(drive.integral)}")
     qd = np.zeros(n) if qd is None else np.ascontiguousarray(qd, dtype=float)
     tau_ff = np.zeros(n) if tau_ff is None else np.ascontiguousarray(tau_ff, dtype=float)
     u, du = np.empty(n), np.empty(n)

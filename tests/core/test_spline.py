@@ -69,7 +69,7 @@ def test_a_tridiagonal_solve_pivots_where_the_diagonal_is_small():
 
 
 def test_the_python_elimination_is_lapacks_dgtsv_bit_for_bit():
-    # spline_slopes calls dgtsv itself where SciPy's LAPACK is loaded, else tridiagonal_solve
+    # (SciPy's CubicSpline solves with dgtsv: the transcription keeps its bits without SciPy)
     from scipy.linalg.lapack import dgtsv
 
     rng = np.random.default_rng(25)
@@ -83,19 +83,6 @@ def test_the_python_elimination_is_lapacks_dgtsv_bit_for_bit():
             rows = tridiagonal_solve(lower.tolist(), diagonal.tolist(), upper.tolist(),
                                      rhs.tolist())
             assert np.array_equal(np.array(rows), x), f"case {k}, {n} rows"
-
-
-def test_a_spline_is_the_same_with_and_without_scipys_lapack_loaded(monkeypatch):
-    import sys
-
-    import scipy.linalg.lapack  # noqa: F401 (loaded: spline_slopes calls dgtsv)
-
-    splines = [(x, y, kind) for kind, x, y, _, _ in cases(30) if kind != "hermite"]
-    with_lapack = [cubic_spline(*case).c for case in splines]
-    monkeypatch.delitem(sys.modules, "scipy.linalg.lapack")
-    for case, expected in zip(splines, with_lapack, strict=True):
-        assert np.array_equal(cubic_spline(*case).c, expected), f"{case[2]}, {len(case[0])} points"
-    assert "scipy.linalg.lapack" not in sys.modules  # (the Python elimination was the one used)
 
 
 @pytest.mark.parametrize("x, y, boundary, match", [

@@ -167,6 +167,13 @@ def test_a_period_refuses_what_is_not_in_its_model(built):
         make((m, d), m._address, d._address, [0], 1, -1, page, 3, 1e9, 0)
     with pytest.raises(RuntimeError, match="the period was not initialised"):
         make.__new__(make).step(np.zeros(1), np.zeros(1), 0.0)
+    period = make((m, d), m._address, d._address, [0], 0, -1, page, 3, 1e9, 0)
+    with pytest.raises(ValueError, match="u and du must be 1 float64"):  # (8 bytes, not a double)
+        period.step(np.zeros(2, np.float32), np.zeros(1), 0.0)
+    with pytest.raises(ValueError, match="actuator 3 not in the model's 0..0"):
+        period.__init__((m, d), m._address, d._address, [3], 0, -1, page, 3, 1e9, 0)
+    with pytest.raises(RuntimeError, match="the period was not initialised"):  # (after a failed
+        period.step(np.zeros(1), np.zeros(1), 0.0)                          # re-initialisation)
     from inkarm.sim import _period
     from inkarm.sim.divergence import DIVERGENCE_WARNINGS
 

@@ -167,7 +167,8 @@ def fit(sequences, config: PrimitivesConfig | None = None, *, seed: int = 0,
     """Learn primitives from ``sequences`` ((T_n, D) arrays) by EM.
 
     EM finds a local optimum; ``restarts`` runs it from that many random initialisations
-    (seeds ``seed``, ``seed + 1``, ...) and keeps the one with the highest final bound F.
+    (seeds ``seed``, ``seed + 1``, ...) and keeps the one with the highest F + log p(W)
+    (:attr:`FitResult.objective`: what EM raises).
 
     Args:
         config: Sizes and stopping rules (default :class:`PrimitivesConfig`).

@@ -240,8 +240,8 @@ def reseed(result: FitResult, config: PrimitivesConfig, search: SearchConfig,
         trial = fit(best.batch, short, model=replace(best.model, W=W, advance=advance))
         accepted = trial.objective > best.objective + 1e-6 * abs(best.objective)
         if progress is not None:
-            progress(f"move: chain {chain} re-seeded, bound {trial.final_bound:.6g} "
-                     f"({'kept' if accepted else 'rejected'}; best {best.final_bound:.6g})")
+            progress(f"move: chain {chain} re-seeded, F + log p(W) {trial.objective:.6g} "
+                     f"({'kept' if accepted else 'rejected'}; best {best.objective:.6g})")
         if accepted:
             best, rejected, used = trial, 0, []
         else:
@@ -272,8 +272,9 @@ def search_fit(sequences, config: PrimitivesConfig | None = None,
                progress: Callable[[str], None] | None = None) -> FitResult:
     """Learn primitives by EM with the outer search of ``search`` (module docstring).
 
-    Starts ``seed``, ``seed + 1``, ... each run EM to convergence (``config``); the best by F
-    + log p(W) (what EM raises) is then improved by re-seeding moves. Returns the best :class:`FitResult`.
+    Starts ``seed``, ``seed + 1``, ... each run EM to convergence (``config``); the best by
+    F + log p(W) (what EM raises) is then improved by re-seeding moves. Returns the best
+    :class:`FitResult`.
     """
     config = PrimitivesConfig() if config is None else config
     batch = sequences if isinstance(sequences, Batch) else Batch.of(sequences)
