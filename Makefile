@@ -12,8 +12,10 @@ $(BIN)/activate:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 
+# (PYTHONWARNINGS: setuptools says, informally, that an editable install with a C extension
+# finds the package through a path hook; true and harmless here, kept off the commands' output)
 $(VENV)/.installed: $(BIN)/activate pyproject.toml setup.py inkarm/sim/_period.c
-	$(BIN)/pip install -q -e ".[test]"
+	PYTHONWARNINGS="ignore:Editable installation:UserWarning" $(BIN)/pip install -q -e ".[test]"
 	touch $@
 
 install: $(VENV)/.installed
