@@ -27,7 +27,7 @@ test: $(VENV)/.installed
 	$(BIN)/python -m pytest
 
 bench: $(VENV)/.installed  # BENCH_ARGS=--quick: a smoke run (BENCHMARKS.md says so)
-	$(BIN)/pip install -q -e ".[compare]"
+	PYTHONWARNINGS="ignore:Editable installation:UserWarning" $(BIN)/pip install -q -e ".[compare]"
 	$(BIN)/python benchmarks/run_all.py --write $(BENCH_ARGS)
 
 clean:
