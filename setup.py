@@ -1,5 +1,6 @@
-"""The optional C extension of inkarm: one control period of the simulated plant
-(``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`).
+"""The optional C extensions of inkarm: one control period of the simulated plant
+(``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`) and the built-in position
+law's feed-forward (``inkarm/control/_law.c``, through :mod:`inkarm.control.compiled`).
 
 It compiles against the headers shipped with MuJoCo (the ``mujoco-core`` wheel, which the build
 requirement ``mujoco>=4.0`` brings: the runtime's own requirement, so that a fresh install
@@ -35,11 +36,13 @@ def _extensions() -> list[Extension]:
         # (its bits equal NumPy's only where NumPy's maximum/minimum break ties as x86's
         # maxsd/minsd do; elsewhere, aarch64's FMAX orders -0 below +0: the Python period runs)
         return []
+    law = Extension("inkarm.control._law", sources=["inkarm/control/_law.c"],
+                    extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     found = _mujoco()
     if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
-        return []  # (no headers: the pure-Python install)
+        return [law]  # (no MuJoCo headers: the plant's period in Python)
     include, mujoco_version = found
-    return [Extension(
+    return [law, Extension(
         "inkarm.sim._period",
         sources=["inkarm/sim/_period.c"],
         include_dirs=[str(include)],

@@ -4,8 +4,9 @@ part 2).
 Run: ``python benchmarks/bench_period.py [--quick]``. The default scenario (60 mm letter N, 828
 control periods of 3 physics steps) drawn by :func:`inkarm.jobs.run.run`, twice per block: with
 the compiled period (``inkarm/sim/_period.c``: the drives' set point ramp, the physics steps, the
-pen force, the tip on the page and the divergence test in one call) and with the plant's Python
-period (``INKARM_COMPILED=0``); both give the same bits. Its executor
+pen force, the tip on the page and the divergence test in one call; ``inkarm/control/_law.c``:
+the position law's feed-forward) and with the plant's Python period and law
+(``INKARM_COMPILED=0``); both give the same bits. Its executor
 (:func:`inkarm.control.executor.run_drawing`: planning and the closed loop) is split by timers
 put around its parts in this process only:
 
@@ -18,8 +19,8 @@ put around its parts in this process only:
   the compiled period its arithmetic in one C call, ``compiled.set_point``; in the Python
   period the set point ramp, the pen force from the contacts, the divergence check; with the
   compiled one the canvas's feed);
-* the member's Python: the rest of the executor's period (reading, force loop, law, watchdogs,
-  log row).
+* the member's Python: the rest of the executor's period (reading, force loop, law: compiled,
+  its feed-forward in one C call, watchdogs, log row).
 
 The timers cost about a microsecond a call, so the parts are read as shares; the uninstrumented
 executors (compiled and Python periods) and MuJoCo alone (the run's torques replayed open loop,
@@ -47,6 +48,7 @@ from mujoco import rollout
 
 import inkarm.sim.plant as sim_plant
 from inkarm.control import executor
+from inkarm.control.compiled import position_law
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
@@ -243,17 +245,20 @@ def section(quick: bool) -> str:
             (("the plant's Python (the new set point, compiled: its arithmetic in C; Python "
               "period: drive ramp, pen force, divergence check; compiled: the canvas's feed)"),
              "plant"),
-            ("the member's Python (read, force loop, law, watchdogs, log row)", "member")]
+            (("the member's Python (read, force loop, law: compiled, its feed-forward in C; "
+              "watchdogs, log row)"), "member")]
     calls = one_call_per_period(cell, torques)
-    usable = compiled.period_module() is not None
-    note = "" if usable else (" **The compiled period is not usable here: both columns are the "
-                              "Python period** (see inkarm.sim.compiled's debug log).")
+    usable = compiled.period_module() is not None and position_law() is not None
+    note = "" if usable else (" **The compiled period or law is not usable here: both columns "
+                              "are Python** (see inkarm.sim.compiled's and "
+                              "inkarm.control.compiled's debug logs).")
     ratio = {kind: total_us[kind] / mujoco_us for kind in kinds}
     lines = [
         "## Period: where a control period's time goes (bench_period.py)",
         "",
         (f"The default scenario ({periods} control periods of 3 physics steps), one process, the "
-         "plant's period compiled (`inkarm/sim/_period.c`) and in Python (`INKARM_COMPILED=0`), "
+         "plant's period and the position law's feed-forward compiled (`inkarm/sim/_period.c`, "
+         "`inkarm/control/_law.c`) and in Python (`INKARM_COMPILED=0`), "
          "bit-identical logs and canvas; shares from timers around the executor's parts "
          "(instrumented runs), totals from uninstrumented runs in alternating blocks with MuJoCo "
          "alone (the run's torques replayed open loop), on this thread's CPU clock. "
@@ -269,9 +274,9 @@ def section(quick: bool) -> str:
          f"{total_us['python']:.1f} |"),
         f"| MuJoCo alone, the same steps | | {mujoco_us:.1f} | | {mujoco_us:.1f} |",
         "",
-        (f"Executor / MuJoCo alone: {ratio['compiled']:.2f} with the compiled period, "
-         f"{ratio['python']:.2f} with the Python period (the issue's target: <= 2, a real-time "
-         f"factor >= 0.5x MuJoCo's); the compiled period saves "
+        (f"Executor / MuJoCo alone: {ratio['compiled']:.2f} with the compiled period and law, "
+         f"{ratio['python']:.2f} in Python (the issue's target: <= 2, a real-time "
+         f"factor >= 0.5x MuJoCo's); compiled, they save "
          f"{1 - total_us['compiled'] / total_us['python']:.0%} of the executor's time. "
          f"MuJoCo taking a period in one call from Python: `mj_step(m, d, 3)` "
          f"{calls['mj_step']:.1f} us, a persistent `mujoco.rollout` of 3 steps "

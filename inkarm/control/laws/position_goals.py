@@ -10,10 +10,17 @@ with the bias and inertia terms of the plan row, and the Coulomb friction estima
 adapted online from the joint error of the row the reading belongs to
 (:class:`inkarm.control.friction.FrictionCompensation`). A safe stop sends the lift goal with
 zero velocity and the bias c(q*, 0) only.
+
+Past the safe stop, the feed-forward's arithmetic runs in one C call where the extension is
+built (:mod:`inkarm.control.compiled`; the same bits, ``INKARM_COMPILED=0`` switches it off);
+a reading or goal that is not float64 arrays of the arm's length turns the law to Python.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
+from inkarm.control.compiled import position_law
 from inkarm.control.friction import FrictionCompensation
 from inkarm.control.laws import LawContext, Setpoint
 from inkarm.core.plant import PlantState, PositionCommand
@@ -49,11 +56,25 @@ class PositionGoals:
         self.contact_tau, self.q_ref, self.normal_q = plan.contact_tau, plan.q, plan.normal_q
         self.last_row = len(plan) - 1
         self.bias = kin.bias
+        compiled = position_law() if len(plan) else None
+        self.compiled = None if compiled is None else compiled(
+            *(np.ascontiguousarray(a, dtype=float) for a in (
+                self.planned_torque, self.direction, self.contact_tau, self.q_ref,
+                self.normal_q)),
+            self.friction.estimate, self.friction.ceiling, self.friction.rate)
 
     def command(self, state: PlantState, setpoint: Setpoint) -> PositionCommand:
         c, q, qd, qdd, q_row, pressing, depth, seen, blend, stopping = setpoint
         if stopping:
             return PositionCommand(q, qd, qdd, self.bias(q, qd).copy())
+        if self.compiled is not None:  # (it checks every argument before it writes)
+            feedforward = np.empty(len(self.friction.estimate))
+            try:
+                self.compiled.command(feedforward, q_row, state.q, c, seen, depth, blend, pressing)
+            except (TypeError, ValueError):  # (not float64 arrays of the arm's length)
+                self.compiled = None  # (Python from now on: it replaces the estimate's array)
+            else:
+                return PositionCommand(q, qd, qdd, feedforward)
         error = None
         if self.adapt:  # the joint error of the row the reading belongs to
             q_ref = self.q_ref

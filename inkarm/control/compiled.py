@@ -1,0 +1,52 @@
+"""The built-in position law's compiled feed-forward (``inkarm/control/_law.c``): whether this
+process may use it.
+
+The extension is built by pip beside the plant's period (``setup.py``; optional, x86-64 only:
+its clip breaks ties as NumPy's maximum/minimum do there). It needs no MuJoCo, so it lives in
+``control/`` with the law, for any plant. It is used only when both hold, else
+:func:`position_law` returns None and :class:`inkarm.control.laws.position_goals.PositionGoals`
+runs its Python arithmetic, which gives the same bits (tests/control/test_compiled_law.py):
+
+* the environment variable ``INKARM_COMPILED`` is not ``0`` (the switch for comparisons, the
+  same as the plant's period's);
+* the extension imports, and is of this source (``API``).
+
+Why a fallback is taken is logged once at debug level on ``inkarm.control.compiled``.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import os
+
+_LOG = logging.getLogger(__name__)
+SWITCH = "INKARM_COMPILED"  # (as inkarm.sim.compiled.SWITCH)
+API = 1  # (inkarm/control/_law.c's INKARM_LAW_API)
+
+
+@functools.cache
+def _load():
+    """The extension's ``PositionLaw`` type, or None (why logged once)."""
+    try:
+        from inkarm.control import _law
+    except ImportError as error:
+        _LOG.debug("compiled position law not used (the extension is not built: %s)", error)
+        return None
+    if getattr(_law, "API", 0) != API:
+        _LOG.debug("compiled position law not used: the extension is of another inkarm (API %s, "
+                   "this is %s): build it again (pip install -e .)", getattr(_law, "API", 0), API)
+        return None
+    return _law.PositionLaw
+
+
+def position_law():
+    """``PositionLaw(planned_torque, direction, contact_tau, q_ref, normal_q, estimate, ceiling,
+    rate)`` of the extension, or None: switched off with ``INKARM_COMPILED=0``, or not usable
+    here (logged once, debug)."""
+    if os.environ.get(SWITCH, "1") == "0":
+        return None
+    return _load()
+
+
+__all__ = ["position_law"]
