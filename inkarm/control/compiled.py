@@ -21,7 +21,9 @@ import logging
 import os
 
 _LOG = logging.getLogger(__name__)
-SWITCH = "INKARM_COMPILED"  # (as inkarm.sim.compiled.SWITCH)
+SWITCH = "INKARM_COMPILED"
+"""Set to 0 to run every compiled part of inkarm in Python (the same bits): here and the
+plant's period (:mod:`inkarm.sim.compiled`)."""
 API = 1  # (inkarm/control/_law.c's INKARM_LAW_API)
 
 
@@ -44,9 +46,12 @@ def position_law():
     """``PositionLaw(planned_torque, direction, contact_tau, q_ref, normal_q, estimate, ceiling,
     rate)`` of the extension, or None: switched off with ``INKARM_COMPILED=0``, or not usable
     here (logged once, debug)."""
-    if os.environ.get(SWITCH, "1") == "0":
-        return None
-    return _load()
+    return _load() if switched_on() else None
 
 
-__all__ = ["position_law"]
+def switched_on() -> bool:
+    """False where ``INKARM_COMPILED=0`` asks for the Python arithmetic everywhere."""
+    return os.environ.get(SWITCH, "1") != "0"
+
+
+__all__ = ["SWITCH", "position_law", "switched_on"]

@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import functools
 import logging
-import os
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from inkarm.control.compiled import SWITCH, switched_on
+
 _LOG = logging.getLogger(__name__)
-SWITCH = "INKARM_COMPILED"
 API = 2  # (inkarm/sim/_period.c's INKARM_PERIOD_API)
 
 
@@ -71,9 +71,7 @@ def _unusable():
 def period_module():
     """The compiled period's module (``Period``), or None: switched off with
     ``INKARM_COMPILED=0``, or not usable here (logged once, debug)."""
-    if os.environ.get(SWITCH, "1") == "0":
-        return None
-    return _load()
+    return _load() if switched_on() else None
 
 
 def period_for(plant):
@@ -134,3 +132,6 @@ def feed(canvas, touching: bool, steps) -> tuple[bool, float]:
             if canvas is not None:
                 canvas.lift()
     return touching, force
+
+
+__all__ = ["SWITCH", "feed", "period_for", "period_module", "set_point"]

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from inkarm.core.plant import PositionCommand
 from inkarm.sim.cell import make_cell
 from inkarm.sim.imperfections import PlantTruth
 from inkarm.sim.perturb import plant_model
 from inkarm.sim.plant import MujocoPlant, SimState
 from inkarm.sim.senses import JITTER_BLOCK, Senses, blend, history_length, jitter_generator
+from tests.sim.batch_twins import command_both, sine_goals, twins
 
 
 @pytest.fixture(scope="module")
@@ -123,19 +123,12 @@ def test_the_history_is_long_enough_for_the_oldest_reading():
 
 @pytest.mark.sim
 def test_the_batched_plant_reads_as_the_single_one_bit_for_bit(cell):
-    from inkarm.sim.batch import BatchPlant, member_model
-
     seeds = [3, 8]
     truths = [PlantTruth(seed=s, sensing_delay_ms=2.0, readout_jitter_ms=6.0, q_noise_rad=1e-4,
                          random={"mass_scale": [0.9, 1.1]}).realised() for s in seeds]
-    batch = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
-                       nthread=1)
-    singles = [MujocoPlant(member_model(cell, t), cell=cell, truth=t) for t in truths]
-    q0 = batch.read().q[0].copy()
-    amp = np.array([0.2, -0.15, 0.2, 0.2, -0.3, 0.3, 0.4])
-    for k in range(JITTER_BLOCK + 20):  # (past the first block of draws)
-        phase = 2 * np.pi * 0.5 * k * batch.dt
-        q, qd = q0 + amp * np.sin(phase), amp * np.pi * np.cos(phase)
+    batch, singles = twins(cell, truths, seeds)
+    # (past the first block of draws)
+    for q, qd in sine_goals(batch.read().q[0].copy(), batch.dt, JITTER_BLOCK + 20):
         reading = batch.read()
         for m, plant in enumerate(singles):
             alone = plant.read()
@@ -143,10 +136,7 @@ def test_the_batched_plant_reads_as_the_single_one_bit_for_bit(cell):
             np.testing.assert_array_equal(reading.q[m], alone.q)
             np.testing.assert_array_equal(reading.qd[m], alone.qd)
             assert reading.force[m] == alone.force
-            plant.command(PositionCommand(q, qd))
-            plant.step()
-        batch.command(np.arange(2), np.stack([q, q]), np.stack([qd, qd]), np.zeros((2, 7)))
-        batch.step(np.arange(2))
+        command_both(batch, singles, q, qd)
     assert reading.times[0] != reading.times[1]  # each member its own age
     from inkarm.sim.batch_members import BatchMembers
 

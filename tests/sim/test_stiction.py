@@ -15,6 +15,7 @@ from inkarm.sim.imperfections import PlantTruth
 from inkarm.sim.perturb import plant_model
 from inkarm.sim.plant import MujocoPlant
 from inkarm.sim.stiction import STUCK_SPEED_FACTOR, Stiction, stuck_window
+from tests.sim.batch_twins import command_both, sine_goals, twins
 
 COULOMB = [7.5, 7.5, 4.5, 4.5, 3.0, 1.5, 1.5]  # 1.5 x the README's row [N m]
 
@@ -210,24 +211,12 @@ def test_the_brakes_hold_whatever_the_joints_state(cell):
 
 @pytest.mark.sim
 def test_the_batched_plant_sticks_as_the_single_one_bit_for_bit(cell):
-    from inkarm.sim.batch import BatchPlant, member_model
-
     seeds = [3, 8]
     truths = [PlantTruth(seed=s, coulomb_nm=COULOMB, stiction_nm=1.0,
                          random={"mass_scale": [0.9, 1.1]}).realised() for s in seeds]
-    batch = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], seeds,
-                       nthread=1)
-    singles = [MujocoPlant(member_model(cell, t), cell=cell, truth=t) for t in truths]
-    q0 = batch.read().q[0].copy()
-    amp = np.array([0.2, -0.15, 0.2, 0.2, -0.3, 0.3, 0.4])
-    for k in range(150):
-        phase = 2 * np.pi * 0.5 * k * batch.dt
-        q, qd = q0 + amp * np.sin(phase), amp * np.pi * np.cos(phase)
-        for plant in singles:
-            plant.command(PositionCommand(q, qd))
-            plant.step()
-        batch.command(np.arange(2), np.stack([q, q]), np.stack([qd, qd]), np.zeros((2, 7)))
-        batch.step(np.arange(2))
+    batch, singles = twins(cell, truths, seeds)
+    for q, qd in sine_goals(batch.read().q[0].copy(), batch.dt, 150):
+        command_both(batch, singles, q, qd)
         reading = batch.read()
         for m, plant in enumerate(singles):
             np.testing.assert_array_equal(reading.q[m], plant.read().q)
