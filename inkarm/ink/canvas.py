@@ -7,15 +7,18 @@ the top of the page; pixel (i, j) has its centre at
     x = (j + 1/2) / px_per_mm,    y = (n_rows - i - 1/2) / px_per_mm        [mm].
 
 The plant calls :meth:`Canvas.touch` at every physics step while the pen tip touches the paper
-and :meth:`Canvas.lift` when contact ends. Successive touch points are joined by anti-aliased
+and :meth:`Canvas.lift` when contact ends, or :meth:`Canvas.touch_many` with a control period's
+steps (the same canvas, with a fraction of the Python per step). Successive touch points are joined by anti-aliased
 capsules (the set of points within a radius of a segment, the radius varying linearly along
 it), so a fast stroke is a continuous line however far the pen moves in one step. To keep a
 physics step cheap, a segment is only rasterised once the pen has moved ``max_segment_mm`` or
 the ink width or opacity has changed noticeably since the last rasterised point; the pending
 end point is flushed on lift. The chord error this introduces on a curve of radius R is
 ``max_segment_mm**2 / (8 R)`` (0.016 mm for the default 0.5 mm on a 2 mm radius). Capsules
-are queued and rasterised in batches (at a lift, when the raster is read, or every 64), the
-very pixels one at a time would give, at a fraction of numpy's per-call cost.
+are queued and rasterised together (:mod:`inkarm.ink.capsules`: at a lift, when the raster is
+read, or every 256, in batches of alike boxes), the very pixels one at a time would give, at a
+fraction of numpy's per-call cost. The composite image is brought up to date when it is read
+and at a lift; a stroke that nobody reads before its lift is composited once, in place.
 
 Darkness is an opacity in [0, 1]. Strokes composite as ``1 - (1 - a)(1 - b)`` (two layers of
 ink let through the product of their transmittances, so darkness never exceeds 1); within one
@@ -43,6 +46,7 @@ import numpy as np
 
 from inkarm.errors import InputError
 from inkarm.ink.brush import BrushInk
+from inkarm.ink.capsules import CAPSULE_FIELDS, rasterise
 from inkarm.ink.checks import FORCE_SCALE_RANGE_N, WIDTH_RANGE_MM, require_positive
 from inkarm.ink.inks import INK_MODELS, InkModel, TexturedInk, make_ink
 from inkarm.ink.marker import MarkerInk
@@ -62,12 +66,21 @@ __all__ = [
 ]
 
 A4_MM = (210.0, 297.0)
-# Capsules rasterised together (Canvas._rasterise_queue): enough to spread numpy's per-call
-# cost, few enough that the padded (K, H, W) arrays stay small.
-_QUEUE_LENGTH = 64
+# Capsules queued before they are rasterised (Canvas._rasterise_queue), their fields flat, then
+# rasterised in batches of _BATCH alike boxes: enough to spread numpy's per-call cost, few enough
+# that the padded (K, H, W) arrays stay small.
+_QUEUE_LENGTH = 256
+_QUEUE_FLOATS = _QUEUE_LENGTH * CAPSULE_FIELDS
+_BATCH = 64
 # ... and at most this many padded pixels K * H * W (about 24 bytes each in the temporaries), so
 # that a batch of wide capsules at a fine resolution does not allocate hundreds of MB.
 _QUEUE_PIXELS = 1 << 21
+# The pen between physics steps (Canvas._touch_rows): in contact; the last touch (x, y) [mm] and
+# t [s]; the low-passed speed [mm/s] (None before known); the pen-down force [N] until its point
+# is laid (else None); the last laid point (x, y, width [mm], opacity); whether a pending end
+# waits, and it (x, y, width, opacity); the last dt [s] and the speed filter's gain at it.
+_PEN_UP = (False, 0.0, 0.0, 0.0, None, None, 0.0, 0.0, 0.0, 0.0, False, 0.0, 0.0, 0.0, 0.0,
+           None, 0.0)
 
 
 class Canvas:
@@ -116,13 +129,16 @@ class Canvas:
         require_raster_memory((width_mm, height_mm), self.px_per_mm)
         # Zeroed lazily by the OS: only the pages a drawing touches are ever faulted in (a 60 mm
         # letter: about 3 of an A4 page's 75 MB; writing them all up front cost 70 ms a run).
-        self._base = np.zeros(self.shape, np.float32)  # strokes already lifted
         self._stroke = np.zeros(self.shape, np.float32)  # the stroke in progress
         self._image = np.zeros(self.shape, np.float32)  # 1 - (1 - base)(1 - stroke)
-        # capsules (u0, v0, u1, v1, rad0, rad1, opacity, r0, r1, c0, c1) not yet in _stroke
-        self._queue: list[tuple[float, ...]] = []
-        self._queue_hw = (0, 0)  # largest box (rows, cols) in the queue
+        # capsules not yet in _stroke, their fields (inkarm.ink.capsules) one after the other
+        self._queue: list[float] = []
         self._stroke_box: list[int] | None = None  # [r0, r1, c0, c1) touched by the stroke
+        # The ink before this stroke (the base) in _base, only inside _saved_box; None: the image
+        # has not been composited since the stroke began, so it is that ink itself. _base is
+        # made at the first composite during a stroke (a reader mid-stroke; else never).
+        self._saved_box: list[int] | None = None
+        self._base: np.ndarray | None = None
         self._stale_box: list[int] | None = None  # where _image lags behind _stroke
         self._dirty_box: list[int] | None = None  # touched since take_dirty_box()
         self._inked_box: list[int] | None = None  # every capsule since the page was blank
@@ -135,92 +151,130 @@ class Canvas:
     def touch(self, p_mm, force_n: float, t: float) -> None:
         """The pen tip touches the page at ``p_mm`` = (x, y) in [mm] with normal force
         ``force_n`` in [N] at time ``t`` in [s]. Call once per physics step while in contact."""
-        x, y, force, t = float(p_mm[0]), float(p_mm[1]), float(force_n), float(t)
+        force = float(force_n)
         if not (force >= 0.0 and math.isfinite(force)):
             raise InputError(f"Canvas.touch: force_n must be finite and >= 0, got {force_n!r}")
-        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(t)):
-            raise InputError(f"Canvas.touch: non-finite p_mm ({x}, {y}) or t = {t}")
-        if self._last is None:  # pen down: wait for the next step to know the speed
-            if self._path is not None:
-                self._path.append((x, y, force))
-            self._last = (x, y, t)
-            self._first_force = force
-            self._pending = None
-            return
-        lx, ly, lt = self._last
-        if t < lt:
-            raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous {lt}")
-        if self._path is not None:
-            self._path.append((x, y, force))
-        dt = t - lt
-        if dt > 0.0:
-            raw = math.hypot(x - lx, y - ly) / dt
-            if self._speed is None:
-                self._speed = raw
+        self._touch_rows(((force, float(p_mm[0]), float(p_mm[1]), float(t)),), False)
+
+    def touch_many(self, steps) -> None:
+        """The calls of a control period's physics steps ``steps`` = ((force [N], x [mm],
+        y [mm], t [s]), ...) (floats) in one: :meth:`touch` at each step whose force is
+        positive, :meth:`lift` at the others (a no-op out of contact); the same canvas as those
+        calls one at a time (:func:`inkarm.sim.compiled.feed`)."""
+        if not self._pen[0]:  # out of contact: nothing to do unless a step touches
+            for step in steps:
+                if step[0] > 0.0:
+                    break
             else:
-                self._speed += (1.0 - math.exp(-dt / self.speed_tau_s)) * (raw - self._speed)
-        if self._first_force is not None:
-            width, opacity = self.ink.mark(self._first_force, self._speed or 0.0)
-            self._stamp(lx, ly, width, lx, ly, width, opacity)
-            self._stamped = (lx, ly, width, opacity)
-            self._first_force = None
-        self._last = (x, y, t)
-        width, opacity = self.ink.mark(force, self._speed or 0.0)
-        sx, sy, sw, sa = self._stamped
-        if opacity <= 0.0:  # below the ink's threshold: finish what was laid, lay nothing
-            if self._pending is not None:
-                px, py, pw, pa = self._pending
-                self._stamp(sx, sy, sw, px, py, pw, pa)
-                self._pending = None
-            self._stamped = (x, y, width, 0.0)
-            return
-        moved2 = (x - sx) ** 2 + (y - sy) ** 2
-        if (
-            moved2 >= self.max_segment_mm**2
-            or abs(width - sw) * self.px_per_mm >= 0.5
-            or abs(opacity - sa) >= 0.05
-        ):
-            self._stamp(sx, sy, sw, x, y, width, opacity)
-            self._stamped = (x, y, width, opacity)
-            self._pending = None
-        else:
-            self._pending = (x, y, width, opacity)
+                return
+        self._touch_rows(steps, True)
+
+    def _touch_rows(self, rows, lifts: bool) -> None:
+        """:meth:`touch` for each (force [N] >= 0, x [mm], y [mm], t [s]) of ``rows`` (floats);
+        ``lifts``: :meth:`lift` instead where the force is not positive. The pen's state
+        (``_pen``) is held in local variables meanwhile, stored back even when a row is refused.
+
+        The pen speed is a first-order low pass of the finite difference over dt, gain
+        1 - exp(-dt / speed_tau_s); a capsule from the last laid point (sx, sy, width sw,
+        opacity sa) is queued once the pen moved ``max_segment_mm`` or the width or opacity
+        changed by half a pixel or 0.05, else the point waits as the pending end (px, py)."""
+        mark, tau, ppm, queue = self.ink.mark, self.speed_tau_s, self.px_per_mm, self._queue
+        segment2, isfinite, path = self.max_segment_mm**2, math.isfinite, self._path
+        (down, lx, ly, lt, speed, first, sx, sy, sw, sa, waiting, px, py, pw, pa, gain_dt,
+         gain) = self._pen
+        try:
+            for force, x, y, t in rows:
+                if lifts and not force > 0.0:
+                    if down:
+                        self._pen = (down, lx, ly, lt, speed, first, sx, sy, sw, sa, waiting, px,
+                                     py, pw, pa, gain_dt, gain)
+                        self.lift()
+                        path = self._path
+                        (down, lx, ly, lt, speed, first, sx, sy, sw, sa, waiting, px, py, pw,
+                         pa, gain_dt, gain) = self._pen
+                    continue
+                # (x + y + t + force) * 0 is 0 unless one is not finite (or the sum overflows)
+                if (x + y + t + force) * 0.0 != 0.0 and not (
+                        isfinite(x) and isfinite(y) and isfinite(t) and isfinite(force)):
+                    raise InputError(f"Canvas.touch: non-finite p_mm ({x}, {y}) or t = {t}"
+                                     if isfinite(force) else
+                                     f"Canvas.touch: force_n must be finite and >= 0, got "
+                                     f"{force!r}")
+                if not down:  # pen down: wait for the next step to know the speed
+                    if path is not None:
+                        path.append((x, y, force))
+                    down, lx, ly, lt, first, waiting = True, x, y, t, force, False
+                    continue
+                if t < lt:
+                    raise InputError(f"Canvas.touch: time went backwards, t = {t} < previous {lt}")
+                if path is not None:
+                    path.append((x, y, force))
+                dt = t - lt
+                if dt > 0.0:
+                    raw = math.hypot(x - lx, y - ly) / dt
+                    if speed is None:
+                        speed = raw
+                    else:
+                        if dt != gain_dt:  # (the physics step: the same dt at every step)
+                            gain_dt, gain = dt, 1.0 - math.exp(-dt / tau)
+                        speed += gain * (raw - speed)
+                if first is not None:  # the pen-down point, now that the speed is known
+                    sw, sa = mark(first, speed or 0.0)
+                    sx, sy, first = lx, ly, None
+                    queue.extend((sx, sy, sw, sx, sy, sw, sa))
+                lx, ly, lt = x, y, t
+                width, opacity = mark(force, speed or 0.0)
+                if opacity <= 0.0:  # below the ink's threshold: finish what was laid, lay nothing
+                    if waiting:
+                        queue.extend((sx, sy, sw, px, py, pw, pa))
+                        waiting = False
+                    sx, sy, sw, sa = x, y, width, 0.0
+                elif (
+                    (x - sx) ** 2 + (y - sy) ** 2 >= segment2
+                    or abs(width - sw) * ppm >= 0.5
+                    or abs(opacity - sa) >= 0.05
+                ):
+                    queue.extend((sx, sy, sw, x, y, width, opacity))
+                    sx, sy, sw, sa, waiting = x, y, width, opacity, False
+                    if len(queue) >= _QUEUE_FLOATS:
+                        self._rasterise_queue()
+                else:
+                    px, py, pw, pa, waiting = x, y, width, opacity, True
+        finally:
+            self._pen = (down, lx, ly, lt, speed, first, sx, sy, sw, sa, waiting, px, py, pw, pa,
+                         gain_dt, gain)
 
     def lift(self) -> None:
         """The pen left the paper: finish the stroke in progress (no-op when none is)."""
-        if self._last is None:
+        down, lx, ly, _, _, first, sx, sy, sw, _, waiting, px, py, pw, pa, *_ = self._pen
+        if not down:
             return
-        if self._first_force is not None:  # a single touch: a dot, the pen at rest
-            x, y, _ = self._last
-            width, opacity = self.ink.mark(self._first_force, 0.0)
-            self._stamp(x, y, width, x, y, width, opacity)
-        elif self._pending is not None:
-            sx, sy, sw, _ = self._stamped
-            x, y, width, opacity = self._pending
-            self._stamp(sx, sy, sw, x, y, width, opacity)
+        if first is not None:  # a single touch: a dot, the pen at rest
+            width, opacity = self.ink.mark(first, 0.0)
+            self._stamp(lx, ly, width, lx, ly, width, opacity)
+        elif waiting:
+            self._stamp(sx, sy, sw, px, py, pw, pa)
         if self._path:
             self._texture_stroke()
-        self._refresh()
+        self._refresh(final=True)
         if self._stroke_box is not None:
             r0, r1, c0, c1 = self._stroke_box
-            self._base[r0:r1, c0:c1] = self._image[r0:r1, c0:c1]
             self._stroke[r0:r1, c0:c1] = 0.0
-        self._stroke_box = None
+        self._stroke_box = self._saved_box = None
         self.n_strokes += 1
         self._reset_pen()
 
     @property
     def in_contact(self) -> bool:
         """Whether a stroke is in progress (touched since the last lift)."""
-        return self._last is not None
+        return self._pen[0]
 
     def clear(self) -> None:
         """Blank the page (and forget any stroke in progress)."""
         self._queue.clear()
-        self._queue_hw = (0, 0)
-        for buf in (self._base, self._stroke, self._image):
+        for buf in (self._stroke, self._image):
             buf.fill(0.0)
-        self._stroke_box = self._stale_box = None
+        self._stroke_box = self._stale_box = self._saved_box = None
         self._dirty_box = [0, self.shape[0], 0, self.shape[1]]
         self._inked_box = None
         self._revision += 1
@@ -282,15 +336,45 @@ class Canvas:
 
     # -- rasterisation ----------------------------------------------------------------------
 
-    def _refresh(self) -> None:
-        """Bring the composite image up to date with the stroke in progress."""
+    def _refresh(self, final: bool = False) -> None:
+        """Bring the composite image up to date with the stroke in progress, 1 - (1 - base)
+        (1 - stroke) on the stale box; ``final`` (at a lift): the stroke may be overwritten.
+
+        Until the first composite of a stroke the image is the ink before it (the base) and the
+        final one runs in place on the image; a composite during a stroke first keeps the base
+        of the box it overwrites in ``_base`` (:meth:`_save_base`)."""
         self._rasterise_queue()
         if self._stale_box is None:
             return
         r0, r1, c0, c1 = self._stale_box
-        stroke, base = self._stroke[r0:r1, c0:c1], self._base[r0:r1, c0:c1]
-        self._image[r0:r1, c0:c1] = 1.0 - (1.0 - base) * (1.0 - stroke)
+        image, stroke = self._image[r0:r1, c0:c1], self._stroke[r0:r1, c0:c1]
+        if final and self._saved_box is None:  # the same arithmetic, no temporaries
+            np.subtract(1.0, stroke, out=stroke)
+            np.subtract(1.0, image, out=image)
+            image *= stroke
+            np.subtract(1.0, image, out=image)
+        else:
+            base = self._save_base(self._stale_box)[r0:r1, c0:c1]
+            image[...] = 1.0 - (1.0 - base) * (1.0 - stroke)
         self._stale_box = None
+
+    def _save_base(self, box: list[int]) -> np.ndarray:
+        """Grow ``_saved_box`` to cover ``box``, copying the image into ``_base`` where it was
+        not saved yet (there the image has not been composited in this stroke: it is the base);
+        the new part is the grown box less the old one, at most four bands. Returns _base."""
+        if self._base is None:
+            self._base = np.zeros(self.shape, np.float32)
+        saved = self._saved_box
+        grown = _union(saved, box)
+        if saved == grown:
+            return self._base
+        g0, g1, gc0, gc1 = grown
+        s0, s1, sc0, sc1 = saved if saved is not None else (g0, g0, gc0, gc0)
+        for r0, r1, c0, c1 in ((g0, s0, gc0, gc1), (s1, g1, gc0, gc1), (s0, s1, gc0, sc0),
+                               (s0, s1, sc1, gc1)):
+            self._base[r0:r1, c0:c1] = self._image[r0:r1, c0:c1]
+        self._saved_box = grown
+        return self._base
 
     def _texture_stroke(self) -> None:
         """Replace the stroke just finished with the ink's texture of it (TexturedInk), on
@@ -316,11 +400,7 @@ class Canvas:
 
     def _reset_pen(self) -> None:
         self._path: list[tuple[float, float, float]] | None = [] if self._textured else None
-        self._last: tuple[float, float, float] | None = None
-        self._stamped: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-        self._pending: tuple[float, float, float, float] | None = None
-        self._speed: float | None = None  # low-passed pen speed in [mm/s], None before known
-        self._first_force: float | None = None  # the pen-down force, until its point is laid
+        self._pen = _PEN_UP
 
     def _stamp(
         self, x0: float, y0: float, w0: float, x1: float, y1: float, w1: float, opacity: float
@@ -332,76 +412,24 @@ class Canvas:
         (:meth:`_rasterise_queue`) when the raster is next read, at a lift, or once
         ``_QUEUE_LENGTH`` capsules wait: numpy's cost per call, not per pixel, dominates a
         capsule of a few hundred pixels, and the maximum does not depend on the order."""
-        ppm = self.px_per_mm
-        n_rows, n_cols = self.shape
-        # pixel-index coordinates: u along columns, v along rows (pixel centres at integers)
-        u0, u1 = x0 * ppm - 0.5, x1 * ppm - 0.5
-        v0, v1 = n_rows - y0 * ppm - 0.5, n_rows - y1 * ppm - 0.5
-        rad0, rad1 = 0.5 * w0 * ppm, 0.5 * w1 * ppm
-        reach = max(rad0, rad1) + 1.0
-        c0 = max(0, math.floor(min(u0, u1) - reach))
-        c1 = min(n_cols, math.ceil(max(u0, u1) + reach) + 1)
-        r0 = max(0, math.floor(min(v0, v1) - reach))
-        r1 = min(n_rows, math.ceil(max(v0, v1) + reach) + 1)
-        if c0 >= c1 or r0 >= r1 or opacity <= 0.0:
-            return
-        height, width = max(self._queue_hw[0], r1 - r0), max(self._queue_hw[1], c1 - c0)
-        if self._queue and (len(self._queue) + 1) * height * width > _QUEUE_PIXELS:
-            self._rasterise_queue()  # wide capsules: a smaller batch (the same pixels)
-            height, width = r1 - r0, c1 - c0
-        self._queue.append((u0, v0, u1, v1, rad0, rad1, opacity, r0, r1, c0, c1))
-        self._queue_hw = (height, width)
-        if len(self._queue) >= _QUEUE_LENGTH:
+        self._queue.extend((x0, y0, w0, x1, y1, w1, opacity))
+        if len(self._queue) >= _QUEUE_FLOATS:
             self._rasterise_queue()
 
     def _rasterise_queue(self) -> None:
-        """Max-composite the queued capsules into the stroke, all at once on (K, H, W) arrays
-        padded to the largest box, and account for them in the boxes and the revision.
-
-        Coverage of pixel centre p (pixel units) by the capsule from a to b with radii r_a, r_b:
-        s = clip((p - a) . (b - a) / |b - a|^2, 0, 1) (the nearest point of the segment),
-        c = clip(r_a + s (r_b - r_a) + 1/2 - |p - a - s (b - a)|, 0, 1) times the opacity:
-        the coverage ramps over one pixel across the edge, about the pixel's area inside. A
-        capsule shorter than 1e-6 px is a disc of the larger radius."""
+        """Max-composite the queued capsules into the stroke (:func:`inkarm.ink.capsules.
+        rasterise`: ``_BATCH`` alike boxes, at most ``_QUEUE_PIXELS`` padded pixels at a time),
+        and account for those on the page in the boxes and the revision."""
         if not self._queue:
             return
-        caps = np.array(self._queue)
+        caps = np.array(self._queue).reshape(-1, CAPSULE_FIELDS)
         self._queue.clear()
-        self._queue_hw = (0, 0)
-        u0, v0, u1, v1, rad0, rad1, opacity = caps[:, :7].T
-        r0, r1, c0, c1 = caps[:, 7:].astype(np.intp).T
-        box = [int(r0.min()), int(r1.max()), int(c0.min()), int(c1.max())]
-        self._stroke_box = _union(self._stroke_box, box)
-        self._stale_box = _union(self._stale_box, box)
-        self._dirty_box = _union(self._dirty_box, box)
-        self._inked_box = _union(self._inked_box, box)
-        self._revision += len(caps)
-        du, dv = u1 - u0, v1 - v0
-        length2 = du * du + dv * dv
-        segment = length2 > 1e-12
-        safe2 = np.where(segment, length2, 1.0)
-        along_u = np.where(segment, du / safe2, 0.0)
-        along_v = np.where(segment, dv / safe2, 0.0)
-        slope = np.where(segment, rad1 - rad0, 0.0)
-        base = np.where(segment, rad0, np.maximum(rad0, rad1)) + 0.5
-
-        def column(values: np.ndarray) -> np.ndarray:
-            return values.astype(np.float32)[:, None, None]
-
-        # pixel centres relative to the capsule's start: (K, 1, W) and (K, H, 1)
-        pu = _offsets(c0 - u0, int((c1 - c0).max()))[:, None, :]
-        pv = _offsets(r0 - v0, int((r1 - r0).max()))[:, :, None]
-        s = pu * column(along_u) + pv * column(along_v)
-        np.clip(s, 0.0, 1.0, out=s)
-        ex, ey = pu - s * column(du), pv - s * column(dv)
-        coverage = s * column(slope)
-        coverage += column(base)
-        coverage -= np.sqrt(ex * ex + ey * ey)
-        np.clip(coverage, 0.0, 1.0, out=coverage)
-        coverage *= column(opacity)
-        for k in range(len(caps)):
-            stroke = self._stroke[r0[k] : r1[k], c0[k] : c1[k]]
-            np.maximum(stroke, coverage[k, : r1[k] - r0[k], : c1[k] - c0[k]], out=stroke)
+        box, count = rasterise(self._stroke, caps, self.px_per_mm, _BATCH, _QUEUE_PIXELS)
+        if box is None:
+            return
+        for name in ("_stroke_box", "_stale_box", "_dirty_box", "_inked_box"):
+            setattr(self, name, _union(getattr(self, name), box))
+        self._revision += count
 
 
 def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
@@ -412,20 +440,8 @@ def pixel_centres_mm(rows, cols, n_rows: int, px_per_mm: float) -> np.ndarray:
     return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
 
 
-def _offsets(starts: np.ndarray, n: int) -> np.ndarray:
-    """Rows ``starts[k] + j`` for j < n in float32, (K, n), each exactly as
-    ``np.arange(starts[k], starts[k] + n, dtype=np.float32)`` computes it (first two values
-    rounded from double, then first + j * (second - first) in float32), so that the batched
-    capsules give the very pixels one capsule at a time would."""
-    first = starts.astype(np.float32)[:, None]
-    second = (starts + 1.0).astype(np.float32)[:, None]
-    rows = first + np.arange(n, dtype=np.float32) * (second - first)
-    rows[:, :1] = first
-    rows[:, 1:2] = second
-    return rows
-
-
 def _union(box: list[int] | None, other: list[int]) -> list[int]:
+    """The least box [r0, r1, c0, c1) holding ``box`` (None: nothing) and ``other``."""
     if box is None:
         return list(other)
     return [

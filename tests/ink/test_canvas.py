@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from inkarm.core.budget import BudgetError
 from inkarm.errors import InputError
 from inkarm.ink import canvas as canvas_module
+from inkarm.ink import capsules as capsules_module
 from inkarm.ink import png as png_module
 from inkarm.ink.canvas import (
     RASTER_BYTES_PER_PX,
@@ -437,19 +438,20 @@ def test_png_pixels_wants_a_2d_image():
 
 
 def test_wide_capsules_are_rasterised_in_smaller_batches_with_the_same_pixels(monkeypatch):
-    """Past _QUEUE_PIXELS padded pixels the queue is flushed early: the pixels do not change."""
+    """Past _QUEUE_PIXELS padded pixels a batch is split: the pixels do not change."""
     monkeypatch.setattr(canvas_module, "_QUEUE_PIXELS", 2000)
     rng = np.random.default_rng(3)
     canvas = Canvas(size_mm=(20.0, 15.0), px_per_mm=7.0)
     expected = np.zeros(canvas.shape, np.float32)
     batches = []
-    original = Canvas._rasterise_queue
+    original = capsules_module._max_into
 
-    def spy(self):
-        batches.append(len(self._queue))
-        original(self)
+    def spy(flat, n_cols, *fields):
+        r0, r1, c0, c1 = fields[-4:]
+        batches.append((len(r0), len(r0) * int((r1 - r0).max()) * int((c1 - c0).max())))
+        original(flat, n_cols, *fields)
 
-    monkeypatch.setattr(Canvas, "_rasterise_queue", spy)
+    monkeypatch.setattr(capsules_module, "_max_into", spy)
     for _ in range(40):
         x0, x1 = rng.uniform(0.0, 20.0, 2)
         y0, y1 = rng.uniform(0.0, 15.0, 2)
@@ -460,7 +462,9 @@ def test_wide_capsules_are_rasterised_in_smaller_batches_with_the_same_pixels(mo
         np.maximum(expected, one, out=expected)
     blank = np.zeros(canvas.shape, np.float32)  # composited over an empty page
     np.testing.assert_array_equal(canvas.image, 1.0 - (1.0 - blank) * (1.0 - expected))
-    assert max(batches) < 40 and sum(batches) == 40  # split, and every capsule drawn once
+    sizes = [n for n, _ in batches]
+    assert max(sizes) < 40 and sum(sizes) == 40  # split, and every capsule drawn once
+    assert all(p <= 2000 for n, p in batches if n > 1)  # (one capsule alone may be larger)
 
 
 def test_raster_budget_refuses_a_huge_page_at_once_naming_estimate_and_variable(monkeypatch):
