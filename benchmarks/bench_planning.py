@@ -41,6 +41,7 @@ FIELDS = ("q", "qd", "qdd", "normal_q", "page_mm", "phase", "stroke", "contact_t
 # Timed parts of planning: (label, the name in inkarm.control.reference that is timed).
 PARTS = (("check_reachable: static IK along the strokes", "check_reachable"),
          ("the pen's phases on the control grid (sequence_pen)", "sequence_pen"),
+         ("the first IK solve, from the posture (solve_ik)", "solve_ik"),
          ("IK path on the knots (track_path)", "track_path"),
          ("clamped joint spline through the knots", "cubic_spline"))
 
@@ -154,7 +155,8 @@ def default_section(quick: bool) -> list[str]:
                      f"{1e6 * parts[name] / periods:.2f} |")
     rest = total - sum(parts.values())
     lines += [
-        (f"| the rest (the first IK solve, feed-forward terms on knots 40 ms apart, gradients) | "
+        (f"| the rest (kinematics and dynamics at the feed-forward knots 40 ms apart, "
+         "whole-run arrays: gradients, interpolation, contact terms) | "
          f"{rest / total:.0%} | {1e3 * rest:.2f} | {1e6 * rest / periods:.2f} |"),
         (f"| **planning, uninstrumented** | 100% | {1e3 * total:.2f} | "
          f"{1e6 * total / periods:.2f} |"),

@@ -25,13 +25,14 @@ goal x* (both across the pen):
 
 and the solve is the same with 6 rows (:func:`pose_task`). Without poses nothing changes.
 
-:func:`pose_task`, :func:`null_space_motion`, :func:`dls_step` and :func:`task_error` state one
-step plainly, as above; :class:`PathTracker`, which every solver here runs on, computes the same
-numbers in fewer NumPy calls, and the tests hold it to them bit for bit.
+:func:`pose_task`, :func:`dls_update` and :func:`task_error` state one step plainly, as above;
+:class:`PathTracker`, which every solver here runs on, computes the same numbers in fewer NumPy
+calls, and the tests hold it to the plain step (written out there) bit for bit.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -105,17 +106,13 @@ class IKResult:
     iterations: int
 
 
-_dposv = None  # LAPACK's dposv, imported on first use (the planner imports without SciPy)
+@functools.cache
+def _spd_solver():
+    """LAPACK's dposv: (A, b) -> (factor, x of A x = b, info), A symmetric positive definite,
+    by Cholesky; imported on first use (the planner imports without SciPy)."""
+    from scipy.linalg.lapack import dposv
 
-
-def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x of A x = b, A symmetric positive definite, by Cholesky (LAPACK dposv)."""
-    global _dposv
-    if _dposv is None:
-        from scipy.linalg.lapack import dposv
-
-        _dposv = dposv
-    return _dposv(A, b)[1]
+    return dposv
 
 
 def pen_error(p: np.ndarray, R: np.ndarray, p_goal: np.ndarray,
@@ -166,20 +163,6 @@ def pose_task(p: np.ndarray, R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray, p_go
     return np.append(e, R[:, 1] @ spin_goal), np.vstack([J, R[:, 2] @ Jr])
 
 
-def limit_push(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float) -> np.ndarray:
-    """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits: back
-    into the band [lower + margin, upper - margin], zero inside it."""
-    return np.minimum(np.maximum(q, lower + margin), upper - margin) - q
-
-
-def null_space_motion(q: np.ndarray, q_posture: np.ndarray, lower: np.ndarray,
-                      upper: np.ndarray, cfg: IKConfig) -> np.ndarray:
-    """dq_0 = k_posture (q_posture - q) + k_limit * limit_push(q) in [rad]."""
-    dq0 = cfg.posture_gain * (q_posture - q)
-    dq0 += cfg.limit_gain * limit_push(q, lower, upper, cfg.limit_margin)
-    return dq0
-
-
 def dls_update(q: np.ndarray, e: np.ndarray, J: np.ndarray, dq0: np.ndarray | None,
                cfg: IKConfig, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """q + dq, the step of the module docstring from the pen-task error ``e`` (5,) and
@@ -202,7 +185,7 @@ def dls_update(q: np.ndarray, e: np.ndarray, J: np.ndarray, dq0: np.ndarray | No
     rhs = e if dq0 is None else e - J.dot(dq0)
     # A >= lambda^2 I, so the factorisation cannot fail on finite numbers (and non-finite ones
     # propagate to q, where the callers' error checks catch them).
-    y = _solve_spd(A, rhs)
+    y = _spd_solver()(A, rhs)[1]
     dq = J.T.dot(y)
     if dq0 is not None:
         dq += dq0
@@ -215,25 +198,12 @@ def dls_update(q: np.ndarray, e: np.ndarray, J: np.ndarray, dq0: np.ndarray | No
     return np.minimum(dq, upper, out=dq)
 
 
-def dls_step(kin: ArmKinematics, q: np.ndarray, p_goal: np.ndarray, axis_goal: np.ndarray,
-             q_posture: np.ndarray, cfg: IKConfig, null_space: bool = True,
-             spin_goal: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """One damped-least-squares step: returns (q_next, e) with e the task error at ``q``
-    (``spin_goal``: the site's x axis x* (3,) in the robot frame, a 6-row task)."""
-    e, J = pose_task(*kin.jacobian_views(q), p_goal, axis_goal, spin_goal)
-    dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg) if null_space else None
-    return dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper), e
-
-
 def task_error(e: np.ndarray) -> tuple[float, float]:
     """(position error [m], tilt error [rad]) of a pen-task error vector; the tilt error is
     |z_s x a|, the sine of the pen's tilt from the goal axis (with a spin row: the norm of the
     tilt and spin rows)."""
-    if e.shape[0] != 5:
-        ex, ey, ez, *turns = e.tolist()
-        return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(sum(t * t for t in turns))
-    ex, ey, ez, tx, ty = e.tolist()
-    return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(tx * tx + ty * ty)
+    ex, ey, ez, *turns = e.tolist()
+    return math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(sum(t * t for t in turns))
 
 
 def _unit(axis) -> np.ndarray:
@@ -250,10 +220,9 @@ class PathTracker:
     within tolerance (at most ``max_refine``). The Jacobian at the joint angles reached for
     one goal serves the first step towards the next, so each step costs one evaluation.
 
-    The solvers' loops run on its parts, :func:`dls_step`'s numbers in fewer NumPy calls: the
+    The solvers' loops run on its parts, the plain step's numbers in fewer NumPy calls: the
     task at the last evaluation (J5, or J6 with a ``spin_goal``, in a buffer of its own; the
-    tip and tilt as floats, from which the error comes) and the null-space motion with its
-    limit bands made once.
+    tip and tilt as floats) and the null-space motion with its limit bands made once.
 
     Args:
         kin: The controller's kinematics.
@@ -269,14 +238,17 @@ class PathTracker:
 
     def __init__(self, kin: ArmKinematics, axis_goal, q0, q_posture, cfg: IKConfig = IKConfig(),
                  max_refine: int = 20, spin_goal: np.ndarray | None = None, unit: bool = False):
-        self.kin, self.cfg, self.max_refine = kin, cfg, int(max_refine)
+        self.kin, self.cfg, self.max_refine = kin, cfg, max(int(max_refine), 0)
         self.axis_goal = np.asarray(axis_goal, float) if unit else _unit(axis_goal)
         self.q_posture = np.asarray(q_posture, float)
         self.q = np.asarray(q0, float).copy()
         self._spin = spin_goal
         self._band = kin.lower + cfg.limit_margin, kin.upper - cfg.limit_margin
         self._J = np.empty((5 if spin_goal is None else 6, kin.n))
+        self._JT = self._J.T
         self._rows = self._J[:3], self._J[3:5]
+        self._plain = (spin_goal is None and cfg._row_weights is None  # (track's loop inline)
+                       and kin.fixed_views is not None)
         self._R = self._tip = self._tilt = self._turn = None
         self._evaluate(self.q)
 
@@ -307,7 +279,7 @@ class PathTracker:
         """:func:`dls_update` from ``q`` with the error ``e`` of the last evaluation (there)."""
         cfg, (low, high) = self.cfg, self._band
         dq0 = None
-        if null_space:  # null_space_motion
+        if null_space:  # dq_0 (module docstring), the limit push back into the band
             dq0 = cfg.posture_gain * (self.q_posture - q)
             dq0 += cfg.limit_gain * (np.minimum(np.maximum(q, low), high) - q)
         return dls_update(q, np.array(e), self._J, dq0, cfg, self.kin.lower, self.kin.upper)
@@ -327,21 +299,67 @@ class PathTracker:
             if converged and not null_space:
                 break
             q_next = self._dls(q, e, null_space)
-            # (the largest joint move as a list max: cheaper than numpy's on 7 numbers)
-            if converged and max(map(abs, (q_next - q).tolist())) < 1e-4:
+            if converged and max(map(abs, (q_next - q).tolist())) < 1e-4:  # (a list's max)
                 break
             q = q_next
         else:
-            self.q = q
-            self._evaluate(q)
-            return IKResult(q, False, pos_err, tilt_err, cfg.max_iter)
+            self._evaluate(q)  # (the next solve's first evaluation)
+            converged, it = False, cfg.max_iter
         self.q = q
-        return IKResult(q, True, pos_err, tilt_err, it)
+        return IKResult(q, converged, pos_err, tilt_err, it)
 
     def step(self, p_goal: np.ndarray) -> tuple[float, float]:
         """Move ``q`` towards ``p_goal`` (3,) in [m]; returns (tip error [m], tilt error
         [rad]) at the new ``q``."""
-        return self._step(np.asarray(p_goal, float).tolist())
+        return self.track([np.asarray(p_goal, float).tolist()])[1][0]
+
+    def track(self, goals: list[list[float]]
+              ) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
+        """:meth:`step` towards each of ``goals`` (3 floats, [m]) in turn: the joint angles and
+        (tip, tilt) errors reached; 5 unweighted rows with the parts inline (fewer calls)."""
+        rows, errors = [], []
+        if not self._plain:
+            for goal in goals:
+                errors.append(self._step(goal))
+                rows.append(self.q)
+            return rows, errors
+        kin, cfg, J, JT, dposv = self.kin, self.cfg, self._J, self._JT, _spd_solver()
+        place, (p, R, Jp, Jr) = kin.jacobian_views, kin.fixed_views
+        (Jp_rows, tilt_rows), dot = self._rows, np.dot
+        RT, RT2, axis = R.T, R.T[:2], self.axis_goal
+        maximum, minimum, array, sqrt = np.maximum, np.minimum, np.array, math.sqrt
+        (low, high), lower, upper, qp = self._band, kin.lower, kin.upper, self.q_posture
+        pg, lg, ridge, max_step = cfg.posture_gain, cfg.limit_gain, cfg._ridge5, cfg.max_step
+        tol_pos, tol_tilt, tilt_free = cfg.tol_pos, cfg.tol_tilt, cfg.tilt_weight == 0
+        q, refine, (px, py, pz), (xa, ya, za) = self.q, self.max_refine, self._tip, self._tilt
+        for gx, gy, gz in goals:
+            dq0 = pg * (qp - q) + lg * (minimum(maximum(q, low), high) - q)  # (k = 0 only)
+            e = [gx - px, gy - py, gz - pz, -ya, xa]
+            for k in range(refine + 1):
+                A = J.dot(JT)
+                A += ridge
+                rhs = array(e) - J.dot(dq0) if not k else array(e)
+                dq = JT.dot(dposv(A, rhs)[1])
+                if not k:
+                    dq += dq0
+                biggest = max(map(abs, dq.tolist()))
+                if biggest > max_step:
+                    dq *= max_step / biggest
+                dq += q
+                q = minimum(maximum(dq, lower, out=dq), upper, out=dq)
+                place(q)
+                Jp_rows[...] = Jp
+                dot(RT2, Jr, out=tilt_rows)
+                (px, py, pz), (xa, ya, za) = p.tolist(), RT.dot(axis).tolist()
+                ex, ey, ez = gx - px, gy - py, gz - pz
+                pos_err, tilt_err = sqrt(ex * ex + ey * ey + ez * ez), sqrt(ya * ya + xa * xa)
+                if pos_err < tol_pos and (tilt_free or tilt_err < tol_tilt):
+                    break
+                e = [ex, ey, ez, -ya, xa]
+            rows.append(q)
+            errors.append((pos_err, tilt_err))
+        self.q, self._tip, self._tilt = q, [px, py, pz], [xa, ya, za]
+        return rows, errors
 
     def _step(self, goal: list[float]) -> tuple[float, float]:
         self.q = self._dls(self.q, self._error(goal)[2], null_space=True)
@@ -357,11 +375,11 @@ class PathTracker:
 
 def solve_ik(kin: ArmKinematics, p_goal, axis_goal, q0, q_posture=None,
              cfg: IKConfig = IKConfig(), spin_goal=None) -> IKResult:
-    """Iterate :func:`dls_step` from ``q0`` until the tip is within tolerance of ``p_goal`` [m]
-    and the pen points along ``axis_goal`` (unit, 3,) (and, given ``spin_goal``, the site's x
-    axis along it: a :class:`PenPose`'s spin). Never raises on failure: check ``converged``.
-    The null-space term acts during the first half of the iterations (until the posture has
-    settled), task-only steps after (:meth:`PathTracker.solve`)."""
+    """Iterate the module docstring's step from ``q0`` until the tip is within tolerance of
+    ``p_goal`` [m] and the pen points along ``axis_goal`` (unit, 3,) (and, given ``spin_goal``,
+    the site's x axis along it: a :class:`PenPose`'s spin). Never raises on failure: check
+    ``converged``. The null-space term acts during the first half of the iterations (until the
+    posture has settled), task-only steps after (:meth:`PathTracker.solve`)."""
     q = np.minimum(np.maximum(np.asarray(q0, float), kin.lower), kin.upper)  # (np.clip's)
     axis = _unit(axis_goal)
     spin = None if spin_goal is None else across(axis, spin_goal)
@@ -381,11 +399,8 @@ def track_path(kin: ArmKinematics, points: np.ndarray, axis_goal, q0, q_posture,
     (``label(i)`` when given) whose tip error stays above ``100 * tol_pos`` or which sits at a
     joint limit.
     """
-    tracker = PathTracker(kin, axis_goal, q0, q_posture, cfg)
-    rows, errors = [], []
-    for goal in np.asarray(points, float).tolist():
-        errors.append(tracker._step(goal))
-        rows.append(tracker.q)
+    rows, errors = PathTracker(kin, axis_goal, q0, q_posture, cfg).track(
+        np.asarray(points, float).tolist())
     return _checked(kin, cfg, rows, errors, label, "with the pen perpendicular")
 
 
@@ -472,20 +487,13 @@ def track_poses(kin: ArmKinematics, points: np.ndarray, axes: np.ndarray, spins:
                 label: Callable[[int], str] | None = None) -> np.ndarray:
     """:func:`track_path` with a pen direction per sample: ``axes`` (N, 3) unit, and spin goals
     ``spins`` (N, 3) (a row of NaN: the spin is free there), robot frame. Each sample: one
-    null-space step, then task-only steps until within tolerance (at most 20); raises
-    UnreachableError as :func:`track_path` does."""
-    q = np.asarray(q0, float).copy()
-    rows, errors = [], []
+    null-space step, then task-only steps until within tolerance (at most 20; the error is
+    then the one at the joint angles reached); raises UnreachableError as :func:`track_path`
+    does."""
+    q, rows, errors = q0, [], []
     for goal, axis, spin in zip(np.asarray(points, float).tolist(), axes, spins, strict=True):
-        solver = PathTracker(kin, axis, q, q_posture, cfg, unit=True,
-                             spin_goal=None if np.isnan(spin).any() else across(axis, spin))
-        for k in range(21):  # (the first step from an evaluation at the sample's own axis)
-            if k:
-                solver._evaluate(q)
-            pos_err, tilt_err, e = solver._error(goal)
-            if k and cfg.converged(pos_err, tilt_err):
-                break
-            q = solver._dls(q, e, null_space=not k)
-        rows.append(q)
-        errors.append((pos_err, tilt_err))
+        tracker = PathTracker(kin, axis, q, q_posture, cfg, unit=True,  # (evaluated at its axis)
+                              spin_goal=None if np.isnan(spin).any() else across(axis, spin))
+        errors.append(tracker._step(goal))
+        rows.append(q := tracker.q)
     return _checked(kin, cfg, rows, errors, label, "with the pen's pose")

@@ -65,10 +65,12 @@ class ArmKinematics:
         self._site_xpos = self.data.site_xpos[sid]
         self._site_xmat = self.data.site_xmat[sid].reshape(3, 3)
         # The arm's columns of the Jacobians, inertia matrix and bias: views made once when the
-        # joints' dofs are consecutive (a slice), else taken (copied) at each evaluation.
-        self._arm_views = None
+        # joints' dofs are consecutive (a slice), else taken (copied) at each evaluation;
+        # fixed_views: then the (p, R, Jp, Jr) that every jacobian_views call fills and returns.
+        self._arm_views = self.fixed_views = None
         if isinstance(self.dof_adr, slice):
             self._arm_views = self._arm_parts()
+            self.fixed_views = (self._site_xpos, self._site_xmat, *self._arm_views[:2])
 
     def _arm_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The arm's (Jp, Jr, M, c) in the buffers of the whole model's dofs."""
@@ -102,10 +104,12 @@ class ArmKinematics:
         its next evaluation (for the IK iterations, which use them at once; p and R are the
         same arrays at every call, and Jp and Jr too when the arm's dofs are consecutive)."""
         m, d = self.model, self.data
-        self._set(q)
+        self._qpos[self.qpos_adr] = q
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_jacSite(m, d, self._jacp, self._jacr, self.site_id)
+        if self.fixed_views is not None:
+            return self.fixed_views
         return (self._site_xpos, self._site_xmat, *self._arm_parts()[:2])
 
     def plan_terms(

@@ -44,7 +44,6 @@ from inkarm.control.ik import (
     IKConfig,
     PathTracker,
     PenPose,
-    pen_jacobian,
     solve_ik,
     track_path,
     track_poses,
@@ -151,8 +150,9 @@ def check_reachable(
         picks = np.unique(
             np.searchsorted(arc, np.arange(0.0, arc[-1], spacing_mm)).tolist() + [len(pos) - 1]
         )
-        for i in picks:
-            result = tracker.solve(placement.to_robot([pos[i, 0], pos[i, 1], -depth]))
+        goals = placement.to_robot(np.column_stack([pos[picks], np.full(len(picks), -depth)]))
+        for i, goal in zip(picks.tolist(), goals.tolist()):
+            result = tracker.solve(goal)
             if not result.converged:
                 raise UnreachableError(
                     f"stroke {k}, point ({pos[i, 0]:.1f}, {pos[i, 1]:.1f}) mm: out of reach "
@@ -257,19 +257,14 @@ def plan_joint_reference(
     # evaluates each knot, the linear algebra runs on all knots at once.
     all_knots = _knots(len(q), max(1, round(SLOW_TERMS_PERIOD_S / dt)))
     n_k = len(all_knots)
-    tip_k = np.empty((n_k, 3))
-    jac5_k = np.empty((n_k, 5, kin.n))
-    mass_k = np.empty((n_k, kin.n, kin.n))
-    bias_k = np.empty((n_k, kin.n))
-    spin_k = np.empty((n_k, kin.n)) if poses is not None else None
-    for j, (q_j, qd_j) in enumerate(zip(q[all_knots], qd[all_knots])):
-        p, R, Jp, Jr, M, c = kin.plan_terms(q_j, qd_j)
-        tip_k[j] = p
-        pen_jacobian(R, Jp, Jr, out=jac5_k[j])
-        if spin_k is not None:
-            spin_k[j] = R[:, 2] @ Jr
-        mass_k[j] = M
-        bias_k[j] = c
+    tip_k, rot_k = np.empty((n_k, 3)), np.empty((n_k, 3, 3))
+    jac5_k, jac_r = np.empty((n_k, 5, kin.n)), np.empty((n_k, 3, kin.n))
+    mass_k, bias_k = np.empty((n_k, kin.n, kin.n)), np.empty((n_k, kin.n))
+    for j, q_j, qd_j in zip(range(n_k), q[all_knots], qd[all_knots]):
+        tip_k[j], rot_k[j], jac5_k[j, :3], jac_r[j], mass_k[j], bias_k[j] = kin.plan_terms(
+            q_j, qd_j)
+    # pen_jacobian's tilt rows x_s^T Jr, y_s^T Jr of every knot in one product (its numbers)
+    np.matmul(rot_k.transpose(0, 2, 1)[:, :2], jac_r, out=jac5_k[:, 3:])
     page_k = placement.to_page(tip_k)
     jac_k = jac5_k[:, :3].transpose(0, 2, 1).reshape(n_k, kin.n * 3)  # rows of Jp^T
     # J5^+ (-n): the joint motion that presses the pen along -n, tilt unchanged.
@@ -279,7 +274,8 @@ def plan_joint_reference(
     JJt += IKConfig().damping ** 2 * np.eye(5)
     y = np.linalg.solve(JJt, np.broadcast_to(press, (n_k, 5))[..., None])
     normal_q_k = (jac5_k.transpose(0, 2, 1) @ y)[..., 0]
-    if spin_k is not None:  # a pen pose presses along its own axis (module docstring)
+    if poses is not None:  # a pen pose presses along its own axis (module docstring)
+        spin_k = np.array([R[:, 2] @ Jr for R, Jr in zip(rot_k, jac_r)])  # z_s^T Jr
         cart = (all_knots >= len(approach)) & (all_knots < len(approach) + len(page))
         normal_q_k[cart] = _press_along(jac5_k[cart], spin_k[cart],
                                         lean[all_knots[cart] - len(approach)]
@@ -372,7 +368,8 @@ def _press_along(jac5: np.ndarray, spin: np.ndarray, lean: np.ndarray) -> np.nda
 
 def _knots(n: int, stride: int) -> np.ndarray:
     """Every ``stride``-th index of range(n), the last one always included."""
-    return np.unique(np.append(np.arange(0, n, stride), n - 1))
+    knots = np.arange(0, n, stride)
+    return knots if len(knots) and knots[-1] == n - 1 else np.append(knots, n - 1)
 
 
 class _Lerp:
@@ -393,7 +390,11 @@ class _Lerp:
         if self.single:
             return np.repeat(values, self.n, axis=0)
         shape = (-1,) + (1,) * (values.ndim - 1)
-        return values[self.k] * self.w0.reshape(shape) + values[self.k1] * self.w.reshape(shape)
+        rows, after = values[self.k], values[self.k1]  # (gathered copies, scaled in place)
+        rows *= self.w0.reshape(shape)
+        after *= self.w.reshape(shape)
+        rows += after
+        return rows
 
 
 def _joint_move(q0: np.ndarray, q1: np.ndarray, peak_speed: np.ndarray, dt: float) -> np.ndarray:

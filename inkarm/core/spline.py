@@ -46,14 +46,24 @@ def tridiagonal_solve(lower: Sequence[float], diagonal: Sequence[float],
     entries) and right-hand sides ``rhs`` (n rows of k), by LAPACK dgtsv's elimination with
     partial pivoting and back substitution, operation for operation (Python floats round as
     its compiled Fortran does). T must be non-singular (eq. (3) is, on increasing breaks)."""
+    columns = tridiagonal_columns(lower, diagonal, upper, [list(c) for c in zip(*rhs)])
+    return [list(row) for row in zip(*columns)] if columns else [[] for _ in rhs]
+
+
+def tridiagonal_columns(lower: Sequence[float], diagonal: Sequence[float],
+                        upper: Sequence[float], columns: list[list[float]]) -> list[list[float]]:
+    """:func:`tridiagonal_solve` on right-hand sides given, and solutions returned, as columns
+    (k lists of n): T's elimination once, then each column's forward and back sweeps as
+    scalar loops, the same operations on each number in the same order (a row of k numbers
+    at a time, the Python per number costs several times more)."""
     dl, d, du = list(lower), list(diagonal), list(upper)
-    b = [list(row) for row in rhs]
     n = len(d)
+    swaps, facts = [], []
     for i in range(n - 1):
-        if abs(d[i]) >= abs(dl[i]):  # no interchange
+        swap = not abs(d[i]) >= abs(dl[i])  # (dgtsv's test, NaN included)
+        if not swap:  # no interchange
             fact = dl[i] / d[i]
             d[i + 1] = d[i + 1] - fact * du[i]
-            b[i + 1] = [v - fact * w for v, w in zip(b[i + 1], b[i])]
             dl[i] = 0.0
         else:  # rows i and i + 1 interchanged; dl[i] becomes the fill-in above
             fact = d[i] / dl[i]
@@ -64,13 +74,33 @@ def tridiagonal_solve(lower: Sequence[float], diagonal: Sequence[float],
                 dl[i] = du[i + 1]
                 du[i + 1] = -fact * dl[i]
             du[i] = temp
-            b[i], b[i + 1] = b[i + 1], [v - fact * w for v, w in zip(b[i], b[i + 1])]
-    b[n - 1] = [v / d[n - 1] for v in b[n - 1]]
-    if n > 1:
-        b[n - 2] = [(v - du[n - 2] * w) / d[n - 2] for v, w in zip(b[n - 2], b[n - 1])]
-    for i in range(n - 3, -1, -1):
-        b[i] = [(v - du[i] * w - dl[i] * z) / d[i] for v, w, z in zip(b[i], b[i + 1], b[i + 2])]
-    return b
+        swaps.append(swap)
+        facts.append(fact)
+    plain = swaps.index(True) if True in swaps else n - 1  # rows before the first interchange
+    back = list(zip(du[n - 3::-1], dl[n - 3::-1], d[n - 3::-1])) if n > 2 else []
+    solved = []
+    for b in columns:
+        low, row = [], b[0]  # forward: ``row`` is b[i] as eliminated so far
+        for fact, nxt in zip(facts[:plain], b[1:plain + 1]):
+            low.append(row)
+            row = nxt - fact * row
+        for swap, fact, nxt in zip(swaps[plain:], facts[plain:], b[plain + 1:]):
+            if swap:
+                low.append(nxt)
+                row = row - fact * nxt
+            else:
+                low.append(row)
+                row = nxt - fact * row
+        x = [row / d[n - 1]]  # back substitution, from the last row up
+        if n > 1:
+            x.append((low[n - 2] - du[n - 2] * x[0]) / d[n - 2])
+            after, last = x
+            for v, (u, lo, di) in zip(low[n - 3::-1], back):
+                after, last = last, (v - u * last - lo * after) / di
+                x.append(last)
+        x.reverse()
+        solved.append(x)
+    return solved
 
 
 def spline_slopes(x: np.ndarray, y: np.ndarray, boundary: str) -> np.ndarray:
@@ -100,9 +130,9 @@ def spline_slopes(x: np.ndarray, y: np.ndarray, boundary: str) -> np.ndarray:
         b[0] = ((h[0] + 2 * d) * h[1] * m[0] + h[0] ** 2 * m[1]) / d
         diagonal[-1], lower[-1], d = dx[-2], x[-1] - x[-3], x[-1] - x[-3]
         b[-1] = (h[-1] ** 2 * m[-2] + (2 * d + h[-1]) * h[-2] * m[-1]) / d
-    rows = tridiagonal_solve(lower.tolist(), diagonal.tolist(), upper.tolist(),
-                             b.reshape(n, -1).tolist())
-    return np.array(rows).reshape(b.shape)
+    columns = tridiagonal_columns(lower.tolist(), diagonal.tolist(), upper.tolist(),
+                                  b.reshape(n, -1).T.tolist())
+    return np.array(columns).T.reshape(b.shape)
 
 
 class CubicPieces:

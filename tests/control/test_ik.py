@@ -11,10 +11,7 @@ from inkarm.control.ik import (
     IKConfig,
     PathTracker,
     across,
-    dls_step,
     dls_update,
-    limit_push,
-    null_space_motion,
     pen_error,
     pose_task,
     solve_ik,
@@ -33,6 +30,29 @@ def pose_error(kin, q, p_goal, axis_goal):
     """(position error [m], tilt error [rad]) at ``q`` from forward kinematics alone."""
     p, R = kin.fk(q)
     return task_error(pen_error(p, R, np.asarray(p_goal, float), axis_goal))
+
+
+def limit_push(q, lower, upper, margin):
+    """Joint displacement [rad] that takes ``q`` out of the margin zones near its limits: back
+    into the band [lower + margin, upper - margin], zero inside it."""
+    return np.minimum(np.maximum(q, lower + margin), upper - margin) - q
+
+
+def null_space_motion(q, q_posture, lower, upper, cfg):
+    """dq_0 = k_posture (q_posture - q) + k_limit * limit_push(q) in [rad] (ik's docstring)."""
+    dq0 = cfg.posture_gain * (q_posture - q)
+    dq0 += cfg.limit_gain * limit_push(q, lower, upper, cfg.limit_margin)
+    return dq0
+
+
+def dls_step(kin, q, p_goal, axis_goal, q_posture, cfg, null_space=True, spin_goal=None):
+    """One damped-least-squares step of ik's docstring, written out plainly (pose_task, dq_0,
+    dls_update): (q_next, e) with e the task error at ``q``; the oracle that PathTracker's
+    loops are held to bit for bit."""
+    e, J = pose_task(*kin.jacobian_views(q), p_goal, axis_goal, spin_goal)
+    dq0 = null_space_motion(q, q_posture, kin.lower, kin.upper, cfg) if null_space else None
+    return dls_update(q, e, J, dq0, cfg, kin.lower, kin.upper), e
+
 
 HOME = np.array(load_robot("iiwa14").home_q)
 Q_TEST = np.array([0.2, 0.7, -0.3, -1.4, 0.4, 0.8, 0.5])
@@ -144,13 +164,20 @@ def test_jacobian_views_are_the_jacobian_without_copies(kin):
     assert not np.allclose(views[0], copies[0])
 
 
-def test_path_tracker_steps_as_the_per_sample_scheme_it_documents(kin, page):
+@pytest.mark.parametrize("case", ["plain", "in the limit margins", "weighted rows"])
+def test_path_tracker_steps_as_the_per_sample_scheme_it_documents(kin, page, case):
     line = page.to_robot(
         np.column_stack([np.linspace(60, 150, 40), np.linspace(140, 170, 40), np.zeros(40)])
     )
     q0 = solve_ik(kin, line[0], page.pen_axis, HOME, HOME).q
     cfg = IKConfig(posture_gain=0.01, limit_gain=0.5)
+    if case == "in the limit margins":  # (the push acts from the first sample on)
+        cfg = IKConfig(posture_gain=0.01, limit_gain=0.5, limit_margin=1.2)
+    elif case == "weighted rows":  # (the loop on the parts, not inline)
+        cfg = IKConfig(posture_gain=0.01, limit_gain=0.5, position_weight=2.0, tilt_weight=0.5)
     tracker = PathTracker(kin, page.pen_axis, q0, HOME, cfg)
+    pushed = np.any(limit_push(q0, kin.lower, kin.upper, cfg.limit_margin) != 0)
+    assert pushed == (case == "in the limit margins")
     q = q0.copy()
     for goal in line:
         # reference: one null-space step, then task-only steps until within tolerance

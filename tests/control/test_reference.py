@@ -11,6 +11,8 @@ from inkarm.control.executor import run_drawing
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.reference import (
     JointSpeedError,
+    _knots,
+    _Lerp,
     check_reachable,
     plan_joint_reference,
     plan_within_speed_limits,
@@ -224,3 +226,14 @@ def test_slowed_stretches_every_time():
     for a, b in zip(drawing.strokes, slow.strokes):
         np.testing.assert_allclose(b.t, 2.0 * a.t)
         np.testing.assert_array_equal(b.pos, a.pos)
+
+
+def test_knots_take_every_stride_th_row_and_always_the_last():
+    for n in range(1, 40):
+        for stride in range(1, 9):
+            knots = _knots(n, stride)
+            np.testing.assert_array_equal(knots, np.unique(np.append(np.arange(0, n, stride),
+                                                                     n - 1)))
+            values = np.random.default_rng(n).normal(size=(len(knots), 2, 3))
+            lerped = _Lerp(knots, n)(values)
+            np.testing.assert_array_equal(lerped[knots], values)  # the knots' own rows
