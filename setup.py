@@ -1,6 +1,7 @@
 """The optional C extensions of inkarm: one control period of the simulated plant
 (``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`) and the built-in position
-law's feed-forward (``inkarm/control/_law.c``, through :mod:`inkarm.control.compiled`).
+law's feed-forward and the member's period (``inkarm/control/_law.c``, ``_member.c``, through
+:mod:`inkarm.control.compiled`).
 
 It compiles against the headers shipped with MuJoCo (the ``mujoco-core`` wheel, which the build
 requirement ``mujoco>=4.0`` brings: the runtime's own requirement, so that a fresh install
@@ -36,7 +37,9 @@ def _extensions() -> list[Extension]:
         # (its bits equal NumPy's only where NumPy's maximum/minimum break ties as x86's
         # maxsd/minsd do; elsewhere, aarch64's FMAX orders -0 below +0: the Python period runs)
         return []
-    law = Extension("inkarm.control._law", sources=["inkarm/control/_law.c"],
+    law = Extension("inkarm.control._law",
+                    sources=["inkarm/control/_law.c", "inkarm/control/_member.c"],
+                    depends=["inkarm/control/_law.h", "inkarm/core/_plant.h"],
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     found = _mujoco()
     if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
@@ -45,6 +48,7 @@ def _extensions() -> list[Extension]:
     return [law, Extension(
         "inkarm.sim._period",
         sources=["inkarm/sim/_period.c"],
+        depends=["inkarm/core/_plant.h"],
         include_dirs=[str(include)],
         define_macros=[("INKARM_MUJOCO_VERSION", f'"{mujoco_version}"')],
         extra_compile_args=["-O2", "-ffp-contract=off"],  # (no fused multiply-add: the same bits)

@@ -1,26 +1,29 @@
-"""Where a control period's time goes, with the plant's period in Python and in C (issue 22
-part 2).
+"""Where a control period's time goes, with the executor's and the plant's periods in C and in
+Python (issue 22 part 2).
 
 Run: ``python benchmarks/bench_period.py [--quick]``. The default scenario (60 mm letter N, 828
-control periods of 3 physics steps) drawn by :func:`inkarm.jobs.run.run`, twice per block: with
-the compiled period (``inkarm/sim/_period.c``: the drives' set point ramp, the physics steps, the
-pen force, the tip on the page and the divergence test in one call; ``inkarm/control/_law.c``:
-the position law's feed-forward) and with the plant's Python period and law
-(``INKARM_COMPILED=0``); both give the same bits. Its executor
-(:func:`inkarm.control.executor.run_drawing`: planning and the closed loop) is split by timers
-put around its parts in this process only:
+control periods of 3 physics steps) drawn by :func:`inkarm.jobs.run.run`, twice per block:
+compiled (``inkarm/sim/_period.c``: the drives' set point ramp, the physics steps, the pen
+force, the tip on the page and the divergence test in one call; ``inkarm/control/_law.c`` and
+``_member.c``: the member's steps, law, force loop, watchdogs' common case and log row in one
+call; and whole periods, the plant's included, in C through the plant's port between two of
+the executor's own periods) and in Python (``INKARM_COMPILED=0``); both give the same bits.
+Its executor (:func:`inkarm.control.executor.run_drawing`: planning and the closed loop) is
+split by timers put around its parts in this process only:
 
 * planning: ``check_reachable`` and ``plan_within_speed_limits`` (the IK path and the joint
   reference), once per run;
 * physics: MuJoCo's ``mj_step1``/``mj_step2`` inside the plant's step; with the compiled period,
   its calls (MuJoCo is called from C: the period's other work is counted here too);
-* canvas: the ink laid at every physics step in contact (``Canvas.touch``/``lift``);
+* canvas: the ink laid at every physics step in contact (``Canvas.touch``/``lift``/
+  ``touch_many``, wherever they are called from);
 * the plant's Python: the rest of ``MujocoPlant.step`` (the new set point from the drives: with
   the compiled period its arithmetic in one C call, ``compiled.set_point``; in the Python
   period the set point ramp, the pen force from the contacts, the divergence check; with the
   compiled one the canvas's feed);
-* the member's Python: the rest of the executor's period (reading, force loop, law: compiled,
-  its feed-forward in one C call, watchdogs, log row).
+* whole periods in C: ``Lane.run`` (its canvas counted as the canvas's);
+* the member's Python: the rest of the executor's period (reading, force loop, law,
+  watchdogs, log row: compiled, one C call).
 
 The timers cost about a microsecond a call, so the parts are read as shares; the uninstrumented
 executors (compiled and Python periods) and MuJoCo alone (the run's torques replayed open loop,
@@ -49,6 +52,7 @@ from mujoco import rollout
 import inkarm.sim.plant as sim_plant
 from inkarm.control import executor
 from inkarm.control.compiled import position_law
+from inkarm.control.member_lane import Lane
 from inkarm.ink.canvas import Canvas
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
@@ -60,18 +64,29 @@ from inkarm.sim.plant import MujocoPlant
 class _Timers:
     def __init__(self):
         self.total: dict[str, float] = {}
+        self.inside: set[str] = set()
 
     def add(self, name: str, seconds: float) -> None:
         self.total[name] = self.total.get(name, 0.0) + seconds
 
 
-def _timed(fn, timers: _Timers, name: str):
+def _timed(fn, timers: _Timers, name: str, inner: str | None = None):
+    """``fn`` with its time added to ``name`` (less what ``inner``'s timers add meanwhile; a
+    call inside another of ``name``'s, as ``lift`` inside ``touch_many``, counted once)."""
     def wrapper(*args, **kwargs):
+        if name in timers.inside:
+            return fn(*args, **kwargs)
+        timers.inside.add(name)
+        nested = timers.total.get(inner, 0.0)
         start = time.perf_counter()
         try:
             return fn(*args, **kwargs)
         finally:
-            timers.add(name, time.perf_counter() - start)
+            timers.inside.discard(name)
+            spent, nested = time.perf_counter() - start, timers.total.get(inner, 0.0) - nested
+            timers.add(name, spent - nested)
+            if inner is not None:
+                timers.add(f"{inner} in {name}", nested)
     return wrapper
 
 
@@ -92,8 +107,12 @@ class _TimedPeriod:
     set points stay the plant's own work)."""
 
     def __init__(self, period, timers: _Timers):
+        self._period = period
         self.step = _timed(period.step, timers, "physics")
         self.command = period.command
+
+    def __getattr__(self, name):  # (enter, leave, port: the member's whole periods in C)
+        return getattr(self._period, name)
 
 
 @contextmanager
@@ -101,14 +120,17 @@ def instrumented(timers: _Timers):
     """Timers around the executor's parts (module docstring), removed on exit."""
     saved = [(executor, "plan_within_speed_limits"), (executor, "check_reachable"),
              (executor, "execute"), (MujocoPlant, "step"), (Canvas, "touch"), (Canvas, "lift"),
-             (sim_plant, "mujoco"), (sim_plant, "period_for")]
+             (Canvas, "touch_many"), (Lane, "run"), (sim_plant, "mujoco"),
+             (sim_plant, "period_for")]
     originals = [getattr(owner, name) for owner, name in saved]
-    names = ["planning", "planning", "executor", "plant step", "canvas", "canvas", None, None]
+    names = ["planning", "planning", "executor", "plant step", "canvas", "canvas", "canvas",
+             "whole", None, None]
     period_for = sim_plant.period_for
     try:
         for (owner, name), fn, label in zip(saved, originals, names):
-            if label is not None:
-                setattr(owner, name, _timed(fn, timers, label))
+            if label is not None:  # (whole periods in C: their canvas counted as the canvas)
+                setattr(owner, name, _timed(fn, timers, label,
+                                            "canvas" if label == "whole" else None))
         sim_plant.mujoco = _TimedMujoco(timers)
         sim_plant.period_for = lambda plant: (None if (p := period_for(plant)) is None else
                                               _TimedPeriod(p, timers))
@@ -201,9 +223,12 @@ def _parts(shares: list[dict[str, float]]) -> dict[str, float]:
     """Median seconds per part over the instrumented runs; the plant's own work and the
     member's Python as the differences (module docstring)."""
     parts = {k: statistics.median(s.get(k, 0.0) for s in shares)
-             for k in ("planning", "physics", "canvas", "plant step", "executor")}
-    parts["plant"] = parts["plant step"] - parts["physics"] - parts["canvas"]
-    parts["member"] = parts["executor"] - parts["planning"] - parts["plant step"]
+             for k in ("planning", "physics", "canvas", "plant step", "executor", "whole",
+                       "canvas in whole")}
+    parts["plant"] = parts["plant step"] - parts["physics"] - (parts["canvas"]
+                                                              - parts["canvas in whole"])
+    parts["member"] = (parts["executor"] - parts["planning"] - parts["plant step"]
+                       - parts["whole"] - parts["canvas in whole"])
     return parts
 
 
@@ -245,7 +270,9 @@ def section(quick: bool) -> str:
             (("the plant's Python (the new set point, compiled: its arithmetic in C; Python "
               "period: drive ramp, pen force, divergence check; compiled: the canvas's feed)"),
              "plant"),
-            (("the member's Python (read, force loop, law: compiled, its feed-forward in C; "
+            (("whole periods in C (compiled: `Lane.run`, the member's steps, the plant's "
+              "period, physics and all, between two periods of the executor's loop)"), "whole"),
+            (("the member's Python (read, force loop, law: compiled, its steps in one C call; "
               "watchdogs, log row)"), "member")]
     calls = one_call_per_period(cell, torques)
     usable = compiled.period_module() is not None and position_law() is not None

@@ -14,22 +14,12 @@
  * Python law (tests/control/test_compiled_law.py). No MuJoCo, no NumPy headers: arrays come as
  * float64 buffers.
  */
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
 #include <string.h>
 
-/* What this file offers, as inkarm.control.compiled.API expects it */
-#define INKARM_LAW_API 1
+#include "_law.h"
 
-enum { PLANNED, DIRECTION, CONTACT, Q_REF, NORMAL_Q, ESTIMATE, CEILING, NBUF };
-
-typedef struct {
-  PyObject_HEAD
-  Py_buffer views[NBUF];   /* the plan's (rows, n) columns; F_hat (written) and F_max, (n,) */
-  int held;                /* views held (released on dealloc and re-init) */
-  Py_ssize_t rows, n;
-  double rate;             /* gamma dt [N m / rad]; 0: F_hat fixed */
-} PositionLaw;
+/* What this module offers, as inkarm.control.compiled.API expects it (2: MemberPeriod) */
+#define INKARM_LAW_API 2
 
 static void release_views(PositionLaw* self) {
   for (int i = 0; i < self->held; i++) PyBuffer_Release(self->views + i);
@@ -82,6 +72,35 @@ static int law_init(PositionLaw* self, PyObject* args, PyObject* kwds) {
   return 0;
 }
 
+void position_feedforward(PositionLaw* self, double* out, const double* q_row, const double* q,
+                          Py_ssize_t c, Py_ssize_t seen, double depth, double blend,
+                          int pressing) {
+  const Py_ssize_t n = self->n, last = self->rows - 1;
+  const double* planned = (const double*)self->views[PLANNED].buf + c * n;
+  const double* dir = (const double*)self->views[DIRECTION].buf + c * n;
+  double* estimate = (double*)self->views[ESTIMATE].buf;
+  const double* ceiling = (const double*)self->views[CEILING].buf;
+  if (self->rate != 0.0) {
+    const double* q_seen = (const double*)self->views[Q_REF].buf + seen * n;
+    const double* q_next = (const double*)self->views[Q_REF].buf + (seen < last ? seen + 1 : last) * n;
+    const double* normal = (const double*)self->views[NORMAL_Q].buf + seen * n;
+    for (Py_ssize_t i = 0; i < n; i++) {
+      double q_then = seen == c ? q_row[i] : q_seen[i] + depth * normal[i];
+      if (blend != 0.0) q_then = q_then + blend * (q_next[i] - q_seen[i]);
+      double x = (q_then - q[i]) * self->rate;
+      x = x * dir[i];
+      x = x + estimate[i];
+      x = (x > 0.0 || x != x) ? x : 0.0;                   /* np.maximum(x, 0) */
+      estimate[i] = (x < ceiling[i] || x != x) ? x : ceiling[i];  /* np.minimum(x, F_max) */
+    }
+  }
+  const double* contact = (const double*)self->views[CONTACT].buf + c * n;
+  for (Py_ssize_t i = 0; i < n; i++) {
+    double tau = planned[i] + estimate[i] * dir[i];
+    out[i] = pressing ? tau + contact[i] : tau;
+  }
+}
+
 /* command(out, q_row, q, c, seen, depth, blend, pressing): tau_ff [N m] into out (n float64),
  * F_hat adapted in place (the file's docstring). */
 static PyObject* law_command(PositionLaw* self, PyObject* const* args, Py_ssize_t nargs) {
@@ -118,31 +137,8 @@ static PyObject* law_command(PositionLaw* self, PyObject* const* args, Py_ssize_
       goto fail;
     }
   }
-  double* out = (double*)views[0].buf;
-  const double *q_row = (const double*)views[1].buf, *q = (const double*)views[2].buf;
-  const double* planned = (const double*)self->views[PLANNED].buf + c * n;
-  const double* dir = (const double*)self->views[DIRECTION].buf + c * n;
-  double* estimate = (double*)self->views[ESTIMATE].buf;
-  const double* ceiling = (const double*)self->views[CEILING].buf;
-  if (self->rate != 0.0) {
-    const double* q_seen = (const double*)self->views[Q_REF].buf + seen * n;
-    const double* q_next = (const double*)self->views[Q_REF].buf + (seen < last ? seen + 1 : last) * n;
-    const double* normal = (const double*)self->views[NORMAL_Q].buf + seen * n;
-    for (Py_ssize_t i = 0; i < n; i++) {
-      double q_then = seen == c ? q_row[i] : q_seen[i] + depth * normal[i];
-      if (blend != 0.0) q_then = q_then + blend * (q_next[i] - q_seen[i]);
-      double x = (q_then - q[i]) * self->rate;
-      x = x * dir[i];
-      x = x + estimate[i];
-      x = (x > 0.0 || x != x) ? x : 0.0;                   /* np.maximum(x, 0) */
-      estimate[i] = (x < ceiling[i] || x != x) ? x : ceiling[i];  /* np.minimum(x, F_max) */
-    }
-  }
-  const double* contact = (const double*)self->views[CONTACT].buf + c * n;
-  for (Py_ssize_t i = 0; i < n; i++) {
-    double tau = planned[i] + estimate[i] * dir[i];
-    out[i] = pressing ? tau + contact[i] : tau;
-  }
+  position_feedforward(self, (double*)views[0].buf, (const double*)views[1].buf,
+                       (const double*)views[2].buf, c, seen, depth, blend, pressing);
   for (int k = 0; k < held; k++) PyBuffer_Release(views + k);
   Py_RETURN_NONE;
 fail:
@@ -156,7 +152,7 @@ static PyMethodDef law_methods[] = {
      "the friction estimate adapted in place"},
     {NULL, NULL, 0, NULL}};
 
-static PyTypeObject PositionLawType = {
+PyTypeObject PositionLawType = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "inkarm.control._law.PositionLaw",
     .tp_basicsize = sizeof(PositionLaw),
     .tp_dealloc = (destructor)law_dealloc,
@@ -169,7 +165,8 @@ static PyTypeObject PositionLawType = {
 };
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_law",
-                                    "The built-in position law's feed-forward in C.", -1, NULL};
+                                    "The built-in position law's feed-forward and the member's "
+                                    "period in C.", -1, NULL};
 
 PyMODINIT_FUNC PyInit__law(void) {
   if (PyType_Ready(&PositionLawType) < 0) return NULL;
@@ -177,7 +174,7 @@ PyMODINIT_FUNC PyInit__law(void) {
   if (mod == NULL) return NULL;
   Py_INCREF(&PositionLawType);
   if (PyModule_AddObject(mod, "PositionLaw", (PyObject*)&PositionLawType) < 0 ||
-      PyModule_AddIntConstant(mod, "API", INKARM_LAW_API) < 0) {
+      PyModule_AddIntConstant(mod, "API", INKARM_LAW_API) < 0 || add_member_period(mod) < 0) {
     Py_DECREF(mod);
     return NULL;
   }

@@ -1,5 +1,6 @@
-"""The built-in position law's compiled feed-forward (``inkarm/control/_law.c``): whether this
-process may use it.
+"""The built-in position law's compiled feed-forward (``inkarm/control/_law.c``) and the member's
+compiled period (``inkarm/control/_member.c``, :mod:`inkarm.control.member_lane`): whether this
+process may use them.
 
 The extension is built by pip beside the plant's period (``setup.py``; optional, x86-64 only:
 its clip breaks ties as NumPy's maximum/minimum do there). It needs no MuJoCo, so it lives in
@@ -24,12 +25,12 @@ _LOG = logging.getLogger(__name__)
 SWITCH = "INKARM_COMPILED"
 """Set to 0 to run every compiled part of inkarm in Python (the same bits): here and the
 plant's period (:mod:`inkarm.sim.compiled`)."""
-API = 1  # (inkarm/control/_law.c's INKARM_LAW_API)
+API = 2  # (inkarm/control/_law.c's INKARM_LAW_API)
 
 
 @functools.cache
 def _load():
-    """The extension's ``PositionLaw`` type, or None (why logged once)."""
+    """The extension module, or None (why logged once)."""
     try:
         from inkarm.control import _law
     except ImportError as error:
@@ -39,13 +40,19 @@ def _load():
         _LOG.debug("compiled position law not used: the extension is of another inkarm (API %s, "
                    "this is %s): build it again (pip install -e .)", getattr(_law, "API", 0), API)
         return None
-    return _law.PositionLaw
+    return _law
 
 
 def position_law():
     """``PositionLaw(planned_torque, direction, contact_tau, q_ref, normal_q, estimate, ceiling,
     rate)`` of the extension, or None: switched off with ``INKARM_COMPILED=0``, or not usable
     here (logged once, debug)."""
+    module = _load() if switched_on() else None
+    return None if module is None else module.PositionLaw
+
+
+def member_module():
+    """The extension module (``MemberPeriod``, ``NotForLane``), or None as :func:`position_law`."""
     return _load() if switched_on() else None
 
 
@@ -54,4 +61,4 @@ def switched_on() -> bool:
     return os.environ.get(SWITCH, "1") != "0"
 
 
-__all__ = ["SWITCH", "position_law", "switched_on"]
+__all__ = ["SWITCH", "member_module", "position_law", "switched_on"]

@@ -22,6 +22,14 @@ stops; the others go on. Each member is a generator that yields once per period,
 stays in local variables (this loop's Python cost per period is the budget of a hardware period)
 and a member of a batch computes exactly, bit for bit, what it computes alone.
 
+Where steps 2-4 are the built-in ones (the ``position`` law, the force loop without a learnt
+field or calibrated map, no probing), they run in one C call per period
+(:mod:`inkarm.control.member_lane`); where, besides, the plant is stepped alone and offers its
+period in C (``compiled_port``: the simulated arm on its default path), whole periods run in C,
+the plant's included, between two of this loop's, about ten a simulated second. Every path
+gives the same bits (tests/control/test_member_lane.py); ``INKARM_COMPILED=0`` takes the Python
+steps throughout.
+
 Units: page [mm] and [s] at this module's surface; the page-to-robot transform
 (:class:`inkarm.core.frames.PagePlacement`) converts once to SI for the kinematics.
 """
@@ -31,7 +39,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
-from collections.abc import Callable, Generator
+from collections.abc import Generator
 
 import numpy as np
 
@@ -40,19 +48,18 @@ from inkarm.control.force import ForceLoop
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.laws import Controller, LawContext, LawSpec, Setpoint
-from inkarm.control.members import Members, as_members
+from inkarm.control.member_lane import lane_for
+from inkarm.control.members import Board, Members, Progress, Solo, as_members, lockstep
 from inkarm.control.probe import first_drawing_row, probe_note, with_probes, without_probes
 from inkarm.control.reference import JointReference, check_reachable, plan_within_speed_limits
 from inkarm.control.stopping import brake, fallback_law, law_error, safe_stop
 from inkarm.control.watchdogs import WatchContext, Watchdogs, WatchdogSpec
-from inkarm.core.log import APPROACH, DRAW, HOME, LIFT, PHASES, DrawLog
+from inkarm.core.log import APPROACH, DRAW, HOME, LIFT, DrawLog
 from inkarm.core.plant import Plant, TorqueCommand
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InputError, RunFault, SimulationError
 from inkarm.robots.gains import PIDGains
 from inkarm.robots.kinematic import KinematicModel
-
-Progress = Callable[[float, str], None] | None
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -158,11 +165,14 @@ def execute(
         drawing_starts=first_drawing_row(ref.stroke, probes), notes=notes, wall0=wall0,
         **_plan_columns(ref, config, dt, "force" in senses))
     laws = [law.make() for _ in plants_]
-    board = _Board(len(plants_))
+    board = Board(len(plants_))
     t_first = members.now()
-    runs = [_member(shared, plant, law_, m, board, t_first) for m, (plant, law_) in
-            enumerate(zip(plants_, laws))]
-    results = _lockstep(runs, members, board, len(ref), ref.phase, progress)
+    # A plant stepped alone may take whole periods in C from a compiled member (Lane.run).
+    ports = [getattr(plant, "compiled_port", lambda: None)() if type(members) is Solo else None
+             for plant in plants_]
+    runs = [_member(shared, plant, law_, m, board, t_first, port) for m, (plant, law_, port) in
+            enumerate(zip(plants_, laws, ports))]
+    results = lockstep(runs, members, board, len(ref), ref.phase, progress)
     if len(runs) > 1:  # the members ran at once: each one's share of the wall time
         wall = (_time.perf_counter() - wall0) / len(runs)
         for result in results:
@@ -193,116 +203,8 @@ def run_drawing(
     return result
 
 
-class _Board:
-    """What the members tell the executor between periods: each one's plan row (the progress),
-    whether it is stopping after a fault (then it is not told of a Ctrl-C: it is lifting
-    already), and whether a Ctrl-C reached one of them (then every other one stops too)."""
-
-    __slots__ = ("interrupted", "rows", "stopping")
-
-    def __init__(self, n: int):
-        self.rows = [0] * n
-        self.stopping = [False] * n
-        self.interrupted = False
-
-
-def _lockstep(runs: list[Generator], members: Members, board: _Board, n_ref: int,
-              phases: np.ndarray, progress: Progress) -> list[DrawLog | RunFault]:
-    """Advance every member one period at a time until each has finished or faulted.
-
-    A member resumed by a fault (thrown in at its yield) commands the first period of its safe
-    stop at once: it is ``ready`` and is stepped before it is resumed again."""
-    rows = board.rows
-    results: list = [None] * len(runs)
-    active = list(range(len(runs)))
-    ready: set[int] = set()  # members that have commanded the coming step already
-    told: set[int] = set()  # members told of a Ctrl-C
-    report_every = max(1, round(0.1 / members.dt))
-    interrupt: KeyboardInterrupt | None = None
-    period = 0
-
-    def keep(m: int, end: BaseException) -> None:
-        """Member ``m`` ended with ``end``: keep its result."""
-        nonlocal interrupt
-        if isinstance(end, StopIteration):
-            results[m] = end.value
-        else:
-            results[m] = end
-            if isinstance(end, KeyboardInterrupt):
-                interrupt = interrupt or end
-                told.add(m)
-
-    def resume(m: int, fault: BaseException | None = None) -> bool:
-        """Run member ``m`` to its next yield (``fault`` thrown in first); False when it
-        ended, its result kept."""
-        try:
-            if fault is None:
-                next(runs[m])
-            else:
-                runs[m].throw(fault)
-            return True
-        except (StopIteration, RunFault, KeyboardInterrupt) as end:
-            keep(m, end)
-        return False
-
-    advance = [run.__next__ for run in runs]
-    while active:
-        try:
-            if ready or interrupt is not None:
-                going = []
-                for m in active:
-                    if m in ready:
-                        ready.discard(m)
-                        going.append(m)
-                        continue
-                    if interrupt is not None and m not in told and not board.stopping[m]:
-                        told.add(m)  # Ctrl-C: lift and stop
-                        alive = resume(m, KeyboardInterrupt())
-                    else:
-                        alive = resume(m)
-                    if alive:
-                        going.append(m)
-                active = going
-            else:  # (the common case, without a call per member: this runs every period)
-                ended = None
-                for m in active:
-                    try:
-                        advance[m]()
-                    except (StopIteration, RunFault, KeyboardInterrupt) as end:
-                        keep(m, end)
-                        ended = ended or set()
-                        ended.add(m)
-                if ended:
-                    active = [m for m in active if m not in ended]
-            if board.interrupted and interrupt is None:  # a member met Ctrl-C: all stop
-                interrupt = KeyboardInterrupt()
-            if not active:
-                break
-            faults = members.step(active)
-            if faults:
-                for m, fault in faults.items():
-                    if resume(m, fault):
-                        ready.add(m)
-                    else:
-                        active.remove(m)
-            period += 1
-            if progress is not None and period % report_every == 0 and active:
-                last = min(rows[m] for m in active)
-                progress(last / n_ref, PHASES[phases[min(last, n_ref - 1)]])
-        except KeyboardInterrupt as stop:  # outside a member: in a step or the progress
-            interrupt = interrupt or stop
-    if interrupt is not None:
-        stop = KeyboardInterrupt()
-        stop.logs = [getattr(r, "log", r if isinstance(r, DrawLog) else None) for r in results]
-        stop.log = stop.logs[0]
-        raise stop
-    if progress is not None:  # (the execution is over, whether the members drew or failed)
-        progress(1.0, PHASES[phases[-1]])
-    return results
-
-
-def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: _Board,
-            t_first: float | None) -> Generator[None, None, DrawLog]:
+def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: Board,
+            t_first: float | None, port=None) -> Generator[None, None, DrawLog]:
     """One member's periods (module docstring); yields after each command, returns its log or
     raises the fault that stopped it, with the log to the safe stop."""
     context = shared.law_context
@@ -344,10 +246,54 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     n_ref = len(ref)
     state, fresh, logged = None, False, False  # fresh: read and not commanded yet; logged
     rows = board.rows
+    # Steps 2-4 compiled, where they are all the C period's (the same bits): the lane
+    # writes the log and these three columns itself.
+    lane = lane_for(law=law, force_loop=force_loop, watchdogs=watchdog, plan=ref, log=log,
+                    plan_columns=shared.__dict__, hold_at=hold_at, senses_force=senses_force,
+                    senses_tip=senses_tip, probes=probes, settle_ticks=settle_ticks,
+                    timeout_ticks=timeout_ticks, dt=dt, t_first=t_first, port=port)
+    chunk = 0  # whole periods in C between two of this loop's (the plant alone: Lane.run)
+    if lane is not None:
+        commanded, ref_row, ref_blend = lane.commanded, lane.ref_row, lane.ref_blend
+        lane_period, lane_advance = lane.kernel.period, lane.kernel.advance
+        chunk = max(1, round(0.1 / dt)) - 1 if port is not None else 0
+    in_chunk = False
     loop_wall0 = _time.perf_counter()
     try:
         while i < n_ref:
+            if chunk:
+                in_chunk = True
+                ran = lane.run(chunk)
+                in_chunk = False
+                if ran:
+                    board.ticks += ran
+                    i = rows[member] = lane.kernel.i
+                    if i >= n_ref:
+                        break
             state, fresh, logged = read(), True, False
+            if lane is not None:  # steps 2-4 in one call (the watchdogs' faults raised)
+                try:
+                    order = lane_period(state)
+                except lane.not_for_lane:  # (a reading it cannot take: Python from here on)
+                    taken = lane.hand_over(force_loop)
+                    i, row, waited, settled_for, force_f, t_first = (taken[k] for k in (
+                        "i", "row", "waited", "settled_for", "force_f", "t_first"))
+                    commanded, ref_row, ref_blend = (taken[k] for k in (
+                        "commanded", "ref_row", "ref_blend"))
+                    lane = None
+                else:
+                    logged = True
+                    try:
+                        command(order)
+                    except RunFault:
+                        raise
+                    except Exception as e:  # a command the plant does not take
+                        raise law_error(e, state.time) from e
+                    fresh = False
+                    yield
+                    rows[member] = i
+                    i = lane_advance()  # (the descent's hold included)
+                    continue
             # The time of the first period: the plants' clock where they have one (a reading may
             # be older: a plant used before has delayed readings from the start), else the
             # first reading's.
@@ -432,6 +378,11 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
             waited, settled_for = 0, 0
             i += 1
     except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
+        if lane is not None:  # (the row it logged, if it did, before its fault)
+            row, logged = lane.kernel.row, lane.kernel.logged
+            if in_chunk:  # (the plant's state handed back: its reading is the C period's)
+                i, fresh = lane.kernel.i, lane.kernel.fresh
+                state = plant.read() if fresh or state is None else state
         board.stopping[member] = True
         if isinstance(err, KeyboardInterrupt):
             board.interrupted = True
@@ -455,6 +406,8 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
         partial.notes = probed + shared.notes
         err.log = partial
         raise
+    if lane is not None:
+        row = lane.kernel.row
     result = without_probes(_with_plan_columns(log, ref, ref_row, row, ref_blend), probes)
     result.wall_s = _time.perf_counter() - shared.wall0 - probe_wall
     result.notes = probed + shared.notes

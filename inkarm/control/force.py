@@ -167,10 +167,7 @@ class ForceLoop:
             else:  # guarded search: no paper where the model puts it; go deeper
                 self.z += self.search_step
                 if self.z >= self.z_limit:
-                    raise RunFault(
-                        f"paper_not_found: no contact within {self.limit_mm:g} mm beyond where "
-                        f"the model puts the paper, at t = {time:.3f} s",
-                        watchdog="paper_not_found", time_s=time)
+                    raise self.search_failed(time)
             if self._sampling:
                 self._measure(f, phase == DRAW and 0.5 * self.f_star < f < 1.5 * self.f_star)
             if (phase == DRAW or holding) and abs(f - self.f_star) < self.settle_tol:
@@ -182,6 +179,12 @@ class ForceLoop:
         elif self._sampling:
             self._measure(f, False)
         return f
+
+    def search_failed(self, time: float) -> RunFault:
+        """The fault of a guarded search that ran out of range at plant ``time`` [s]."""
+        return RunFault(f"paper_not_found: no contact within {self.limit_mm:g} mm beyond where "
+                        f"the model puts the paper, at t = {time:.3f} s",
+                        watchdog="paper_not_found", time_s=time)
 
     def _measure(self, f: float, touching: bool) -> None:
         """The surface's depth h where the pen was ``lag`` periods ago, its rate and the lead

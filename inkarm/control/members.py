@@ -5,16 +5,22 @@ reads and commands each member through the ordinary :class:`inkarm.core.plant.Pl
 then advances them together: :meth:`Members.step` returns the members whose step faulted (a
 diverged simulation, a device fault), with the fault, instead of raising, so that the others go
 on. :class:`Solo` is a batch of one; a batched simulation (:class:`inkarm.sim.batch.BatchPlant`)
-offers its members through :meth:`members` views of the same shape.
+offers its members through :meth:`members` views of the same shape. :func:`lockstep` runs the
+members' periods (each a generator that yields once per period) with one clock.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Generator, Sequence
 from typing import Protocol
 
+import numpy as np
+
+from inkarm.core.log import PHASES, DrawLog
 from inkarm.core.plant import Plant
 from inkarm.errors import RunFault
+
+Progress = Callable[[float, str], None] | None
 
 
 class Members(Protocol):
@@ -69,4 +75,116 @@ def as_members(plant: Plant | Members) -> Members:
     return plant if hasattr(plant, "plants") else Solo(plant)
 
 
-__all__ = ["Members", "Solo", "as_members"]
+class Board:
+    """What the members tell the executor between periods: each one's plan row (the progress),
+    whether it is stopping after a fault (then it is not told of a Ctrl-C: it is lifting
+    already), whether a Ctrl-C reached one of them (then every other one stops too), and the
+    periods a member ran in C between two steps (for the progress)."""
+
+    __slots__ = ("interrupted", "rows", "stopping", "ticks")
+
+    def __init__(self, n: int):
+        self.rows = [0] * n
+        self.stopping = [False] * n
+        self.interrupted = False
+        self.ticks = 0  # periods a member ran whole in C since the last step (Lane.run)
+
+
+def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
+              phases: np.ndarray, progress: Progress) -> list[DrawLog | RunFault]:
+    """Advance every member one period at a time until each has finished or faulted.
+
+    A member resumed by a fault (thrown in at its yield) commands the first period of its safe
+    stop at once: it is ``ready`` and is stepped before it is resumed again."""
+    rows = board.rows
+    results: list = [None] * len(runs)
+    active = list(range(len(runs)))
+    ready: set[int] = set()  # members that have commanded the coming step already
+    told: set[int] = set()  # members told of a Ctrl-C
+    report_every = max(1, round(0.1 / members.dt))
+    interrupt: KeyboardInterrupt | None = None
+    period = reported = 0
+
+    def keep(m: int, end: BaseException) -> None:
+        """Member ``m`` ended with ``end``: keep its result."""
+        nonlocal interrupt
+        if isinstance(end, StopIteration):
+            results[m] = end.value
+        else:
+            results[m] = end
+            if isinstance(end, KeyboardInterrupt):
+                interrupt = interrupt or end
+                told.add(m)
+
+    def resume(m: int, fault: BaseException | None = None) -> bool:
+        """Run member ``m`` to its next yield (``fault`` thrown in first); False when it
+        ended, its result kept."""
+        try:
+            if fault is None:
+                next(runs[m])
+            else:
+                runs[m].throw(fault)
+            return True
+        except (StopIteration, RunFault, KeyboardInterrupt) as end:
+            keep(m, end)
+        return False
+
+    advance = [run.__next__ for run in runs]
+    while active:
+        try:
+            if ready or interrupt is not None:
+                going = []
+                for m in active:
+                    if m in ready:
+                        ready.discard(m)
+                        going.append(m)
+                        continue
+                    if interrupt is not None and m not in told and not board.stopping[m]:
+                        told.add(m)  # Ctrl-C: lift and stop
+                        alive = resume(m, KeyboardInterrupt())
+                    else:
+                        alive = resume(m)
+                    if alive:
+                        going.append(m)
+                active = going
+            else:  # (the common case, without a call per member: this runs every period)
+                ended = None
+                for m in active:
+                    try:
+                        advance[m]()
+                    except (StopIteration, RunFault, KeyboardInterrupt) as end:
+                        keep(m, end)
+                        ended = ended or set()
+                        ended.add(m)
+                if ended:
+                    active = [m for m in active if m not in ended]
+            if board.interrupted and interrupt is None:  # a member met Ctrl-C: all stop
+                interrupt = KeyboardInterrupt()
+            if not active:
+                break
+            faults = members.step(active)
+            if faults:
+                for m, fault in faults.items():
+                    if resume(m, fault):
+                        ready.add(m)
+                    else:
+                        active.remove(m)
+            period += 1 + board.ticks
+            board.ticks = 0
+            if progress is not None and period // report_every > reported and active:
+                reported = period // report_every
+                last = min(rows[m] for m in active)
+                progress(last / n_ref, PHASES[phases[min(last, n_ref - 1)]])
+        except KeyboardInterrupt as stop:  # outside a member: in a step or the progress
+            interrupt = interrupt or stop
+    if interrupt is not None:
+        stop = KeyboardInterrupt()
+        stop.logs = [getattr(r, "log", r if isinstance(r, DrawLog) else None) for r in results]
+        stop.log = stop.logs[0]
+        raise stop
+    if progress is not None:  # (the execution is over, whether the members drew or failed)
+        progress(1.0, PHASES[phases[-1]])
+    return results
+
+
+__all__ = ["Board", "Members", "Solo", "as_members", "lockstep"]

@@ -58,11 +58,18 @@ class SurfaceEstimate:
         s[8] += z * v
         self.count += 1
         if self.count == 1 or self.count % self.refit_every == 0:
-            n, su, sv, suu, suv, svv = s[:6]
-            normal = np.array([[n, su, sv], [su, suu, suv], [sv, suv, svv]])
-            ridge = normal + np.diag([0.0, self.prior, self.prior])
-            # (Python floats: height() runs every control period.)
-            self.coef = tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), s[6:]).tolist())
+            self.coef = self.plane(s, self.prior)
+
+    @staticmethod
+    def plane(sums: list[float], prior: float) -> tuple[float, float, float]:
+        """(a, b, c) [m, 1, 1] from the normal equations' ``sums`` (sum 1, u, v, u^2, u v, v^2,
+        z, z u, z v) with the ridge ``prior`` on the slopes (also the compiled member period's
+        solve: :mod:`inkarm.control.member_lane`)."""
+        n, su, sv, suu, suv, svv = sums[:6]
+        normal = np.array([[n, su, sv], [su, suu, suv], [sv, suv, svv]])
+        ridge = normal + np.diag([0.0, prior, prior])
+        # (Python floats: height() runs every control period.)
+        return tuple(np.linalg.solve(ridge + 1e-12 * np.eye(3), sums[6:]).tolist())
 
     def describe(self) -> str:
         """The plane in words (:func:`describe_plane`)."""

@@ -119,7 +119,13 @@ class WallClock:
 
 @runtime_checkable
 class Plant(Protocol):
-    """A robot the controller can drive, simulated or real."""
+    """A robot the controller can drive, simulated or real.
+
+    Optionally, ``compiled_port()`` offers read, command and step as C functions
+    (``inkarm/core/_plant.h``; an object with ``enter()`` -> a PyCapsule or None, and
+    ``leave()``), or None: the executor then runs whole periods in C where its member's steps
+    are compiled too (:mod:`inkarm.control.member_lane`; :class:`inkarm.sim.compiled.Port`).
+    """
 
     @property
     def dt(self) -> float:

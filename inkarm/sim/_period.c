@@ -31,11 +31,14 @@
 #include <string.h>
 #include <mujoco/mujoco.h>
 
+#include "../core/_plant.h"
+
 #ifndef INKARM_MUJOCO_VERSION
 #define INKARM_MUJOCO_VERSION "unknown"
 #endif
-/* What this file offers, as inkarm.sim.compiled.API expects it (2: Period.command, the gains) */
-#define INKARM_PERIOD_API 2
+/* What this file offers, as inkarm.sim.compiled.API expects it (2: Period.command, the gains;
+ * 3: the plant's port, enter/leave) */
+#define INKARM_PERIOD_API 3
 
 typedef void (*step_fn)(const mjModel*, mjData*);
 typedef void (*force_fn)(const mjModel*, const mjData*, int, mjtNum*);
@@ -106,9 +109,40 @@ typedef struct {
   double* gains;           /* the drives' K_p, K_d, K_i, K_p h, integral limit (narm each) */
   double max_speed_sq;
   int warning_total;
+  /* The port (inkarm/core/_plant.h) between enter() and leave(): the plant's drives and pen
+   * state, handed over from Python and back. */
+  inkarm_plant port;
+  int entered;
+  Py_buffer u_view, du_view, integral_view;  /* the plant's u, du and the drives' integral */
+  int* qpos_adr;
+  int* dof_adr;
+  double* goal;            /* 3 narm: the drives' set point q*, qd*, tau_ff (held) */
+  double* next;            /* 3 narm: the command for the coming period; narm: scratch */
+  int have_goal, have_qd_goal, pending;
+  double since, pen_force, force_bias;
+  long steps;              /* physics steps since enter() */
+  double* rows;            /* (force, x, y, t) per physics step since enter(), for the canvas */
+  Py_ssize_t nrows, cap_rows;
+  PyObject* diverged;      /* the plant's exact divergence test (raises SimulationError) */
 } Period;
 
+static void port_release(Period* self) {
+  if (self->entered) {
+    PyBuffer_Release(&self->u_view);
+    PyBuffer_Release(&self->du_view);
+    PyBuffer_Release(&self->integral_view);
+    self->entered = 0;
+  }
+  Py_CLEAR(self->diverged);
+}
+
 static void period_dealloc(Period* self) {
+  port_release(self);
+  PyMem_Free(self->qpos_adr);
+  PyMem_Free(self->dof_adr);
+  PyMem_Free(self->goal);
+  PyMem_Free(self->next);
+  PyMem_Free(self->rows);
   Py_XDECREF(self->owners);
   PyMem_Free(self->arm);
   PyMem_Free(self->out);
@@ -216,6 +250,58 @@ static int period_init(Period* self, PyObject* args, PyObject* kwds) {
   return 0;
 }
 
+/* The period's physics steps (the file's docstring): u [N m] advanced in place by du each step,
+ * *since by h; self->out gets (force, x, y, t) per step, *suspect the cheap divergence test's
+ * verdict. 0, or -1 with mujoco.FatalError set. */
+static int physics(Period* self, double* u, const double* du, double* since, int* suspect) {
+  const mjModel* m = self->m;
+  mjData* d = self->d;
+  const double h = m->opt.timestep;
+  const double* a = self->page;
+  const mjtNum* tip = d->site_xpos + 3 * self->tip_site;
+  double* out = self->out;
+  mjtNum contact[6];
+  jmp_buf jump;
+  error_fn saved = *user_error;
+  if (setjmp(jump)) {
+    *user_error = saved;
+    PyErr_SetString(fatal_error, error_message);
+    return -1;
+  }
+  error_jump = &jump;
+  *user_error = period_error;
+  for (int s = 0; s < self->substeps; s++) {
+    for (int i = 0; i < self->narm; i++) {
+      d->ctrl[self->arm[i]] = u[i];
+      u[i] = u[i] + du[i];
+    }
+    *since = *since + h;
+    step2(m, d);
+    double force = 0.0;
+    for (int i = 0; i < d->ncon; i++) {
+      if (self->tip_geom >= 0 && d->contact[i].geom[0] != self->tip_geom &&
+          d->contact[i].geom[1] != self->tip_geom)
+        continue;
+      contact_force(m, d, i, contact);
+      force += contact[0];
+    }
+    double x = tip[0], y = tip[1], z = tip[2];
+    out[4 * s] = force;
+    out[4 * s + 1] = a[0] * x + a[3] * y + a[6] * z - a[9];
+    out[4 * s + 2] = a[1] * x + a[4] * y + a[7] * z - a[10];
+    out[4 * s + 3] = d->time - h;
+    step1(m, d);
+  }
+  *user_error = saved;
+  double speed_sq = 0.0;
+  for (int i = 0; i < m->nv; i++) speed_sq += d->qvel[i] * d->qvel[i];
+  int warnings = d->warning[mjWARN_BADQPOS].number + d->warning[mjWARN_BADQVEL].number +
+                 d->warning[mjWARN_BADQACC].number;
+  /* (a margin over the summation order of NumPy's dot: flagged periods get the exact test) */
+  *suspect = !(speed_sq <= self->max_speed_sq * (1.0 - 1e-9)) || warnings != self->warning_total;
+  return 0;
+}
+
 /* step(u, du, since) -> (since, suspect, ((force, x, y, t), ...) one per physics step).
  * u [N m] is advanced in place by du each physics step (the plant's own array). */
 static PyObject* period_step(Period* self, PyObject* const* args, Py_ssize_t nargs) {
@@ -223,8 +309,9 @@ static PyObject* period_step(Period* self, PyObject* const* args, Py_ssize_t nar
     PyErr_SetString(PyExc_TypeError, "step(u, du, since)");
     return NULL;
   }
-  if (self->m == NULL) {
-    PyErr_SetString(PyExc_RuntimeError, "_period: the period was not initialised");
+  if (self->m == NULL || self->entered) {
+    PyErr_SetString(PyExc_RuntimeError, self->m == NULL ? "_period: the period was not "
+                    "initialised" : "_period: step() between enter() and leave()");
     return NULL;
   }
   Py_buffer ub, dub;
@@ -244,62 +331,15 @@ static PyObject* period_step(Period* self, PyObject* const* args, Py_ssize_t nar
       PyErr_Format(PyExc_ValueError, "_period: u and du must be %d float64", self->narm);
     return NULL;
   }
-  double* u = (double*)ub.buf;
-  const double* du = (const double*)dub.buf;
-  const mjModel* m = self->m;
-  mjData* d = self->d;
-  const double h = m->opt.timestep;
-  const double* a = self->page;
-  const mjtNum* tip = d->site_xpos + 3 * self->tip_site;
-  double* out = self->out;
-  mjtNum contact[6];
-  jmp_buf jump;
-  error_fn saved = *user_error;
-  if (setjmp(jump)) {
-    *user_error = saved;
-    PyBuffer_Release(&ub);
-    PyBuffer_Release(&dub);
-    PyErr_SetString(fatal_error, error_message);
-    return NULL;
-  }
-  error_jump = &jump;
-  *user_error = period_error;
-  for (int s = 0; s < self->substeps; s++) {
-    for (int i = 0; i < self->narm; i++) {
-      d->ctrl[self->arm[i]] = u[i];
-      u[i] = u[i] + du[i];
-    }
-    since = since + h;
-    step2(m, d);
-    double force = 0.0;
-    for (int i = 0; i < d->ncon; i++) {
-      if (self->tip_geom >= 0 && d->contact[i].geom[0] != self->tip_geom &&
-          d->contact[i].geom[1] != self->tip_geom)
-        continue;
-      contact_force(m, d, i, contact);
-      force += contact[0];
-    }
-    double x = tip[0], y = tip[1], z = tip[2];
-    out[4 * s] = force;
-    out[4 * s + 1] = a[0] * x + a[3] * y + a[6] * z - a[9];
-    out[4 * s + 2] = a[1] * x + a[4] * y + a[7] * z - a[10];
-    out[4 * s + 3] = d->time - h;
-    step1(m, d);
-  }
-  *user_error = saved;
+  int suspect = 0;
+  int status = physics(self, (double*)ub.buf, (const double*)dub.buf, &since, &suspect);
   PyBuffer_Release(&ub);
   PyBuffer_Release(&dub);
-  double speed_sq = 0.0;
-  for (int i = 0; i < m->nv; i++) speed_sq += d->qvel[i] * d->qvel[i];
-  int warnings = d->warning[mjWARN_BADQPOS].number + d->warning[mjWARN_BADQVEL].number +
-                 d->warning[mjWARN_BADQACC].number;
-  /* (a margin over the summation order of NumPy's dot: flagged periods get the exact test) */
-  int suspect = !(speed_sq <= self->max_speed_sq * (1.0 - 1e-9)) ||
-                warnings != self->warning_total;
+  if (status < 0) return NULL;
   PyObject* steps = PyTuple_New(self->substeps);
   if (steps == NULL) return NULL;
   for (int s = 0; s < self->substeps; s++) {
-    const double* o = out + 4 * s;
+    const double* o = self->out + 4 * s;
     PyObject* row = Py_BuildValue("(dddd)", o[0], o[1], o[2], o[3]);
     if (row == NULL) {
       Py_DECREF(steps);
@@ -333,6 +373,37 @@ static void release_all(Py_buffer* views, int held) {
   for (int i = 0; i < held; i++) PyBuffer_Release(views + i);
 }
 
+/* The drives' new set point (JointDrive.set_point then affine_control, the file's docstring):
+ * the integral in place from the old set point (q_old NULL: none yet; qd_old, qd, tau_ff NULL:
+ * zeros; q_link NULL: no integration), u and du written. */
+static void set_point(Period* self, double* u, double* du, double* integral, const double* q_old,
+                      const double* qd_old, const double* q, const double* qd,
+                      const double* tau_ff, const double* q_link, double since) {
+  const int n = self->narm;
+  const double *kp = self->gains, *kd = kp + n, *ki = kp + 2 * n, *kp_h = kp + 3 * n;
+  const double* limit = kp + 4 * n;
+  if (q_old != NULL && q_link != NULL && since > 0.0) {
+    for (int i = 0; i < n; i++) {
+      double x = q_old[i] + (qd_old ? qd_old[i] : 0.0) * since;
+      x = x - q_link[i];
+      x = x * (ki[i] * since);
+      x = x + integral[i];
+      double floor = -limit[i];
+      /* np.maximum, np.minimum: NaN stays NaN; of two equal values the second (signed 0) */
+      x = (x > floor || x != x) ? x : floor;
+      integral[i] = (x < limit[i] || x != x) ? x : limit[i];
+    }
+  }
+  for (int i = 0; i < n; i++) {
+    double qdi = qd ? qd[i] : 0.0;
+    double rest = kd[i] * qdi;
+    rest = rest + (tau_ff ? tau_ff[i] : 0.0);
+    rest = rest + integral[i];
+    u[i] = kp[i] * q[i] + rest;
+    du[i] = kp_h[i] * qdi;
+  }
+}
+
 /* command(u, du, integral, q_old, qd_old, q, qd, tau_ff, q_link, since): a new set point of the
  * drives, JointDrive.set_point(q, qd, tau_ff, q_link) then affine_control() with the same bits
  * (the file's docstring). The drives' state is the caller's: the integral is updated in place
@@ -363,34 +434,205 @@ static PyObject* period_command(Period* self, PyObject* const* args, Py_ssize_t 
       return NULL;
     }
   }
-  double *u = v[0], *du = v[1], *integral = v[2];
-  const double *q_old = v[3], *qd_old = v[4], *q = v[5], *qd = v[6], *tau_ff = v[7];
-  const double* q_link = v[8];
-  const int n = self->narm;
-  const double *kp = self->gains, *kd = kp + n, *ki = kp + 2 * n, *kp_h = kp + 3 * n;
-  const double* limit = kp + 4 * n;
-  if (q_old != NULL && q_link != NULL && since > 0.0) {
-    for (int i = 0; i < n; i++) {
-      double x = q_old[i] + (qd_old ? qd_old[i] : 0.0) * since;
-      x = x - q_link[i];
-      x = x * (ki[i] * since);
-      x = x + integral[i];
-      double floor = -limit[i];
-      /* np.maximum, np.minimum: NaN stays NaN; of two equal values the second (signed 0) */
-      x = (x > floor || x != x) ? x : floor;
-      integral[i] = (x < limit[i] || x != x) ? x : limit[i];
-    }
-  }
-  for (int i = 0; i < n; i++) {
-    double qdi = qd ? qd[i] : 0.0;
-    double rest = kd[i] * qdi;
-    rest = rest + (tau_ff ? tau_ff[i] : 0.0);
-    rest = rest + integral[i];
-    u[i] = kp[i] * q[i] + rest;
-    du[i] = kp_h[i] * qdi;
-  }
+  set_point(self, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], since);
   release_all(views, held);
   Py_RETURN_NONE;
+}
+
+/* ---- The port (inkarm/core/_plant.h): the plant's read / command / step in C ---- */
+
+static int port_read(void* p, double* time, double* q, double* qd, double* torque, double* tip,
+                     double* force) {
+  Period* self = p;
+  const mjData* d = self->d;
+  *time = d->time;
+  for (int j = 0; j < self->narm; j++) {
+    q[j] = d->qpos[self->qpos_adr[j]];
+    qd[j] = d->qvel[self->dof_adr[j]];
+    torque[j] = d->actuator_force[self->arm[j]];
+  }
+  const mjtNum* x = d->site_xpos + 3 * self->tip_site;
+  const double* a = self->page;
+  /* (MujocoPlant._tip_page's sums, in its order) */
+  tip[0] = a[0] * x[0] + a[3] * x[1] + a[6] * x[2] - a[9];
+  tip[1] = a[1] * x[0] + a[4] * x[1] + a[7] * x[2] - a[10];
+  tip[2] = a[2] * x[0] + a[5] * x[1] + a[8] * x[2] - a[11];
+  *force = self->pen_force + self->force_bias;  /* (an ideal sensor: Senses.force) */
+  return 0;
+}
+
+static int port_command(void* p, const double* q, const double* qd, const double* tau_ff) {
+  Period* self = p;
+  const int n = self->narm;
+  memcpy(self->next, q, n * sizeof(double));
+  memcpy(self->next + n, qd, n * sizeof(double));
+  memcpy(self->next + 2 * n, tau_ff, n * sizeof(double));
+  self->pending = 1;
+  return 0;
+}
+
+static int port_step(void* p) {
+  Period* self = p;
+  const int n = self->narm;
+  double* u = self->u_view.buf;
+  if (self->pending) {  /* (MujocoPlant._apply: the drives' set point from the joints now) */
+    double* q_link = self->next + 3 * n;
+    for (int j = 0; j < n; j++) q_link[j] = self->d->qpos[self->qpos_adr[j]];
+    set_point(self, u, self->du_view.buf, self->integral_view.buf,
+              self->have_goal ? self->goal : NULL, self->have_qd_goal ? self->goal + n : NULL,
+              self->next, self->next + n, self->next + 2 * n, q_link, self->since);
+    memcpy(self->goal, self->next, 3 * n * sizeof(double));
+    self->have_goal = self->have_qd_goal = 1;
+    self->since = 0.0;
+    self->pending = 0;
+  }
+  int suspect = 0;
+  if (physics(self, u, self->du_view.buf, &self->since, &suspect) < 0) return -1;
+  self->steps += self->substeps;
+  if (self->nrows + self->substeps > self->cap_rows) {
+    Py_ssize_t cap = 2 * (self->cap_rows + self->substeps);
+    double* rows = PyMem_Realloc(self->rows, 4 * cap * sizeof(double));
+    if (rows == NULL) {
+      PyErr_NoMemory();
+      return -1;
+    }
+    self->rows = rows;
+    self->cap_rows = cap;
+  }
+  memcpy(self->rows + 4 * self->nrows, self->out, 4 * self->substeps * sizeof(double));
+  self->nrows += self->substeps;
+  self->pen_force = self->out[4 * (self->substeps - 1)];
+  if (suspect) {  /* (the C test is conservative: the plant's own decides) */
+    PyObject* ok = PyObject_CallNoArgs(self->diverged);
+    if (ok == NULL) return -1;
+    Py_DECREF(ok);
+  }
+  return 0;
+}
+
+static int int_list(PyObject* seq, int* out, int n, int bound, const char* what) {
+  PyObject* fast = PySequence_Fast(seq, what);
+  if (fast == NULL) return -1;
+  int ok = PySequence_Fast_GET_SIZE(fast) == n;
+  for (int j = 0; ok && j < n; j++) {
+    long k = PyLong_AsLong(PySequence_Fast_GET_ITEM(fast, j));
+    ok = !(k == -1 && PyErr_Occurred()) && k >= 0 && k < bound;
+    out[j] = (int)k;
+  }
+  Py_DECREF(fast);
+  if (!ok && !PyErr_Occurred())
+    PyErr_Format(PyExc_ValueError, "_period.enter: %s must be %d indices below %d", what, n, bound);
+  return ok ? 0 : -1;
+}
+
+/* enter(u, du, integral, q_goal, qd_goal, since, pen_force, force_bias, qpos_adr, dof_adr,
+ * diverged): the plant's state handed to the port (the drives' u, du and integral in place;
+ * q_goal, qd_goal copied, None: no set point yet). Until leave(), step() is refused. */
+static PyObject* period_enter(Period* self, PyObject* args) {
+  PyObject *u, *du, *integral, *q_goal, *qd_goal, *qpos_adr, *dof_adr, *diverged;
+  double since, pen_force, bias;
+  if (!PyArg_ParseTuple(args, "OOOOOdddOOO", &u, &du, &integral, &q_goal, &qd_goal, &since,
+                        &pen_force, &bias, &qpos_adr, &dof_adr, &diverged))
+    return NULL;
+  if (self->m == NULL || self->gains == NULL || self->entered) {
+    PyErr_SetString(PyExc_RuntimeError, self->entered ? "_period.enter: entered already"
+                    : "_period.enter: the period was made without gains");
+    return NULL;
+  }
+  const int n = self->narm;
+  if (self->goal == NULL) {
+    self->qpos_adr = PyMem_New(int, n);
+    self->dof_adr = PyMem_New(int, n);
+    self->goal = PyMem_New(double, 3 * n);
+    self->next = PyMem_New(double, 4 * n);
+    if (!self->qpos_adr || !self->dof_adr || !self->goal || !self->next) return PyErr_NoMemory();
+  }
+  if (int_list(qpos_adr, self->qpos_adr, n, self->m->nq, "qpos_adr") < 0 ||
+      int_list(dof_adr, self->dof_adr, n, self->m->nv, "dof_adr") < 0)
+    return NULL;
+  Py_buffer views[5];
+  int held = 0;
+  PyObject* args3[5] = {u, du, integral, q_goal, qd_goal};
+  static const char* names[5] = {"u", "du", "integral", "q_goal", "qd_goal"};
+  self->have_goal = q_goal != Py_None;
+  self->have_qd_goal = qd_goal != Py_None;
+  for (int k = 0; k < 5; k++) {
+    if (args3[k] == Py_None && k >= 3) continue;
+    double* ignored;
+    if (doubles_arg(self, args3[k], k <= 2, 0, &ignored, views, &held, names[k]) < 0) {
+      release_all(views, held);
+      return NULL;
+    }
+    if (k == 3) memcpy(self->goal, ignored, n * sizeof(double));
+    if (k == 4) memcpy(self->goal + n, ignored, n * sizeof(double));
+  }
+  /* keep u, du, integral (views 0..2); the goals were copied */
+  for (int k = 3; k < held; k++) PyBuffer_Release(views + k);
+  self->u_view = views[0];
+  self->du_view = views[1];
+  self->integral_view = views[2];
+  self->entered = 1;
+  Py_INCREF(diverged);
+  Py_XSETREF(self->diverged, diverged);
+  self->since = since;
+  self->pen_force = pen_force;
+  self->force_bias = bias;
+  self->pending = 0;
+  self->steps = 0;
+  self->nrows = 0;
+  self->port = (inkarm_plant){INKARM_PLANT_ABI, self, n, port_read, port_command, port_step};
+  Py_RETURN_NONE;
+}
+
+/* leave() -> (q_goal, qd_goal, tau_ff, since, steps, rows): the plant's state back
+ * (the set point as three tuples, or None where there was none; the physics steps taken; the
+ * canvas's (force, x, y, t) per step, a list). A command not yet stepped is dropped. */
+static PyObject* period_leave(Period* self, PyObject* unused) {
+  if (!self->entered) {
+    PyErr_SetString(PyExc_RuntimeError, "_period.leave: not entered");
+    return NULL;
+  }
+  const int n = self->narm;
+  PyObject* goal[3] = {NULL, NULL, NULL};
+  PyObject* rows = PyList_New(self->nrows);
+  int ok = rows != NULL;
+  for (int k = 0; ok && k < 3; k++) {
+    if (!self->have_goal || (k == 1 && !self->have_qd_goal)) {
+      goal[k] = Py_NewRef(Py_None);
+      continue;
+    }
+    goal[k] = PyTuple_New(n);
+    ok = goal[k] != NULL;
+    for (int j = 0; ok && j < n; j++) {
+      PyObject* x = PyFloat_FromDouble(self->goal[k * n + j]);
+      ok = x != NULL;
+      if (ok) PyTuple_SET_ITEM(goal[k], j, x);
+    }
+  }
+  for (Py_ssize_t r = 0; ok && r < self->nrows; r++) {
+    const double* o = self->rows + 4 * r;
+    PyObject* row = Py_BuildValue("(dddd)", o[0], o[1], o[2], o[3]);
+    ok = row != NULL;
+    if (ok) PyList_SET_ITEM(rows, r, row);
+  }
+  PyObject* result = ok ? Py_BuildValue("(NNNdlN)", goal[0], goal[1], goal[2], self->since,
+                                        self->steps, rows) : NULL;
+  if (result == NULL) {
+    for (int k = 0; k < 3; k++) Py_XDECREF(goal[k]);
+    Py_XDECREF(rows);
+  }
+  port_release(self);
+  self->nrows = 0;
+  return result;
+}
+
+/* port() -> the PyCapsule of the port (valid between enter() and leave(), while this lives) */
+static PyObject* period_port(Period* self, PyObject* unused) {
+  if (!self->entered) {
+    PyErr_SetString(PyExc_RuntimeError, "_period.port: enter() first");
+    return NULL;
+  }
+  return PyCapsule_New(&self->port, INKARM_PLANT_CAPSULE, NULL);
 }
 
 static PyMethodDef period_methods[] = {
@@ -399,6 +641,13 @@ static PyMethodDef period_methods[] = {
     {"command", (PyCFunction)(void (*)(void))period_command, METH_FASTCALL,
      "command(u, du, integral, q_old, qd_old, q, qd, tau_ff, q_link, since): a new set point "
      "of the drives (JointDrive.set_point then affine_control), u, du, integral in place"},
+    {"enter", (PyCFunction)period_enter, METH_VARARGS,
+     "enter(u, du, integral, q_goal, qd_goal, since, pen_force, force_bias, qpos_adr, dof_adr, "
+     "diverged): hand the plant's state to the port"},
+    {"leave", (PyCFunction)period_leave, METH_NOARGS,
+     "leave() -> (q_goal, qd_goal, tau_ff, since, steps, rows): the state back"},
+    {"port", (PyCFunction)period_port, METH_NOARGS,
+     "port() -> the plant's port, a PyCapsule (inkarm/core/_plant.h)"},
     {NULL, NULL, 0, NULL}};
 
 static PyTypeObject PeriodType = {

@@ -27,7 +27,7 @@ import numpy as np
 from inkarm.control.compiled import SWITCH, switched_on
 
 _LOG = logging.getLogger(__name__)
-API = 2  # (inkarm/sim/_period.c's INKARM_PERIOD_API)
+API = 3  # (inkarm/sim/_period.c's INKARM_PERIOD_API)
 
 
 def _library() -> Path | None:
@@ -120,18 +120,67 @@ def set_point(period, drive, command, q_link: np.ndarray) -> tuple[np.ndarray, n
 def feed(canvas, touching: bool, steps) -> tuple[bool, float]:
     """Give ``canvas`` (or None) the calls of the Python period for the physics steps
     ``steps`` = ((force [N], x [mm], y [mm], t [s]), ...) of :meth:`Period.step`: ``touch``
-    while the force is positive, ``lift`` when it ends. Returns (touching, the last force)."""
-    force = 0.0
-    for force, x, y, t in steps:
-        if force > 0.0:
-            touching = True
-            if canvas is not None:
+    while the force is positive, ``lift`` when it ends; in one call where the canvas has
+    ``touch_many`` (:meth:`inkarm.ink.canvas.Canvas.touch_many`). Returns (touching, the last
+    force)."""
+    if not steps:
+        return touching, 0.0
+    touch_many = getattr(canvas, "touch_many", None)
+    if touch_many is not None:
+        touch_many(steps)
+    elif canvas is not None:  # a canvas with touch and lift only
+        for force, x, y, t in steps:
+            if force > 0.0:
+                touching = True
                 canvas.touch((x, y), force, t)
-        elif touching:
-            touching = False
-            if canvas is not None:
+            elif touching:
+                touching = False
                 canvas.lift()
-    return touching, force
+    force = steps[-1][0]
+    return force > 0.0, force
 
 
-__all__ = ["SWITCH", "feed", "period_for", "period_module", "set_point"]
+class Port:
+    """A :class:`inkarm.sim.plant.MujocoPlant`'s compiled period as C functions
+    (``inkarm/core/_plant.h``): read, command and step without Python, for a compiled member
+    (:meth:`inkarm.control.member_lane.Lane.run`). Between :meth:`enter` and :meth:`leave` the
+    drives' set point, the pen's force and the canvas's rows live in the period; the plant's own
+    calls are not made meanwhile. Its periods give the plant's bits (the same C arithmetic as
+    :func:`set_point` and ``Period.step``; tests/control/test_member_lane.py)."""
+
+    def __init__(self, plant):
+        self.plant = plant
+        m = plant.model
+        self._qpos_adr = np.arange(m.nq)[plant._qpos_adr].tolist()
+        self._dof_adr = np.arange(m.nv)[plant._dof_adr].tolist()
+
+    def enter(self):
+        """Hand the plant's state to its period; its port (a PyCapsule), or None where the plant
+        is not where the port can take over (no position goal held by the MuJoCo drives yet, or
+        commands queued)."""
+        plant = self.plant
+        drive, period = plant.drive, plant._period
+        if period is None or not plant._affine or plant._queue or drive.q_goal is None:
+            return None
+        period.enter(plant._u, plant._du, drive.integral, drive.q_goal, drive.qd_goal,
+                     drive.since, plant._pen_force, plant.senses_model.force_bias,
+                     self._qpos_adr, self._dof_adr, plant._check_divergence)
+        return period.port()
+
+    def leave(self) -> None:
+        """Take the state back: the drives' set point, the pen's force, the steps taken, and the
+        canvas's ink of those steps (the Python period's calls, in one)."""
+        plant = self.plant
+        q, qd, tau_ff, since, steps, rows = plant._period.leave()
+        drive = plant.drive
+        if q is not None:
+            drive.q_goal = plant._position_goal = np.array(q)
+            drive.qd_goal = None if qd is None else np.array(qd)
+            drive.tau_ff = np.array(tau_ff)
+        drive.since = since
+        plant._steps += steps
+        if rows:
+            plant._touching, plant._pen_force = feed(plant.canvas, plant._touching, rows)
+
+
+__all__ = ["SWITCH", "Port", "feed", "period_for", "period_module", "set_point"]

@@ -41,7 +41,7 @@ from inkarm.errors import InputError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim.actuators import affine_drives, native_drive
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_SLIDE, PEN_TIP, Cell, build_model
-from inkarm.sim.compiled import feed, period_for, set_point
+from inkarm.sim.compiled import Port, feed, period_for, set_point
 from inkarm.sim.divergence import DIVERGENCE_WARNINGS, divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
 from inkarm.sim.imperfections import PlantTruth
@@ -292,6 +292,10 @@ class MujocoPlant:
             pen_compression_mm=1000.0 * float(self._qpos[self._slide_adr]),
         )
 
+    def compiled_port(self) -> Port | None:
+        """Its period in C for a compiled member (:class:`Port`; None: the Python period's)."""
+        return Port(self) if self._period is not None else None
+
     def now(self) -> float:
         """The simulation's time [s] (a reading may be older: ``sensing_delay_ms``)."""
         return self.data.time
@@ -449,15 +453,13 @@ class MujocoPlant:
         return force
 
     def _check_divergence(self) -> None:
-        # Cheap tests first: one dot product catches NaN/inf (the comparison fails) and runaway
-        # speed (the norm bounds every joint's speed), one sum any new MuJoCo warning about a
-        # bad qpos/qvel/qacc; the slow path sorts out which.
+        # Cheap tests first: one dot product catches NaN/inf and runaway speed (the norm bounds
+        # every joint's), one sum any new MuJoCo warning of a bad qpos/qvel/qacc.
         qvel, stats = self._qvel, self._warning_stats
         if (qvel.dot(qvel) <= self._max_speed_sq
                 and stats[0].number + stats[1].number + stats[2].number == self._warning_total):
             return
-        d = self.data
-        warnings = np.array([w.number for w in self._warning_stats])
+        d, warnings = self.data, np.array([w.number for w in self._warning_stats])
         names = [w.name for w, a, b in zip(DIVERGENCE_WARNINGS, warnings, self._warnings) if a > b]
         finite = bool(np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all())
         error = divergence_error(self.model, d.time, d.qvel, names, self.max_joint_speed, finite)

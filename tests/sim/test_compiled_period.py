@@ -56,6 +56,10 @@ def _run_both(scenario, monkeypatch):
     monkeypatch.setattr(Canvas, "touch", lambda c, p, f, t: (calls.append((tuple(p), f, t)),
                                                             touch(c, p, f, t)))
     monkeypatch.setattr(Canvas, "lift", lambda c: (calls.append("lift"), lift(c)))
+    touch_many = Canvas.touch_many  # (the compiled period's feed: its calls one step at a time)
+    monkeypatch.setattr(Canvas, "touch_many", lambda c, steps: [
+        (calls.append(((x, y), f, t)) if f > 0.0 else None, touch_many(c, [(f, x, y, t)]))
+        for f, x, y, t in steps])
     periods: list = []
     period_for = sim_plant.period_for
     monkeypatch.setattr(sim_plant, "period_for", lambda p: periods.append(period_for(p)) or
@@ -241,7 +245,7 @@ def test_an_extension_of_an_older_checkout_is_not_used(built, monkeypatch, caplo
             assert sim_plant.MujocoPlant(build_model())._period is None
     finally:
         compiled._load.cache_clear()
-    assert "of another inkarm (API 1, this is 2): build it again" in caplog.text
+    assert f"of another inkarm (API 1, this is {compiled.API}): build it again" in caplog.text
 
 
 def test_the_switch_and_a_library_not_loaded_leave_the_python_period(built, monkeypatch):
@@ -305,3 +309,50 @@ def test_a_set_point_refuses_arrays_of_another_size_or_kind(built):
                                            [1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0], 3, 1e9, 0)
     with pytest.raises(RuntimeError, match="made without gains"):
         bare.command(*args)
+
+
+class _Calls:
+    """A canvas with touch and lift only (the plant's canvas protocol), recording the calls."""
+
+    def __init__(self):
+        self.calls = []
+
+    def touch(self, p_mm, force_n, t):
+        self.calls.append(("touch", tuple(p_mm), force_n, t))
+
+    def lift(self):
+        self.calls.append(("lift",))
+
+
+def test_feed_gives_a_canvas_the_python_periods_calls_in_one():
+    """feed against the Python period's loop (touch while the force is positive, lift when
+    contact ends): the same (touching, last force) after every period, the same canvas through
+    Canvas.touch_many, the same calls to a canvas without it, nothing without a canvas."""
+    rng = np.random.default_rng(5)
+    periods = []
+    for k in range(200):
+        forces = rng.choice([0.0, 0.0, -0.01, 0.05, 0.9, 1.3], size=3)
+        periods.append(tuple((float(f), float(10 + rng.normal()), float(10 + rng.normal()),
+                              0.006 * k + 0.002 * j) for j, f in enumerate(forces)))
+    periods.append(())
+    expected_canvas, expected_calls = Canvas(size_mm=(20.0, 20.0)), _Calls()
+    canvas, calls = Canvas(size_mm=(20.0, 20.0)), _Calls()
+    touching = was = False
+    for steps in periods:
+        force = 0.0
+        for force, x, y, t in steps:
+            if force > 0.0:
+                was = True
+                expected_canvas.touch((x, y), force, t)
+                expected_calls.touch((x, y), force, t)
+            elif was:
+                was = False
+                expected_canvas.lift()
+                expected_calls.lift()
+        assert compiled.feed(canvas, touching, steps) == (was, force)
+        assert compiled.feed(calls, touching, steps) == (was, force)
+        touching = compiled.feed(None, touching, steps)[0]
+        assert touching == was
+    np.testing.assert_array_equal(canvas.image, expected_canvas.image)
+    assert canvas.n_strokes == expected_canvas.n_strokes > 20
+    assert calls.calls == expected_calls.calls

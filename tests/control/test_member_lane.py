@@ -1,0 +1,260 @@
+"""The member's compiled period (inkarm/control/_member.c via inkarm.control.member_lane) and the
+plant's port (inkarm/sim/_period.c via inkarm.sim.compiled.Port) against the executor's Python
+steps: the same bits in the log and on the canvas, the same faults at the same rows (a watchdog,
+the search, the plant's divergence, Ctrl-C) inside a run of whole periods in C, the hand-over to
+Python for a reading it cannot take, and the errors that name what was expected."""
+
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+import pytest
+
+from inkarm.control import compiled, executor, member_lane
+from inkarm.control.surface import SurfaceEstimate
+from inkarm.jobs.outcome import RunInterrupted
+from inkarm.jobs.run import run
+from inkarm.jobs.scenario import load_scenario, parse_scenario
+from inkarm.sim.plant import MujocoPlant
+
+pytestmark = pytest.mark.sim
+
+LOGGED = ("time", "q", "qd", "torque", "tip", "force", "reference", "phase", "stroke")
+LINE = {"source": {"kind": "plan", "plan": {"strokes": [{"targets": [
+    {"mean": [0.0, 0.0], "cov": 1.0}, {"mean": [20.0, 5.0], "cov": 1.0}]}]}},
+    "ink": {"px_per_mm": 4.0}}
+REQUIRE = "INKARM_REQUIRE_COMPILED"  # (as tests/sim/test_compiled_period.py: CI fails, not skips)
+# The executor's three ways: every step in Python (the extensions off), the member's steps in
+# one C call a period (the plant's port withheld), and whole periods in C through the port.
+WAYS = ("python", "period", "whole")
+
+
+@pytest.fixture
+def built():
+    compiled._load.cache_clear()
+    if compiled.member_module() is None:
+        why = "the compiled member period is not usable here (INKARM_COMPILED=0 or not built)"
+        if os.environ.get(REQUIRE) == "1":
+            pytest.fail(why)
+        pytest.skip(why)
+
+
+def _runs(scenario, monkeypatch, ways=WAYS) -> dict:
+    """``scenario`` run each way: the Run (or the partial Run of a Ctrl-C) and how many
+    periods ran whole in C (-1 where its fault came out of whole periods in C)."""
+    out = {}
+    lane_run = member_lane.Lane.run
+    for way in ways:
+        ran = [0]
+
+        def counted(lane, periods, ran=ran):
+            try:
+                done = lane_run(lane, periods)
+            except BaseException:
+                ran[0] = -1
+                raise
+            ran[0] += done
+            return done
+
+        with monkeypatch.context() as m:
+            m.setenv(compiled.SWITCH, "0" if way == "python" else "1")
+            m.setattr(member_lane.Lane, "run", counted)
+            if way == "period":
+                m.setattr(MujocoPlant, "compiled_port", lambda plant: None)
+            try:
+                result = run(scenario)
+            except RunInterrupted as stop:
+                result = stop.run
+        out[way] = (result, ran[0])
+    return out
+
+
+def _assert_same(runs: dict) -> None:
+    (a, _), *others = runs.values()
+    for b, _ in others:
+        assert (a.status, a.reason) == (b.status, b.reason)
+        for key in LOGGED:
+            x, y = getattr(a.log, key), getattr(b.log, key)
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), key
+        assert a.canvas.image.tobytes() == b.canvas.image.tobytes()
+        assert a.canvas.n_strokes == b.canvas.n_strokes
+
+
+def _line(tmp_path, **overrides):
+    return parse_scenario(LINE, "job.toml", tmp_path).with_overrides(overrides)
+
+
+def test_the_default_drawing_is_the_same_every_way(built, monkeypatch):
+    runs = _runs(load_scenario(), monkeypatch)
+    _assert_same(runs)
+    assert runs["whole"][0].status == "ok"
+    # most periods ran whole in C; none did with the port withheld
+    assert runs["whole"][1] > 0.9 * len(runs["whole"][0].log.time)
+    assert runs["period"][1] == 0 == runs["python"][1]
+
+
+@pytest.mark.parametrize("overrides, reason, inside", [
+    ({"controller.tracking_limit_mm": 0.02, "controller.watchdog_s": 0.004},
+     r"tracking_limit: pen 0\.0 mm from its reference for 4 ms \(limit 0\.02 mm\)", True),
+    ({"controller.force_limit_n": 1.01}, r"force_limit: pen force 1\.0[1-9] N above the 1\.01 N",
+     True),
+    ({"sim.plant.paper_height_mm": -40.0}, r"paper_not_found: no contact within 10 mm", True),
+    # (the watchdogs in Python every period, counting; it fires in the loop's own period)
+    ({"robot.gains.kp": 1e7, "robot.gains.kd": 0.0},
+     r"torque_saturated: joint6 torque at its 40 N m limit for 100 ms", False),
+])
+def test_a_fault_inside_whole_periods_in_c_stops_the_run_as_in_python(
+        built, monkeypatch, tmp_path, overrides, reason, inside):
+    runs = _runs(_line(tmp_path, **overrides), monkeypatch)
+    _assert_same(runs)
+    failed = runs["whole"][0]
+    assert failed.status == "failed"
+    assert len(failed.log.time) > 0 and re.search(reason, failed.reason), failed.reason
+    assert (runs["whole"][1] == -1) == inside  # (the fault came out of whole periods in C)
+
+
+def test_ctrl_c_inside_whole_periods_in_c_lifts_the_pen_as_in_python(built, monkeypatch,
+                                                                      tmp_path):
+    plane = SurfaceEstimate.plane
+    calls = [0]
+
+    def interrupted(sums, prior):  # (the plane's 6th solve: well inside the drawing)
+        calls[0] += 1
+        if calls[0] == 6:
+            raise KeyboardInterrupt
+        return plane(sums, prior)
+
+    monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(interrupted))
+    runs = {}
+    for way in WAYS:
+        calls[0] = 0
+        runs |= _runs(_line(tmp_path), monkeypatch, ways=(way,))
+    _assert_same(runs)
+    assert runs["whole"][0].status == "interrupted" and runs["whole"][1] == -1
+
+
+def test_the_plant_diverging_inside_whole_periods_in_c_fails_the_run_as_in_python(
+        built, monkeypatch, tmp_path):
+    plants, calls = [], [0]
+    init, plane = MujocoPlant.__init__, SurfaceEstimate.plane
+    monkeypatch.setattr(MujocoPlant, "__init__", lambda plant, *a, **k: (
+        plants.append(plant), init(plant, *a, **k))[1])
+
+    def push(sums, prior):  # (at the plane's 6th solve, well inside the drawing: a kick)
+        calls[0] += 1
+        if calls[0] == 6:
+            plants[-1].data.qvel[3] = 500.0
+        return plane(sums, prior)
+
+    monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(push))
+    runs = {}
+    for way in WAYS:
+        calls[0] = 0
+        runs |= _runs(_line(tmp_path), monkeypatch, ways=(way,))
+    _assert_same(runs)
+    failed = runs["whole"][0]
+    assert failed.status == "failed" and re.search(r"moves at [0-9.]+ rad/s", failed.reason)
+    assert runs["whole"][1] == -1
+
+
+def test_progress_is_reported_as_often_with_whole_periods_in_c(built, monkeypatch):
+    reports = {}
+    for way in ("period", "whole"):
+        seen = []
+        with monkeypatch.context() as m:
+            if way == "period":
+                m.setattr(MujocoPlant, "compiled_port", lambda plant: None)
+            run(load_scenario(), progress=lambda fraction, phase, seen=seen: seen.append(fraction))
+        reports[way] = seen
+    assert abs(len(reports["whole"]) - len(reports["period"])) <= 1
+    assert reports["whole"] == sorted(reports["whole"]) and reports["whole"][-1] == 1.0
+
+
+def test_a_reading_the_c_period_cannot_take_hands_the_member_to_python(built, monkeypatch):
+    read, handed = MujocoPlant.read, []
+    reads = [0]
+
+    def float32_after_300(plant):  # (a driver that changes its arrays' kind mid-run)
+        state = read(plant)
+        reads[0] += 1
+        if reads[0] > 300:
+            state.q = state.q.astype(np.float32)
+        return state
+
+    over = member_lane.Lane.hand_over
+    monkeypatch.setattr(member_lane.Lane, "hand_over",
+                        lambda lane, loop: handed.append(1) or over(lane, loop))
+    monkeypatch.setattr(MujocoPlant, "read", float32_after_300)
+    monkeypatch.setattr(MujocoPlant, "compiled_port", lambda plant: None)
+    runs = {}
+    for lane_on in (False, True):
+        reads[0] = 0
+        with monkeypatch.context() as m:
+            if not lane_on:
+                m.setattr(executor, "lane_for", lambda **kwargs: None)
+            runs[lane_on] = (run(load_scenario()), 0)
+    assert handed == [1]
+    _assert_same(runs)
+
+
+def test_the_c_period_refuses_what_is_not_its_plan(built):
+    module = compiled.member_module()
+    law = compiled.position_law()(*(np.zeros((4, 2)),) * 5, np.zeros(2), np.ones(2), 0.0)
+    plan = (np.zeros((4, 3)), np.zeros((4, 2)), None, np.zeros(4), np.zeros(4),
+            np.zeros(4, dtype=np.int64), np.zeros(4, dtype=bool), np.zeros((4, 2)),
+            np.zeros((4, 2)))
+    log = (np.zeros(9), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 3)),
+           np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
+    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3,
+            10, lambda t: None, SurfaceEstimate.plane)
+    rest = (None, 1.0, 1.0, 0, True, 5, 10, (0, 1, 2, 5), 0.002, False, 0.0,
+            (np.hypot, np.empty, tuple))
+    with pytest.raises(ValueError, match=r"q_ref must be of format d, 2-d, 4 rows \(x 2\)"):
+        module.MemberPeriod(plan, log, law, loop, print, *rest)
+    good = (np.zeros((4, 2)),) + plan[1:]
+    with pytest.raises(ValueError, match=r"dead band, lag or refit interval"):
+        module.MemberPeriod(good, log, law, loop[:13] + (1e-3,) + loop[14:], print, *rest)
+    kernel = module.MemberPeriod(good, log, law, loop, print, *rest)
+    with pytest.raises(module.NotForLane, match=r"the reading's q is not 2 float64"):
+        kernel.period(type("S", (), {"time": 0.0, "q": np.zeros(3), "qd": np.zeros(2),
+                                     "torque": None, "force": 0.0, "tip_mm": np.zeros(3)})())
+    assert kernel.row == 0 and kernel.i == 0  # (nothing changed)
+    with pytest.raises(TypeError, match=r"port must be a plant.s port \(a PyCapsule named inkarm.plant\)"):
+        kernel.run(object(), 1)
+
+
+def test_the_plants_port_is_only_offered_where_it_can_take_over(built):
+    from inkarm.core.plant import PositionCommand
+    from inkarm.sim.cell import build_model
+
+    plant = MujocoPlant(build_model())
+    port = plant.compiled_port()
+    assert port is not None and port.enter() is None  # (no position goal held yet)
+    plant.command(PositionCommand(plant.read().q))
+    assert port.enter() is None  # (a command queued)
+    plant.step()
+    capsule = port.enter()
+    assert capsule is not None
+    with pytest.raises(RuntimeError, match="step\\(\\) between enter\\(\\) and leave\\(\\)"):
+        plant.step()
+    with pytest.raises(RuntimeError, match="entered already"):
+        port.enter()
+    port.leave()
+    plant.step()  # (the plant's own period again)
+    with pytest.raises(RuntimeError, match="not entered"):
+        plant._period.leave()
+
+
+def test_without_the_extension_or_off_its_path_the_executor_takes_its_python_steps(
+        monkeypatch, tmp_path):
+    made = []
+    lane_for = executor.lane_for
+    monkeypatch.setattr(executor, "lane_for", lambda **kw: made.append(lane_for(**kw)) or made[-1])
+    monkeypatch.setenv(compiled.SWITCH, "0")
+    run(_line(tmp_path))
+    monkeypatch.setenv(compiled.SWITCH, "1")
+    run(_line(tmp_path, **{"controller.law": "joint_pid"}))  # (not the position law)
+    run(_line(tmp_path, **{"controller.probe_paper": True}))  # (probing: Python)
+    assert made == [None, None, None]
