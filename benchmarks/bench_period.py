@@ -283,9 +283,10 @@ def section(quick: bool) -> str:
     lines = [
         "## Period: where a control period's time goes (bench_period.py)",
         "",
-        (f"The default scenario ({periods} control periods of 3 physics steps), one process, the "
-         "plant's period and the position law's feed-forward compiled (`inkarm/sim/_period.c`, "
-         "`inkarm/control/_law.c`) and in Python (`INKARM_COMPILED=0`), "
+        (f"The default scenario ({periods} control periods of 3 physics steps), one process, "
+         "compiled (the plant's period, `inkarm/sim/_period.c`; the member's steps, "
+         "`inkarm/control/_law.c` and `_member.c`; whole periods in C through the plant's port "
+         "between two of the executor's own) and in Python (`INKARM_COMPILED=0`), "
          "bit-identical logs and canvas; shares from timers around the executor's parts "
          "(instrumented runs), totals from uninstrumented runs in alternating blocks with MuJoCo "
          "alone (the run's torques replayed open loop), on this thread's CPU clock. "
@@ -301,7 +302,7 @@ def section(quick: bool) -> str:
          f"{total_us['python']:.1f} |"),
         f"| MuJoCo alone, the same steps | | {mujoco_us:.1f} | | {mujoco_us:.1f} |",
         "",
-        (f"Executor / MuJoCo alone: {ratio['compiled']:.2f} with the compiled period and law, "
+        (f"Executor / MuJoCo alone: {ratio['compiled']:.2f} compiled, "
          f"{ratio['python']:.2f} in Python (the issue's target: <= 2, a real-time "
          f"factor >= 0.5x MuJoCo's); compiled, they save "
          f"{1 - total_us['compiled'] / total_us['python']:.0%} of the executor's time. "

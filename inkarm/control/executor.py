@@ -48,7 +48,7 @@ from inkarm.control.force import ForceLoop
 from inkarm.control.ik import IKConfig
 from inkarm.control.kinematics import ArmKinematics
 from inkarm.control.laws import Controller, LawContext, LawSpec, Setpoint
-from inkarm.control.member_lane import lane_for
+from inkarm.control.member_lane import lane_for, port_of
 from inkarm.control.members import Board, Members, Progress, Solo, as_members, lockstep
 from inkarm.control.probe import first_drawing_row, probe_note, with_probes, without_probes
 from inkarm.control.reference import JointReference, check_reachable, plan_within_speed_limits
@@ -168,8 +168,7 @@ def execute(
     board = Board(len(plants_))
     t_first = members.now()
     # A plant stepped alone may take whole periods in C from a compiled member (Lane.run).
-    ports = [getattr(plant, "compiled_port", lambda: None)() if type(members) is Solo else None
-             for plant in plants_]
+    ports = [port_of(plant) if type(members) is Solo else None for plant in plants_]
     runs = [_member(shared, plant, law_, m, board, t_first, port) for m, (plant, law_, port) in
             enumerate(zip(plants_, laws, ports))]
     results = lockstep(runs, members, board, len(ref), ref.phase, progress)
@@ -256,20 +255,20 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     if lane is not None:
         commanded, ref_row, ref_blend = lane.commanded, lane.ref_row, lane.ref_blend
         lane_period, lane_advance = lane.kernel.period, lane.kernel.advance
-        chunk = max(1, round(0.1 / dt)) - 1 if port is not None else 0
+        chunk = max(1, round(0.1 / dt)) if port is not None else 0
     in_chunk = False
     loop_wall0 = _time.perf_counter()
     try:
         while i < n_ref:
-            if chunk:
+            if chunk:  # whole periods in C, the plant's step included
                 in_chunk = True
                 ran = lane.run(chunk)
                 in_chunk = False
                 if ran:
-                    board.ticks += ran
+                    board.ticks, board.stepped = ran - 1, True
                     i = rows[member] = lane.kernel.i
-                    if i >= n_ref:
-                        break
+                    yield
+                    continue
             state, fresh, logged = read(), True, False
             if lane is not None:  # steps 2-4 in one call (the watchdogs' faults raised)
                 try:

@@ -83,6 +83,15 @@ class Lane:
             "ref_blend": self.ref_blend.tolist()}
 
 
+def port_of(plant):
+    """The plant's period in C (``compiled_port()``, :class:`inkarm.core.plant.Plant`), or None
+    where it offers none, or where the port is another plant's (a wrapper that forwards its
+    attributes, e.g. to shape the commands, must not be bypassed)."""
+    offer = getattr(plant, "compiled_port", None)
+    port = offer() if callable(offer) else None
+    return port if port is not None and getattr(port, "plant", None) is plant else None
+
+
 def lane_for(*, law, force_loop: ForceLoop, watchdogs: Watchdogs, plan, log: DrawLog,
              plan_columns: dict, hold_at: list[bool], senses_force: bool, senses_tip: bool,
              probes: int, settle_ticks: int, timeout_ticks: int, dt: float,
@@ -132,4 +141,4 @@ def lane_for(*, law, force_loop: ForceLoop, watchdogs: Watchdogs, plan, log: Dra
     return Lane(kernel, commanded, ref_row, ref_blend, module.NotForLane, port)
 
 
-__all__ = ["Lane", "lane_for"]
+__all__ = ["Lane", "lane_for", "port_of"]

@@ -78,16 +78,18 @@ def as_members(plant: Plant | Members) -> Members:
 class Board:
     """What the members tell the executor between periods: each one's plan row (the progress),
     whether it is stopping after a fault (then it is not told of a Ctrl-C: it is lifting
-    already), whether a Ctrl-C reached one of them (then every other one stops too), and the
-    periods a member ran in C between two steps (for the progress)."""
+    already), whether a Ctrl-C reached one of them (then every other one stops too), and, from a
+    member stepped alone that ran whole periods in C, how many (for the progress) and that its
+    plant needs no step this time."""
 
-    __slots__ = ("interrupted", "rows", "stopping", "ticks")
+    __slots__ = ("interrupted", "rows", "stepped", "stopping", "ticks")
 
     def __init__(self, n: int):
         self.rows = [0] * n
         self.stopping = [False] * n
         self.interrupted = False
-        self.ticks = 0  # periods a member ran whole in C since the last step (Lane.run)
+        self.ticks = 0  # periods a member ran whole in C beyond this one (Lane.run)
+        self.stepped = False  # and its plant is stepped already (a plant stepped alone)
 
 
 def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
@@ -162,7 +164,10 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
                 interrupt = KeyboardInterrupt()
             if not active:
                 break
-            faults = members.step(active)
+            if board.stepped:  # (a member stepped alone took its periods in C, steps too)
+                board.stepped, faults = False, _NO_FAULTS
+            else:
+                faults = members.step(active)
             if faults:
                 for m, fault in faults.items():
                     if resume(m, fault):

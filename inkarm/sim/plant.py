@@ -294,7 +294,7 @@ class MujocoPlant:
 
     def compiled_port(self) -> Port | None:
         """Its period in C for a compiled member (:class:`Port`; None: the Python period's)."""
-        return Port(self) if self._period is not None else None
+        return Port(self) if self._period is not None and type(self) is MujocoPlant else None
 
     def now(self) -> float:
         """The simulation's time [s] (a reading may be older: ``sensing_delay_ms``)."""
