@@ -441,9 +441,16 @@ static PyObject* period_command(Period* self, PyObject* const* args, Py_ssize_t 
 
 /* ---- The port (inkarm/core/_plant.h): the plant's read / command / step in C ---- */
 
+static int port_open(Period* self) {
+  if (self->entered) return 0;
+  PyErr_SetString(PyExc_RuntimeError, "_period: the plant's port is closed (leave() was called)");
+  return -1;
+}
+
 static int port_read(void* p, double* time, double* q, double* qd, double* torque, double* tip,
                      double* force) {
   Period* self = p;
+  if (port_open(self) < 0) return -1;
   const mjData* d = self->d;
   *time = d->time;
   for (int j = 0; j < self->narm; j++) {
@@ -463,6 +470,7 @@ static int port_read(void* p, double* time, double* q, double* qd, double* torqu
 
 static int port_command(void* p, const double* q, const double* qd, const double* tau_ff) {
   Period* self = p;
+  if (port_open(self) < 0) return -1;
   const int n = self->narm;
   memcpy(self->next, q, n * sizeof(double));
   memcpy(self->next + n, qd, n * sizeof(double));
@@ -473,6 +481,7 @@ static int port_command(void* p, const double* q, const double* qd, const double
 
 static int port_step(void* p) {
   Period* self = p;
+  if (port_open(self) < 0) return -1;
   const int n = self->narm;
   double* u = self->u_view.buf;
   if (self->pending) {  /* (MujocoPlant._apply: the drives' set point from the joints now) */

@@ -276,3 +276,29 @@ def test_a_plant_that_wraps_the_simulated_arm_is_not_bypassed_by_its_port(built)
     assert member_lane.port_of(plant) is not None
     assert member_lane.port_of(Shaping(plant)) is None
     assert member_lane.port_of(Subclass(build_model())) is None
+
+
+def test_a_port_used_after_leave_refuses_instead_of_writing_freed_buffers(built):
+    from inkarm.core.plant import PositionCommand
+    from inkarm.sim.cell import build_model
+
+    plant = MujocoPlant(build_model())
+    plant.command(PositionCommand(plant.read().q))
+    plant.step()
+    port = plant.compiled_port()
+    capsule = port.enter()
+    port.leave()
+    module = compiled.member_module()
+    law = compiled.position_law()(*(np.zeros((4, 7)),) * 5, np.zeros(7), np.ones(7), 0.0)
+    plan = (np.zeros((4, 7)), np.zeros((4, 7)), None, np.zeros(4), np.zeros(4),
+            np.zeros(4, dtype=np.int64), np.zeros(4, dtype=bool), np.zeros((4, 7)),
+            np.zeros((4, 7)))
+    log = (np.zeros(9), np.zeros((9, 7)), np.zeros((9, 7)), np.zeros((9, 7)), np.zeros((9, 3)),
+           np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
+    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3,
+            10, lambda t: None, SurfaceEstimate.plane)
+    kernel = module.MemberPeriod(plan, log, law, loop, print, None, 1.0, 1.0, 0, True, 5, 10,
+                                 (0, 1, 2, 5), 0.002, False, 0.0, (np.hypot, np.empty, tuple))
+    with pytest.raises(RuntimeError, match=r"the plant's port is closed \(leave\(\) was called\)"):
+        kernel.run(capsule, 3)
+    assert kernel.row == 0
