@@ -1,6 +1,6 @@
 /* One member's control period in one call (issue 22 part 2): the executor's steps 2-4
  * (inkarm/control/executor.py, _member) for the common case, in the order of their Python
- * arithmetic, so that both give the same bits (tests/control/test_member_period.py):
+ * arithmetic, so that both give the same bits (tests/control/test_member_lane.py):
  *
  *     lag    = (t_first + row dt - t) / dt            (whole periods up to 1e-6: rounded)
  *     seen, blend                                     (the plan row the reading belongs to)
@@ -46,8 +46,7 @@ enum { V_QREF, V_NORMAL, V_STEP, V_PX, V_PY, V_PHASE, V_HOLD, V_LTIME, V_LQ, V_L
 
 typedef struct {
   PyObject_HEAD
-  Py_buffer v[NV];
-  int held;
+  Py_buffer v[NV];          /* (obj NULL: not held) */
   Py_ssize_t n, rows, capacity;
   PyObject *qd_ref, *qdd_ref;   /* (rows, n): their rows are the command's qd, qdd (views) */
   PositionLaw* law;
@@ -80,8 +79,8 @@ typedef struct {
 } MemberPeriod;
 
 static void member_clear(MemberPeriod* self) {
-  for (int k = 0; k < self->held; k++) PyBuffer_Release(self->v + k);
-  self->held = 0;
+  for (int k = 0; k < NV; k++)  /* (taken out of index order: each one that is held) */
+    if (self->v[k].obj != NULL) PyBuffer_Release(self->v + k);
   Py_CLEAR(self->qd_ref);
   Py_CLEAR(self->qdd_ref);
   Py_CLEAR(self->law);
@@ -109,8 +108,10 @@ static void member_dealloc(MemberPeriod* self) {
 static int take(MemberPeriod* self, int k, PyObject* obj, const char* fmt, int ndim,
                 Py_ssize_t rows, Py_ssize_t cols, int writable, const char* name) {
   int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_ND | (writable ? PyBUF_WRITABLE : 0);
-  if (PyObject_GetBuffer(obj, self->v + k, flags) < 0) return -1;
-  self->held++;
+  if (PyObject_GetBuffer(obj, self->v + k, flags) < 0) {
+    self->v[k].obj = NULL;
+    return -1;
+  }
   Py_buffer* b = self->v + k;
   /* ("q": 8-byte integers, which NumPy names "l" where a long has 8 bytes) */
   int same = b->format != NULL && (strcmp(b->format, fmt) == 0 ||
@@ -153,15 +154,15 @@ static int member_init(MemberPeriod* self, PyObject* args, PyObject* kwds) {
     return -1;
   /* plan: (q_ref, normal_q, lookahead_step or None, page_x, page_y, phases, hold_at, qd_ref,
    * qdd_ref); log: (time, q, qd, torque, tip, force, commanded, ref_row, ref_blend) */
-  PyObject *q_ref, *normal, *step, *px, *py, *phase, *hold, *ltime, *lq, *lqd, *ltorque, *ltip,
-      *lforce, *commanded, *ref_row, *blend;
+  PyObject *q_ref, *normal, *step, *px, *py, *phase, *hold, *qd_ref, *qdd_ref, *ltime, *lq, *lqd,
+      *ltorque, *ltip, *lforce, *commanded, *ref_row, *blend;
   if (!PyArg_ParseTuple(plan, "OOOOOOOOO", &q_ref, &normal, &step, &px, &py, &phase, &hold,
-                        &self->qd_ref, &self->qdd_ref) ||
+                        &qd_ref, &qdd_ref) ||
       !PyArg_ParseTuple(log, "OOOOOOOOO", &ltime, &lq, &lqd, &ltorque, &ltip, &lforce, &commanded,
                         &ref_row, &blend))
     return -1;
-  Py_INCREF(self->qd_ref);
-  Py_INCREF(self->qdd_ref);
+  self->qd_ref = Py_NewRef(qd_ref);  /* (references of our own from here: member_clear's) */
+  self->qdd_ref = Py_NewRef(qdd_ref);
   PositionLaw* pl = (PositionLaw*)law;
   Py_ssize_t n = pl->n, rows = pl->rows;
   if (n < 1) {
@@ -179,8 +180,10 @@ static int member_init(MemberPeriod* self, PyObject* args, PyObject* kwds) {
   if (self->lookahead) {
     if (take(self, V_STEP, step, "d", 2, rows - 1, n, 0, "lookahead_step") < 0) return -1;
   } else {
-    if (PyObject_GetBuffer(q_ref, self->v + V_STEP, PyBUF_SIMPLE) < 0) return -1;
-    self->held++;  /* (a placeholder, never read) */
+    if (PyObject_GetBuffer(q_ref, self->v + V_STEP, PyBUF_SIMPLE) < 0) {  /* (never read) */
+      self->v[V_STEP].obj = NULL;
+      return -1;
+    }
   }
   if (take(self, V_LTIME, ltime, "d", 1, -1, 0, 1, "log time") < 0) return -1;
   Py_ssize_t cap = self->v[V_LTIME].shape[0];
@@ -584,9 +587,9 @@ static PyObject* member_period(MemberPeriod* self, PyObject* state) {
   tip_o = PyObject_GetAttr(state, s_tip_mm);
   if (!time_o || !r.q_o || !r.qd_o || !r.torque_o || !tip_o) goto done;
   r.time = PyFloat_AsDouble(time_o);
-  if (r.time == -1.0 && PyErr_Occurred()) {
-    PyErr_Clear();
-    PyErr_SetString(NotForLane, "the reading's time is not a number");
+  if ((r.time == -1.0 && PyErr_Occurred()) || !isfinite(r.time)) {
+    PyErr_Clear();  /* (Python's steps raise on a time that is not finite, as round() does) */
+    PyErr_SetString(NotForLane, "the reading's time is not a finite number");
     goto done;
   }
   r.force = NAN;
@@ -657,10 +660,11 @@ done:
 }
 
 /* run(port, periods) -> periods run: up to ``periods`` whole periods through the plant's port
- * (inkarm/core/_plant.h; a PyCapsule): read, steps 2-4, command, the plant's step, advance;
- * stops early at the plan's end. A fault (a watchdog's, the search's, the plant's) or Ctrl-C
- * (checked before each period) raises with ``i``, ``row``, ``logged`` and ``fresh`` as the
- * executor's own would be at that point. */
+ * (inkarm/core/_plant.h; a PyCapsule): read, steps 2-4, command, the plant's step, and the
+ * advance of each but the last (advance() takes it, as after the executor's own yield); stops
+ * early at the plan's end. A fault (a watchdog's, the search's, the plant's) or Ctrl-C (checked
+ * before each period) raises with ``i``, ``row``, ``logged`` and ``fresh`` as the executor's own
+ * would be at that point. */
 static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 2) {
     PyErr_SetString(PyExc_TypeError, "run(port, periods)");
@@ -689,7 +693,14 @@ static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_
   double* goal = q + 3 * n + 3;
   double* feedforward = goal + n;
   long done = 0;
-  while (done < periods && self->i < self->rows) {
+  while (done < periods) {
+    if (done > 0) {  /* (the advance of the period before; the last one's is advance()'s) */
+      self->i = self->next_i;
+      self->waited = self->next_waited;
+      self->settled_for = self->next_settled;
+      self->logged = 0;
+    }
+    if (self->i >= self->rows) break;
     if (ready(self) < 0 || PyErr_CheckSignals() < 0) return NULL;
     if (plant->read(plant->self, &r.time, q, q + n, q + 2 * n, q + 3 * n, &r.force) < 0)
       return NULL;
@@ -700,10 +711,6 @@ static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_
     if (plant->command(plant->self, goal, qd_c, feedforward) < 0) return NULL;
     self->fresh = 0;
     if (plant->step(plant->self) < 0) return NULL;
-    self->i = self->next_i;
-    self->waited = self->next_waited;
-    self->settled_for = self->next_settled;
-    self->logged = 0;
     done++;
   }
   return PyLong_FromLong(done);

@@ -264,10 +264,12 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
                 in_chunk = True
                 ran = lane.run(chunk)
                 in_chunk = False
-                if ran:
+                if ran:  # (the last one's step taken: lockstep does not step the plant)
                     board.ticks, board.stepped = ran - 1, True
-                    i = rows[member] = lane.kernel.i
+                    i = lane.kernel.i
                     yield
+                    rows[member] = i
+                    i = lane_advance()
                     continue
             state, fresh, logged = read(), True, False
             if lane is not None:  # steps 2-4 in one call (the watchdogs' faults raised)
@@ -279,7 +281,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
                         "i", "row", "waited", "settled_for", "force_f", "t_first"))
                     commanded, ref_row, ref_blend = (taken[k] for k in (
                         "commanded", "ref_row", "ref_blend"))
-                    lane = None
+                    lane, chunk = None, 0
                 else:
                     logged = True
                     try:
@@ -377,11 +379,14 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
             waited, settled_for = 0, 0
             i += 1
     except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
-        if lane is not None:  # (the row it logged, if it did, before its fault)
-            row, logged = lane.kernel.row, lane.kernel.logged
+        if lane is not None:  # (where it is, what it logged, before its fault)
+            row, logged, i = lane.kernel.row, lane.kernel.logged, lane.kernel.i
             if in_chunk:  # (the plant's state handed back: its reading is the C period's)
-                i, fresh = lane.kernel.i, lane.kernel.fresh
-                state = plant.read() if fresh or state is None else state
+                fresh = lane.kernel.fresh
+                if fresh:
+                    state = plant.read()
+            if state is None:  # (every period so far ran in C: a plant drawn on again)
+                state = plant.read()
         board.stopping[member] = True
         if isinstance(err, KeyboardInterrupt):
             board.interrupted = True

@@ -57,13 +57,15 @@ class Lane:
         (:meth:`inkarm.core.plant.Plant`'s ``compiled_port``: a plant stepped alone); how many
         ran (0: none, the plant not ready for it). A fault, the plant's included, or Ctrl-C
         raises as in the executor's own period, the plant's state handed back first."""
-        capsule = self.port.enter() if self.port is not None else None
-        if capsule is None:
+        if self.port is None:
             return 0
+        capsule = None
         try:
-            return self.kernel.run(capsule, periods)
+            capsule = self.port.enter()
+            return 0 if capsule is None else self.kernel.run(capsule, periods)
         finally:
-            self.port.leave()
+            if capsule is not None:
+                self.port.leave()
 
     def hand_over(self, force_loop: ForceLoop) -> dict:
         """Put the C period's state into ``force_loop`` (and its plane); return the member's

@@ -182,6 +182,7 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
                 progress(last / n_ref, PHASES[phases[min(last, n_ref - 1)]])
         except KeyboardInterrupt as stop:  # outside a member: in a step or the progress
             interrupt = interrupt or stop
+            board.stepped = False  # (a safe stop's commands are stepped as any)
     if interrupt is not None:
         stop = KeyboardInterrupt()
         stop.logs = [getattr(r, "log", r if isinstance(r, DrawLog) else None) for r in results]

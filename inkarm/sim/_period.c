@@ -496,7 +496,9 @@ static int port_step(void* p) {
     self->pending = 0;
   }
   int suspect = 0;
-  if (physics(self, u, self->du_view.buf, &self->since, &suspect) < 0) return -1;
+  double since = self->since;  /* (kept only if the period completes, as the plant's own) */
+  if (physics(self, u, self->du_view.buf, &since, &suspect) < 0) return -1;
+  self->since = since;
   self->steps += self->substeps;
   if (self->nrows + self->substeps > self->cap_rows) {
     Py_ssize_t cap = 2 * (self->cap_rows + self->substeps);
@@ -635,13 +637,23 @@ static PyObject* period_leave(Period* self, PyObject* unused) {
   return result;
 }
 
-/* port() -> the PyCapsule of the port (valid between enter() and leave(), while this lives) */
+static void capsule_release(PyObject* capsule) { Py_XDECREF(PyCapsule_GetContext(capsule)); }
+
+/* port() -> the PyCapsule of the port (it keeps the period alive; its functions refuse after
+ * leave()) */
 static PyObject* period_port(Period* self, PyObject* unused) {
   if (!self->entered) {
     PyErr_SetString(PyExc_RuntimeError, "_period.port: enter() first");
     return NULL;
   }
-  return PyCapsule_New(&self->port, INKARM_PLANT_CAPSULE, NULL);
+  PyObject* capsule = PyCapsule_New(&self->port, INKARM_PLANT_CAPSULE, capsule_release);
+  if (capsule == NULL) return NULL;
+  if (PyCapsule_SetContext(capsule, Py_NewRef(self)) < 0) {
+    Py_DECREF(self);
+    Py_DECREF(capsule);
+    return NULL;
+  }
+  return capsule;
 }
 
 static PyMethodDef period_methods[] = {

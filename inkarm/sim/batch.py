@@ -161,6 +161,7 @@ class BatchPlant:
         dofs = np.arange(m0.nv)[self._dof_adr]
         self._arm_ctrl = _index([dof_of_actuator[int(d)] for d in dofs])
         self._limit = np.stack([m.actuator_ctrlrange[self._arm_ctrl, 1] for m in models])
+        self._floor = -self._limit
         if self.native:
             for m, limit in zip(models, self._limit):
                 affine_drives(m, self._arm_ctrl, drive_gains, limit)
@@ -259,7 +260,6 @@ class BatchPlant:
         for k in members.tolist():
             self._models[k].dof_frictionloss[self._friction_dofs] = levels[k]
 
-    # -- measurement ---------------------------------------------------------------------
     def _normal_draws(self, k: int) -> np.ndarray:
         """(N, k) standard normals, each member's next from its own stream (the same stream,
         in the same order, as its MujocoPlant's Senses)."""
@@ -345,7 +345,6 @@ class BatchPlant:
         return BatchState(self.time, blend(r["q"]), blend(r["qd"]), blend(r["torque"]),
                           blend(r["force"]), blend(r["tip"]), times)
 
-    # -- commands and steps --------------------------------------------------------------
     @property
     def dt(self) -> float:
         return self.substeps * self.h
@@ -378,7 +377,8 @@ class BatchPlant:
             return
         v = drive.velocity(q_meas, None if self.differences else self._qvel[:, self._dof_adr])
         tau = drive.torque(q_meas, v)
-        self.motor = np.minimum(np.maximum(tau, -self._limit), self._limit)
+        np.maximum(tau, self._floor, out=tau)
+        self.motor = np.minimum(tau, self._limit, out=tau)
 
     def step(self, ids: np.ndarray) -> dict[int, SimulationError]:
         """Advance members ``ids`` (sorted) one control period; keep their touches. Returns the
@@ -410,56 +410,54 @@ class BatchPlant:
             else:
                 self.pen_force[ids] = force[ids]
                 self._record_touches(ids, force)
+                self._tip_prev = self._tip_prev.copy()  # (the touches keep the one before)
                 self._tip_prev[ids] = self._tip_xpos[ids]
             self.steps += 1
             if not self.ideal:
-                q = self._position(self._qpos[:, self._qpos_adr].copy())
-                qd = self._qvel[:, self._dof_adr].copy()
-                if self.servo_units:
-                    qd = SERVO_VELOCITY_UNIT * np.round(qd / SERVO_VELOCITY_UNIT)
-                elif self.differences:
+                q = self._qpos[:, self._qpos_adr]
+                q = q.copy() if self.exact_q else self._position(q)  # (a new array either way)
+                if self.differences:
                     prev = self._sq_prev if self._sq_prev is not None else q
                     self._sq_prev = q
                     qd = (q - prev) / self.h
+                else:
+                    qd = self._qvel[:, self._dof_adr]
+                    qd = (SERVO_VELOCITY_UNIT * np.round(qd / SERVO_VELOCITY_UNIT)
+                          if self.servo_units else qd.copy())
                 self._record(q, qd)
         return self._diverged(ids)
 
     def _record_touches(self, ids: np.ndarray | None, force: np.ndarray) -> None:
-        """Keep this step's pen forces and tip positions (page [mm], of the state the step
-        left) of members ``ids`` (None: all); :meth:`feed` gives them to a canvas afterwards."""
-        page = self._tip_prev
-        A, o = self._to_page, self._page_offset
-        x, y, z = page[:, 0], page[:, 1], page[:, 2]
-        px = x * A[:, 0, 0] + y * A[:, 1, 0] + z * A[:, 2, 0] - o[:, 0]
-        py = x * A[:, 0, 1] + y * A[:, 1, 1] + z * A[:, 2, 1] - o[:, 1]
+        """Keep this step's pen forces and tips (N, 3) (of the state the step left: ``_tip_prev``
+        is replaced after each step, never written in place) of members ``ids`` (None: all)."""
         if ids is None:
-            self._touches.append((self.time - self.h, self._everyone, force, px, py))
+            self._touches.append((self.time - self.h, self._everyone, force, self._tip_prev))
             return
         stepped = np.zeros(self.n_members, dtype=bool)
         stepped[ids] = True
         self._touches.append((self.time - self.h, stepped, np.where(stepped, force, 0.0),
-                              px, py))
+                              self._tip_prev))
 
     def feed(self, member: int, canvas) -> None:
         """Give ``canvas`` every touch of member ``member`` so far, in order, as MujocoPlant
         gives its canvas during the run (``touch`` while the force is positive, ``lift`` when
-        the contact ends, and at the end). The canvas is passive, so feeding it afterwards
-        draws the same ink, and an ensemble holds one page at a time, not N."""
+        the contact ends, and at the end), in one ``touch_many`` call. The canvas is passive, so
+        feeding it afterwards draws the same ink; an ensemble holds one page at a time."""
         if not self._touches:
             return
         if self._stacked is None or len(self._stacked[0]) != len(self._touches):
-            self._stacked = tuple(np.array(c) for c in zip(*self._touches))
+            t, stepped, force, tips = (np.array(c) for c in zip(*self._touches))
+            # every step's tips on the page [mm] at once, each member's p A - o (element-wise)
+            A, o, (x, y, z) = self._to_page, self._page_offset, np.moveaxis(tips, 2, 0)
+            self._stacked = (t, stepped, force,
+                             x * A[:, 0, 0] + y * A[:, 1, 0] + z * A[:, 2, 0] - o[:, 0],
+                             x * A[:, 0, 1] + y * A[:, 1, 1] + z * A[:, 2, 1] - o[:, 1])
         t, stepped, force, px, py = self._stacked
         f, on = force[:, member], stepped[:, member]
         contact = on & (f > 0.0)
         ends = np.flatnonzero(on[1:] & contact[:-1] & ~contact[1:]) + 1
-        rows = np.union1d(np.flatnonzero(contact), ends)
-        for r in rows.tolist():
-            if contact[r]:
-                canvas.touch((float(px[r, member]), float(py[r, member])), float(f[r]),
-                             float(t[r]))
-            else:
-                canvas.lift()
+        rows = np.union1d(np.flatnonzero(contact), ends)  # (touch_many lifts at the ends)
+        canvas.touch_many(np.column_stack((f, px[:, member], py[:, member], t))[rows].tolist())
         canvas.lift()
 
     def _warning_counts(self) -> np.ndarray:
@@ -469,8 +467,8 @@ class BatchPlant:
         qvel = self._qvel[ids]
         warnings = self._warning_counts()
         new = (warnings[ids] > self._warnings[ids]).any(axis=1)
-        speed = np.abs(np.nan_to_num(qvel, nan=np.inf)).max(axis=1)
-        bad = new | (speed > self.max_joint_speed)
+        # a joint faster than max_joint_speed, or not a number (NaN compares false)
+        bad = new | ~(np.abs(qvel) <= self.max_joint_speed).all(axis=1)
         out: dict[int, SimulationError] = {}
         for k in np.flatnonzero(bad):
             m = int(ids[k])

@@ -2,9 +2,9 @@
 :class:`inkarm.control.members.Members`: each member a plant of its own to read and command,
 all of them stepped as one batch.
 
-A member's reading is its row of the batch's reading (taken once per period, for all members);
-its position command waits in the member until :meth:`BatchMembers.step` hands every pending
-command to the batch in one call and steps the batch.
+A member's reading is its row of the batch's reading (taken once per period, for all members,
+and split into rows once); its position command waits until :meth:`BatchMembers.step` hands
+every pending command to the batch in one call (as (N, n) arrays) and steps the batch.
 """
 
 from __future__ import annotations
@@ -29,16 +29,14 @@ class BatchMember:
         self.dt = members.dt
 
     def read(self) -> PlantState:
-        s = self._members.reading()
+        time, q, qd, force, tip, torque = self._members.rows()
         m = self.index
-        time = s.time if s.times is None else float(s.times[m])  # (read-out jitter: its own)
-        return PlantState(time, s.q[m], s.qd[m], float(s.force[m]), s.tip_mm[m],
-                          torque=s.torque[m])
+        return PlantState(time[m], q[m], qd[m], force[m], tip[m], torque=torque[m])
 
     def command(self, command) -> None:
         if type(command) is not PositionCommand:
             raise InputError(unsupported(self, command), key="controller.law")
-        self._members.pending[self.index] = command
+        self._members.orders[self.index] = command
 
     def step(self) -> None:
         raise InputError("a batch member steps with its batch (BatchMembers.step)")
@@ -55,30 +53,35 @@ class BatchMembers:
     def __init__(self, plant: BatchPlant):
         self.plant = plant
         self.dt = plant.dt
-        self.pending: dict[int, PositionCommand] = {}
-        self._reading = None
+        self.orders: list[PositionCommand | None] = [None] * plant.n_members  # pending
+        self._zero = np.zeros(plant.n)
+        self._rows: tuple | None = None
         self.plants = tuple(BatchMember(self, m) for m in range(plant.n_members))
 
     def now(self) -> float:
         return self.plant.now()
 
-    def reading(self):
-        if self._reading is None:
-            self._reading = self.plant.read()
-        return self._reading
+    def rows(self) -> tuple:
+        """The batch's reading as per-member rows: (times [s], q, qd, force [N], tip [mm],
+        torque), each a list over the members (rows of the arrays, forces as floats)."""
+        if self._rows is None:
+            s = self.plant.read()
+            n = self.plant.n_members
+            times = [s.time] * n if s.times is None else s.times.tolist()  # (jitter: its own)
+            self._rows = (times, list(s.q), list(s.qd), s.force.tolist(), list(s.tip_mm),
+                          list(s.torque))
+        return self._rows
 
     def step(self, members: list[int]) -> dict[int, RunFault]:
-        ids = np.asarray(sorted(self.pending), dtype=np.intp)
-        if len(ids):
-            orders = [self.pending[m] for m in ids.tolist()]
-            n = len(orders[0].q)
-            zero = np.zeros(n)
+        ids = [m for m, order in enumerate(self.orders) if order is not None]
+        if ids:
+            given, zero = [self.orders[m] for m in ids], self._zero
             self.plant.command(
-                ids, np.stack([o.q for o in orders]),
-                np.stack([o.qd if o.qd is not None else zero for o in orders]),
-                np.stack([o.torque if o.torque is not None else zero for o in orders]))
-            self.pending.clear()
-        self._reading = None
+                np.array(ids, dtype=np.intp), np.array([o.q for o in given], dtype=float),
+                np.array([zero if o.qd is None else o.qd for o in given], dtype=float),
+                np.array([zero if o.torque is None else o.torque for o in given], dtype=float))
+            self.orders = [None] * len(self.orders)
+        self._rows = None
         return self.plant.step(np.asarray(members))
 
 

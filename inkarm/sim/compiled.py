@@ -168,19 +168,19 @@ class Port:
         return period.port()
 
     def leave(self) -> None:
-        """Take the state back: the drives' set point, the pen's force, the steps taken, and the
-        canvas's ink of those steps (the Python period's calls, in one)."""
+        """Take the state back: the drives' set point, the pen's force, the steps taken, and then
+        the canvas's ink of those steps (the Python period's calls, in one)."""
         plant = self.plant
         q, qd, tau_ff, since, steps, rows = plant._period.leave()
-        drive = plant.drive
-        if q is not None:
-            drive.q_goal = plant._position_goal = np.array(q)
-            drive.qd_goal = None if qd is None else np.array(qd)
-            drive.tau_ff = np.array(tau_ff)
-        drive.since = since
+        if not steps:  # (no period stepped: the plant's state is as it was handed over)
+            return
+        drive = plant.drive  # (a period stepped is a set point applied: all three are set)
+        drive.q_goal = plant._position_goal = np.array(q)
+        drive.qd_goal, drive.tau_ff, drive.since = np.array(qd), np.array(tau_ff), since
         plant._steps += steps
-        if rows:
-            plant._touching, plant._pen_force = feed(plant.canvas, plant._touching, rows)
+        touching, plant._pen_force = plant._touching, rows[-1][0]
+        plant._touching = plant._pen_force > 0.0
+        feed(plant.canvas, touching, rows)
 
 
 __all__ = ["SWITCH", "Port", "feed", "period_for", "period_module", "set_point"]

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import os
 import re
+import sys
 
 import numpy as np
 import pytest
 
 from inkarm.control import compiled, executor, member_lane
 from inkarm.control.surface import SurfaceEstimate
+from inkarm.core.log import LIFT
 from inkarm.jobs.outcome import RunInterrupted
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario, parse_scenario
@@ -171,30 +173,35 @@ def test_progress_is_reported_as_often_with_whole_periods_in_c(built, monkeypatc
     assert reports["whole"] == sorted(reports["whole"]) and reports["whole"][-1] == 1.0
 
 
-def test_a_reading_the_c_period_cannot_take_hands_the_member_to_python(built, monkeypatch):
+@pytest.mark.parametrize("after", [1, 300])
+def test_a_reading_the_c_period_cannot_take_hands_the_member_to_python(built, monkeypatch,
+                                                                        after):
     read, handed = MujocoPlant.read, []
     reads = [0]
 
-    def float32_after_300(plant):  # (a driver that changes its arrays' kind mid-run)
+    def float32_later(plant):  # (a driver that changes its arrays' kind mid-run)
         state = read(plant)
         reads[0] += 1
-        if reads[0] > 300:
+        if reads[0] > after:
             state.q = state.q.astype(np.float32)
         return state
 
     over = member_lane.Lane.hand_over
     monkeypatch.setattr(member_lane.Lane, "hand_over",
                         lambda lane, loop: handed.append(1) or over(lane, loop))
-    monkeypatch.setattr(MujocoPlant, "read", float32_after_300)
-    monkeypatch.setattr(MujocoPlant, "compiled_port", lambda plant: None)
+    monkeypatch.setattr(MujocoPlant, "read", float32_later)
     runs = {}
-    for lane_on in (False, True):
+    # (after 300 readings the whole periods in C read the plant through its port, not read())
+    ways = ("python steps", "period", "whole") if after == 1 else ("python steps", "period")
+    for way in ways:
         reads[0] = 0
         with monkeypatch.context() as m:
-            if not lane_on:
+            if way == "python steps":
                 m.setattr(executor, "lane_for", lambda **kwargs: None)
-            runs[lane_on] = (run(load_scenario()), 0)
-    assert handed == [1]
+            if way == "period":  # (a float32 reading after 300 periods in C: the port withheld)
+                m.setattr(MujocoPlant, "compiled_port", lambda plant: None)
+            runs[way] = (run(load_scenario()), 0)
+    assert handed == [1] * (len(ways) - 1) and runs["period"][0].status == "ok"
     _assert_same(runs)
 
 
@@ -302,3 +309,75 @@ def test_a_port_used_after_leave_refuses_instead_of_writing_freed_buffers(built)
     with pytest.raises(RuntimeError, match=r"the plant's port is closed \(leave\(\) was called\)"):
         kernel.run(capsule, 3)
     assert kernel.row == 0
+
+
+def test_a_plant_drawn_on_again_lifts_its_pen_on_ctrl_c_as_in_python(built, monkeypatch,
+                                                                      tmp_path):
+    from inkarm.jobs.backends import BackendOptions, get_backend
+
+    logs = {}
+    for way in ("python", "whole"):  # (the second drawing's periods all in C from its first)
+        monkeypatch.setenv(compiled.SWITCH, "0" if way == "python" else "1")
+        session = get_backend("sim").open(_line(tmp_path), BackendOptions())
+        session.execute(None)
+
+        def stop(fraction, phase):
+            raise KeyboardInterrupt
+
+        with pytest.raises(KeyboardInterrupt) as info:
+            session.execute(stop)
+        logs[way] = info.value.log
+    assert (logs["whole"].phase == LIFT).sum() > 0  # (lifted, not only braked)
+    for key in LOGGED:
+        assert getattr(logs["python"], key).tobytes() == getattr(logs["whole"], key).tobytes()
+
+
+def test_a_refused_construction_leaks_and_frees_nothing(built):
+    module = compiled.member_module()
+    law = compiled.position_law()(*(np.zeros((4, 2)),) * 5, np.zeros(2), np.ones(2), 0.0)
+    qd, hold = np.zeros((4, 2)), np.zeros(5, dtype=bool)  # (hold_at: one row too many)
+    plan = (np.zeros((4, 2)), np.zeros((4, 2)), None, np.zeros(4), np.zeros(4),
+            np.zeros(4, dtype=np.int64), hold, qd, np.zeros((4, 2)))
+    log = (np.zeros(9),) * 8
+    before = sys.getrefcount(qd), sys.getrefcount(hold)
+    for _ in range(3):
+        with pytest.raises(TypeError):  # (a log of 8 columns, not 9)
+            module.MemberPeriod(plan, log, law, (), print, None, 1.0, 1.0, 0, True, 5, 10,
+                                (0, 1, 2, 5), 0.002, False, 0.0, ())
+        with pytest.raises(ValueError, match="hold_at must be of format"):
+            module.MemberPeriod(plan, log + (np.zeros(9),), law, (), print, None, 1.0, 1.0, 0,
+                                True, 5, 10, (0, 1, 2, 5), 0.002, False, 0.0, ())
+    assert (sys.getrefcount(qd), sys.getrefcount(hold)) == before
+
+
+def test_handing_over_without_a_period_stepped_leaves_the_drives_as_they_were(built):
+    from inkarm.core.plant import PositionCommand
+    from inkarm.sim.cell import build_model
+
+    plant = MujocoPlant(build_model())
+    plant.command(PositionCommand(plant.read().q, np.zeros(7), None, np.full(7, 0.25)))
+    plant.step()
+    drive = plant.drive
+    before = (drive.q_goal, drive.qd_goal, drive.tau_ff, drive.since, plant._steps)
+    port = plant.compiled_port()
+    port.enter()
+    port.leave()
+    assert (drive.q_goal, drive.qd_goal, drive.tau_ff, drive.since, plant._steps) == before
+
+
+def test_a_reading_at_a_time_that_is_not_finite_goes_to_python(built):
+    module = compiled.member_module()
+    law = compiled.position_law()(*(np.zeros((4, 2)),) * 5, np.zeros(2), np.ones(2), 0.0)
+    plan = (np.zeros((4, 2)), np.zeros((4, 2)), None, np.zeros(4), np.zeros(4),
+            np.zeros(4, dtype=np.int64), np.zeros(4, dtype=bool), np.zeros((4, 2)),
+            np.zeros((4, 2)))
+    log = (np.zeros(9), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 3)),
+           np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
+    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3,
+            10, lambda t: None, SurfaceEstimate.plane)
+    kernel = module.MemberPeriod(plan, log, law, loop, print, None, 1.0, 1.0, 0, True, 5, 10,
+                                 (0, 1, 2, 5), 0.002, False, 0.0, (np.hypot, np.empty, tuple))
+    state = type("S", (), {"time": float("nan"), "q": np.zeros(2), "qd": np.zeros(2),
+                           "torque": None, "force": 0.0, "tip_mm": np.zeros(3)})()
+    with pytest.raises(module.NotForLane, match="time is not a finite number"):
+        kernel.period(state)
