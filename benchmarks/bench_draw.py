@@ -10,8 +10,9 @@ two tables:
    factor is simulated time over the wall time of the whole run, planning included (the
    ``realtime_factor`` of ``metrics.json``): in fresh processes, the first run as ``inkarm
    draw`` prints it, and repeated in one process. Its reference, measured in the same run, is
-   MuJoCo alone: the plant model stepped as many times with the run's logged torques replayed
-   open loop, so the ratio is the share of the bare simulator's speed the controller keeps.
+   MuJoCo alone on the run's own physics (its controls at every physics step replayed from its
+   start state, the pen pressed as in the run: :mod:`pressed`), so the ratio is the share of
+   the bare simulator's speed the whole run keeps.
    The verdict is on the fastest repeat (on a shared machine other processes only add time),
    with the medians beside it. The quality bounds of the same runs (tracking, ink chamfer,
    force spread) are checked too.
@@ -44,6 +45,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 from blocks import interleave
+from pressed import recorded_physics, replay_s
 
 from inkarm.control.config import LoopConfig
 from inkarm.control.ik import IKConfig, PathTracker, solve_ik
@@ -136,9 +138,9 @@ def fresh_process_rtfs(count: int, cpu: int | None) -> list[float]:
 
 def drawing_rows(job: Job, blocks: int, cpu: int | None) -> tuple[list[tuple[str, ...]], str]:
     """The real-time factor rows (and the load sentence): in alternating blocks of the whole run,
-    and of MuJoCo alone on the torques of the first run; ratios of block medians."""
+    and of MuJoCo alone on the run's own physics; ratios of block medians."""
     fresh = fresh_process_rtfs(3, cpu)
-    metrics, torques = draw_once(job)
+    metrics, _ = draw_once(job)
     sim = metrics["sim_s"]
     runs: list[dict] = []
 
@@ -146,7 +148,9 @@ def drawing_rows(job: Job, blocks: int, cpu: int | None) -> tuple[list[tuple[str
         runs.append(draw_once(job)[0])
         return runs[-1]["wall_s"]
 
-    timing = interleave({"run": whole_run, "mujoco": lambda: bare_mujoco_s(job.cell, torques)},
+    physics = recorded_physics(job.scenario)
+    timing = interleave({"run": whole_run,
+                         "mujoco": lambda: replay_s(physics, clock=time.perf_counter)},
                         blocks=blocks, repeats=3, clock=None)
     bare = sim / timing.median("mujoco")
     rtf_run = sim / timing.median("run")
@@ -301,8 +305,9 @@ def section(quick: bool, cpu: int | None) -> str:
         "",
         (
             f"Default scenario (60 mm letter N, marker, A4 at {job.px_per_mm:g} px/mm), "
-            f"{where}. MuJoCo alone replays the run's torques open loop for the same physics "
-            "steps (the pen pressed where the run pressed it); the ratio is the share of its "
+            f"{where}. MuJoCo alone replays the run's own physics (its controls at every "
+            "physics step from its start state: the pen pressed as in the run, the same final "
+            "state bit for bit; `pressed.py`); the ratio is the share of its "
             "speed inkarm keeps (the executor's own share: bench_period.py). The two cases run in "
             "alternating blocks (3 calls a block); real-time factors are simulated time over the "
             "median of the blocks' medians."

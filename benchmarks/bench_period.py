@@ -26,8 +26,9 @@ split by timers put around its parts in this process only:
   watchdogs, log row: compiled, one C call).
 
 The timers cost about a microsecond a call, so the parts are read as shares; the uninstrumented
-executors (compiled and Python periods) and MuJoCo alone (the run's torques replayed open loop,
-``mj_step`` three steps a period) run in alternating blocks beside them for the totals, timed on
+executors (compiled and Python periods) and MuJoCo alone (the run's own physics replayed: its
+controls at every physics step from its start state, the pen pressed as in the run, ``mj_step``;
+:mod:`pressed`) run in alternating blocks beside them for the totals, timed on
 this thread's CPU clock (``time.thread_time``: on a loaded machine wall time also counts the
 other processes' turns). Then two
 ways MuJoCo can take a period in one call, from the same state: ``mj_step(m, d, 3)`` and a
@@ -48,6 +49,7 @@ import numpy as np
 from bench_draw import bare_mujoco_s
 from blocks import interleave
 from mujoco import rollout
+from pressed import recorded_physics, replay_s
 
 import inkarm.sim.plant as sim_plant
 from inkarm.control import executor
@@ -237,6 +239,7 @@ def section(quick: bool) -> str:
     cell = Cell(scenario.cell, scenario.robot)
     first = run(scenario)
     torques, periods = first.log.torque, len(first.log.time)
+    physics = recorded_physics(scenario)
     kinds = ("compiled", "python")
     shares: dict[str, list[dict[str, float]]] = {kind: [] for kind in kinds}
 
@@ -253,9 +256,11 @@ def section(quick: bool) -> str:
 
     cases = {f"executor {kind}": lambda kind=kind: executor_s(kind) for kind in kinds}
     cases |= {f"split {kind}": lambda kind=kind: split_run(kind) for kind in kinds}
-    cases["mujoco"] = lambda: mujoco_cpu_s(cell, torques)
+    cases["mujoco"] = lambda: replay_s(physics)
+    cases["open loop"] = lambda: mujoco_cpu_s(cell, torques)
     timing = interleave(cases, blocks=3 if quick else 9, repeats=3, clock=None)
     mujoco_us = 1e6 * timing.median("mujoco") / periods
+    open_loop_us = 1e6 * timing.median("open loop") / periods
     total_us = {kind: 1e6 * timing.median(f"executor {kind}") / periods for kind in kinds}
     parts = {kind: _parts(shares[kind]) for kind in kinds}
 
@@ -289,7 +294,9 @@ def section(quick: bool) -> str:
          "between two of the executor's own) and in Python (`INKARM_COMPILED=0`), "
          "bit-identical logs and canvas; shares from timers around the executor's parts "
          "(instrumented runs), totals from uninstrumented runs in alternating blocks with MuJoCo "
-         "alone (the run's torques replayed open loop), on this thread's CPU clock. "
+         "alone (the run's own physics replayed: its controls at every physics step, the pen "
+         f"pressed in {physics.in_contact} of its {physics.steps} steps as in the run, the "
+         "same final state bit for bit), on this thread's CPU clock. "
          f"{timing.load_line()}{note}"),
         "",
         "| part | compiled: share | per period [us] | Python: share | per period [us] |",
@@ -300,7 +307,7 @@ def section(quick: bool) -> str:
     lines += [
         (f"| **executor, uninstrumented** | 100% | {total_us['compiled']:.1f} | 100% | "
          f"{total_us['python']:.1f} |"),
-        f"| MuJoCo alone, the same steps | | {mujoco_us:.1f} | | {mujoco_us:.1f} |",
+        f"| MuJoCo alone, the run's physics | | {mujoco_us:.1f} | | {mujoco_us:.1f} |",
         "",
         (f"Executor / MuJoCo alone: {ratio['compiled']:.2f} compiled, "
          f"{ratio['python']:.2f} in Python (the issue's target: <= 2, a real-time "
@@ -309,6 +316,12 @@ def section(quick: bool) -> str:
          f"MuJoCo taking a period in one call from Python: `mj_step(m, d, 3)` "
          f"{calls['mj_step']:.1f} us, a persistent `mujoco.rollout` of 3 steps "
          f"{calls['rollout']:.1f} us ({calls['rollout'] - calls['mj_step']:+.1f} us a call)."),
+        "",
+        (f"The reference of sessions 29-31, the run's logged torques held over each period's "
+         f"steps open loop, takes {open_loop_us:.1f} us a period: it drifts off the letter and "
+         f"its pen never touches the paper (the run's: {physics.in_contact} steps in contact), "
+         f"so it left the contacts out; against it the compiled executor reads "
+         f"{total_us['compiled'] / open_loop_us:.2f}."),
     ]
     return "\n".join(lines) + "\n"
 

@@ -6,9 +6,9 @@ about 10 mm apart along each stroke) and
 :func:`inkarm.control.reference.plan_within_speed_limits` (the pen's phases on the control grid,
 the IK path on knots every ``ik_period_s``, a clamped spline through them, the slowly varying
 feed-forward terms). The default scenario is drawn once to record the two calls' arguments and
-the run's torques; then the two calls are timed on this thread's CPU clock
-(``time.thread_time``) in alternating blocks with MuJoCo alone on the same run (its torques
-replayed open loop, 3 physics steps a control period: ``bench_period.mujoco_cpu_s``), and split
+once more to record its physics; then the two calls are timed on this thread's CPU clock
+(``time.thread_time``) in alternating blocks with MuJoCo alone on the same run (its own physics
+replayed, the pen pressed as in the run: :mod:`pressed`), and split
 into parts by timers around them in one more pass (about a microsecond a timer, a few calls).
 
 With ``--all``, every shipped scenario (``load_scenario()`` and ``scenarios/*.toml``) is planned
@@ -27,13 +27,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_period import mujoco_cpu_s
 from blocks import interleave
+from pressed import recorded_physics, replay_s
 
 from inkarm.control import executor, reference
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
-from inkarm.sim.cell import Cell
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 FIELDS = ("q", "qd", "qdd", "normal_q", "page_mm", "phase", "stroke", "contact_tau", "inertia",
@@ -127,13 +126,12 @@ def parts_s(plan, passes: int = 5) -> dict[str, float]:
 
 def default_section(quick: bool) -> list[str]:
     scenario = load_scenario()
-    calls, first = planning_calls(scenario, stop=False)
+    calls, _ = planning_calls(scenario, stop=False)
     plan = planner(calls)
     ref = plan()
     periods = len(ref)
-    torques = first.log.torque
-    cell = Cell(scenario.cell, scenario.robot)
-    timing = interleave({"planning": plan, "mujoco": lambda: mujoco_cpu_s(cell, torques)},
+    physics = recorded_physics(scenario)
+    timing = interleave({"planning": plan, "mujoco": lambda: replay_s(physics)},
                         blocks=3 if quick else 9, repeats={"planning": 5, "mujoco": 1},
                         clock=time.thread_time)
     total, mujoco = timing.median("planning"), timing.median("mujoco")
@@ -143,8 +141,8 @@ def default_section(quick: bool) -> list[str]:
         "",
         (f"The default scenario ({periods} control periods), planned again from the executor's "
          "recorded calls (`check_reachable`, `plan_within_speed_limits`), on this thread's CPU "
-         "clock in alternating blocks with MuJoCo alone on the same run (its torques replayed "
-         "open loop, 3 physics steps a period); the parts from timers in 5 more passes. "
+         "clock in alternating blocks with MuJoCo alone on the same run (its own physics "
+         "replayed, the pen pressed: `pressed.py`); the parts from timers in 5 more passes. "
          f"{timing.load_line()}"),
         "",
         "| part | share | per run [ms] | per control period [us] |",
