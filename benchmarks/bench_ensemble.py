@@ -138,6 +138,11 @@ def trajectory_floor(path: str, seeds: list[int]) -> float:
         mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         control = np.array([c[k] for ids, c in applied if ids is None or k in ids])
         cases.append((model, data, state, control))
+    return rollout_cpu_s(cases)
+
+
+def rollout_cpu_s(cases: list) -> float:
+    """CPU [s] of ``mujoco.rollout`` of each (model, data, state, controls) of ``cases``."""
     runner = rollout.Rollout(nthread=0)
     cpu = time.process_time()
     for model, data, state, control in cases:
@@ -162,11 +167,7 @@ def rollout_floor(path: str, seeds: list[int]) -> float:
         control = np.zeros((len(torques) * plant.substeps, model.nu))
         control[:, plant._arm_ctrl] = np.repeat(np.nan_to_num(torques), plant.substeps, axis=0)
         cases.append((model, data, state, control))
-    runner = rollout.Rollout(nthread=0)
-    cpu = time.process_time()
-    for model, data, state, control in cases:
-        runner.rollout(model, data, state[None], control[None], skip_checks=False)
-    return time.process_time() - cpu
+    return rollout_cpu_s(cases)
 
 
 def main() -> int:

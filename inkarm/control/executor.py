@@ -26,9 +26,9 @@ Where steps 2-4 are the built-in ones (the ``position`` law, the force loop with
 field or calibrated map, no probing), they run in one C call per period
 (:mod:`inkarm.control.member_lane`); where, besides, the plant is stepped alone and offers its
 period in C (``compiled_port``: the simulated arm on its default path), whole periods run in C,
-the plant's included, between two of this loop's, about ten a simulated second. Every path
-gives the same bits (tests/control/test_member_lane.py); ``INKARM_COMPILED=0`` takes the Python
-steps throughout.
+the plant's step included, a tenth of a simulated second at a time (one yield each: the
+progress, Ctrl-C). Every path gives the same bits (tests/control/test_member_lane.py);
+``INKARM_COMPILED=0`` takes the Python steps throughout.
 
 Units: page [mm] and [s] at this module's surface; the page-to-robot transform
 (:class:`inkarm.core.frames.PagePlacement`) converts once to SI for the kinematics.

@@ -88,6 +88,30 @@ def _line(tmp_path, **overrides):
     return parse_scenario(LINE, "job.toml", tmp_path).with_overrides(overrides)
 
 
+def _kernel(n: int = 2, plan_q=None, hold=None, log=None, loop=None, qd=None):
+    """A MemberPeriod of 4 plan rows for ``n`` joints, zeros throughout (its errors' and
+    hand-overs' tests), with any of its parts replaced."""
+    module = compiled.member_module()
+    law = compiled.position_law()(*(np.zeros((4, n)),) * 5, np.zeros(n), np.ones(n), 0.0)
+    plan = (np.zeros((4, n)) if plan_q is None else plan_q, np.zeros((4, n)), None, np.zeros(4),
+            np.zeros(4), np.zeros(4, dtype=np.int64),
+            np.zeros(4, dtype=bool) if hold is None else hold,
+            np.zeros((4, n)) if qd is None else qd, np.zeros((4, n)))
+    log = log if log is not None else (
+        np.zeros(9), np.zeros((9, n)), np.zeros((9, n)), np.zeros((9, n)), np.zeros((9, 3)),
+        np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
+    loop = loop if loop is not None else (
+        0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3, 10,
+        lambda t: None, SurfaceEstimate.plane)
+    return module.MemberPeriod(plan, log, law, loop, print, None, 1.0, 1.0, 0, True, 5, 10,
+                               (0, 1, 2, 5), 0.002, False, 0.0, (np.hypot, np.empty, tuple))
+
+
+def _state(time: float, q, qd) -> object:
+    return type("S", (), {"time": time, "q": q, "qd": qd, "torque": None, "force": 0.0,
+                          "tip_mm": np.zeros(3)})()
+
+
 def test_the_default_drawing_is_the_same_every_way(built, monkeypatch):
     runs = _runs(load_scenario(), monkeypatch)
     _assert_same(runs)
@@ -207,27 +231,18 @@ def test_a_reading_the_c_period_cannot_take_hands_the_member_to_python(built, mo
 
 def test_the_c_period_refuses_what_is_not_its_plan(built):
     module = compiled.member_module()
-    law = compiled.position_law()(*(np.zeros((4, 2)),) * 5, np.zeros(2), np.ones(2), 0.0)
-    plan = (np.zeros((4, 3)), np.zeros((4, 2)), None, np.zeros(4), np.zeros(4),
-            np.zeros(4, dtype=np.int64), np.zeros(4, dtype=bool), np.zeros((4, 2)),
-            np.zeros((4, 2)))
-    log = (np.zeros(9), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 3)),
-           np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
-    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3,
-            10, lambda t: None, SurfaceEstimate.plane)
-    rest = (None, 1.0, 1.0, 0, True, 5, 10, (0, 1, 2, 5), 0.002, False, 0.0,
-            (np.hypot, np.empty, tuple))
     with pytest.raises(ValueError, match=r"q_ref must be of format d, 2-d, 4 rows \(x 2\)"):
-        module.MemberPeriod(plan, log, law, loop, print, *rest)
-    good = (np.zeros((4, 2)),) + plan[1:]
+        _kernel(plan_q=np.zeros((4, 3)))
+    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 1e-3, 1e-3,
+            10, lambda t: None, SurfaceEstimate.plane)  # (another dead band)
     with pytest.raises(ValueError, match=r"dead band, lag or refit interval"):
-        module.MemberPeriod(good, log, law, loop[:13] + (1e-3,) + loop[14:], print, *rest)
-    kernel = module.MemberPeriod(good, log, law, loop, print, *rest)
+        _kernel(loop=loop)
+    kernel = _kernel()
     with pytest.raises(module.NotForLane, match=r"the reading's q is not 2 float64"):
-        kernel.period(type("S", (), {"time": 0.0, "q": np.zeros(3), "qd": np.zeros(2),
-                                     "torque": None, "force": 0.0, "tip_mm": np.zeros(3)})())
+        kernel.period(_state(0.0, np.zeros(3), np.zeros(2)))
     assert kernel.row == 0 and kernel.i == 0  # (nothing changed)
-    with pytest.raises(TypeError, match=r"port must be a plant.s port \(a PyCapsule named inkarm.plant\)"):
+    with pytest.raises(TypeError, match=r"port must be a plant.s port \(a PyCapsule named "
+                                        r"inkarm.plant\)"):
         kernel.run(object(), 1)
 
 
@@ -295,17 +310,7 @@ def test_a_port_used_after_leave_refuses_instead_of_writing_freed_buffers(built)
     port = plant.compiled_port()
     capsule = port.enter()
     port.leave()
-    module = compiled.member_module()
-    law = compiled.position_law()(*(np.zeros((4, 7)),) * 5, np.zeros(7), np.ones(7), 0.0)
-    plan = (np.zeros((4, 7)), np.zeros((4, 7)), None, np.zeros(4), np.zeros(4),
-            np.zeros(4, dtype=np.int64), np.zeros(4, dtype=bool), np.zeros((4, 7)),
-            np.zeros((4, 7)))
-    log = (np.zeros(9), np.zeros((9, 7)), np.zeros((9, 7)), np.zeros((9, 7)), np.zeros((9, 3)),
-           np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
-    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3,
-            10, lambda t: None, SurfaceEstimate.plane)
-    kernel = module.MemberPeriod(plan, log, law, loop, print, None, 1.0, 1.0, 0, True, 5, 10,
-                                 (0, 1, 2, 5), 0.002, False, 0.0, (np.hypot, np.empty, tuple))
+    kernel = _kernel(7)
     with pytest.raises(RuntimeError, match=r"the plant's port is closed \(leave\(\) was called\)"):
         kernel.run(capsule, 3)
     assert kernel.row == 0
@@ -333,21 +338,15 @@ def test_a_plant_drawn_on_again_lifts_its_pen_on_ctrl_c_as_in_python(built, monk
 
 
 def test_a_refused_construction_leaks_and_frees_nothing(built):
-    module = compiled.member_module()
-    law = compiled.position_law()(*(np.zeros((4, 2)),) * 5, np.zeros(2), np.ones(2), 0.0)
-    qd, hold = np.zeros((4, 2)), np.zeros(5, dtype=bool)  # (hold_at: one row too many)
-    plan = (np.zeros((4, 2)), np.zeros((4, 2)), None, np.zeros(4), np.zeros(4),
-            np.zeros(4, dtype=np.int64), hold, qd, np.zeros((4, 2)))
-    log = (np.zeros(9),) * 8
-    before = sys.getrefcount(qd), sys.getrefcount(hold)
+    qd_free = np.zeros((4, 2))  # (the planned qd: the constructor keeps a reference to it)
+    hold = np.zeros(5, dtype=bool)  # (hold_at: one row too many)
+    before = sys.getrefcount(qd_free), sys.getrefcount(hold)
     for _ in range(3):
         with pytest.raises(TypeError):  # (a log of 8 columns, not 9)
-            module.MemberPeriod(plan, log, law, (), print, None, 1.0, 1.0, 0, True, 5, 10,
-                                (0, 1, 2, 5), 0.002, False, 0.0, ())
+            _kernel(log=(np.zeros(9),) * 8, qd=qd_free)
         with pytest.raises(ValueError, match="hold_at must be of format"):
-            module.MemberPeriod(plan, log + (np.zeros(9),), law, (), print, None, 1.0, 1.0, 0,
-                                True, 5, 10, (0, 1, 2, 5), 0.002, False, 0.0, ())
-    assert (sys.getrefcount(qd), sys.getrefcount(hold)) == before
+            _kernel(hold=hold)
+    assert (sys.getrefcount(qd_free), sys.getrefcount(hold)) == before
 
 
 def test_handing_over_without_a_period_stepped_leaves_the_drives_as_they_were(built):
@@ -366,18 +365,5 @@ def test_handing_over_without_a_period_stepped_leaves_the_drives_as_they_were(bu
 
 
 def test_a_reading_at_a_time_that_is_not_finite_goes_to_python(built):
-    module = compiled.member_module()
-    law = compiled.position_law()(*(np.zeros((4, 2)),) * 5, np.zeros(2), np.ones(2), 0.0)
-    plan = (np.zeros((4, 2)), np.zeros((4, 2)), None, np.zeros(4), np.zeros(4),
-            np.zeros(4, dtype=np.int64), np.zeros(4, dtype=bool), np.zeros((4, 2)),
-            np.zeros((4, 2)))
-    log = (np.zeros(9), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 2)), np.zeros((9, 3)),
-           np.zeros(9), np.zeros(9, dtype=np.int64), np.zeros(9, dtype=np.int64), np.zeros(9))
-    loop = (0.5, 0.05, 1e-4, 1.0, 3e-3, 1e-5, 0.1, 1e-3, 0.1, 500.0, 0.03, True, 1, 4e-3, 1e-3,
-            10, lambda t: None, SurfaceEstimate.plane)
-    kernel = module.MemberPeriod(plan, log, law, loop, print, None, 1.0, 1.0, 0, True, 5, 10,
-                                 (0, 1, 2, 5), 0.002, False, 0.0, (np.hypot, np.empty, tuple))
-    state = type("S", (), {"time": float("nan"), "q": np.zeros(2), "qd": np.zeros(2),
-                           "torque": None, "force": 0.0, "tip_mm": np.zeros(3)})()
-    with pytest.raises(module.NotForLane, match="time is not a finite number"):
-        kernel.period(state)
+    with pytest.raises(compiled.member_module().NotForLane, match="time is not a finite number"):
+        _kernel().period(_state(float("nan"), np.zeros(2), np.zeros(2)))
