@@ -5,8 +5,8 @@ first control period: :func:`inkarm.control.reference.check_reachable` (static I
 about 10 mm apart along each stroke) and
 :func:`inkarm.control.reference.plan_within_speed_limits` (the pen's phases on the control grid,
 the IK path on knots every ``ik_period_s``, a clamped spline through them, the slowly varying
-feed-forward terms). The default scenario is drawn once to record the two calls' arguments and
-once more to record its physics; then the two calls are timed on this thread's CPU clock
+feed-forward terms). The default scenario is planned once to record the two calls' arguments
+and drawn once to record its physics; then the two calls are timed on this thread's CPU clock
 (``time.thread_time``) in alternating blocks with MuJoCo alone on the same run (its own physics
 replayed, the pen pressed as in the run: :mod:`pressed`), and split
 into parts by timers around them in one more pass (about a microsecond a timer, a few calls).
@@ -49,9 +49,9 @@ class _Planned(Exception):
     """Stops a run once its reference is planned."""
 
 
-def planning_calls(scenario, stop: bool):
-    """The arguments of the executor's two planning calls for ``scenario``, and the run (None
-    when ``stop``: the run ends once planned)."""
+def planning_calls(scenario) -> dict:
+    """The arguments of the executor's two planning calls for ``scenario`` (its run ends once
+    planned)."""
     calls = {}
     check, plan = executor.check_reachable, executor.plan_within_speed_limits
 
@@ -61,19 +61,17 @@ def planning_calls(scenario, stop: bool):
 
     def plan_(*args, **kwargs):
         calls["plan"] = (args, kwargs)
-        planned = plan(*args, **kwargs)
-        if stop:
-            raise _Planned
-        return planned
+        plan(*args, **kwargs)
+        raise _Planned
 
     executor.check_reachable, executor.plan_within_speed_limits = check_, plan_
     try:
-        result = run(scenario)
+        run(scenario)
     except _Planned:
-        result = None
+        pass
     finally:
         executor.check_reachable, executor.plan_within_speed_limits = check, plan
-    return calls, result
+    return calls
 
 
 def planner(calls):
@@ -126,7 +124,7 @@ def parts_s(plan, passes: int = 5) -> dict[str, float]:
 
 def default_section(quick: bool) -> list[str]:
     scenario = load_scenario()
-    calls, _ = planning_calls(scenario, stop=False)
+    calls = planning_calls(scenario)
     plan = planner(calls)
     ref = plan()
     periods = len(ref)
@@ -172,7 +170,7 @@ def all_section() -> list[str]:
     lines = ["", "| scenario | periods | planning [ms] | per period [us] | reference digest |",
              "|---|---|---|---|---|"]
     for path in paths:
-        calls, _ = planning_calls(load_scenario(path), stop=True)
+        calls = planning_calls(load_scenario(path))
         plan = planner(calls)
         ref = plan()
         seconds = interleave({"planning": plan}, blocks=3, repeats=3,

@@ -32,13 +32,14 @@ STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 @dataclasses.dataclass
 class Physics:
     """A run's physics: its model, the state before its first step, each step's controls, the
-    state it ended in, and its steps in contact."""
+    state it ended in, its steps in contact, and the run's logged torques (periods, n)."""
 
     model: mujoco.MjModel
     start: np.ndarray
     controls: np.ndarray
     end_qpos: np.ndarray
     in_contact: int
+    torques: np.ndarray
 
     @property
     def steps(self) -> int:
@@ -73,7 +74,7 @@ def recorded_physics(scenario) -> Physics:
     os.environ[compiled.SWITCH] = "0"
     sim_plant.mujoco = recording
     try:
-        run(scenario)
+        result = run(scenario)
     finally:
         sim_plant.mujoco = mujoco
         if saved is None:
@@ -81,7 +82,7 @@ def recorded_physics(scenario) -> Physics:
         else:
             os.environ[compiled.SWITCH] = saved
     return Physics(recording.model, recording.start, np.array(recording.controls),
-                   recording.data.qpos.copy(), recording.in_contact)
+                   recording.data.qpos.copy(), recording.in_contact, result.log.torque)
 
 
 def replay_s(physics: Physics, clock=time.thread_time) -> float:

@@ -140,44 +140,45 @@ def test_a_fault_inside_whole_periods_in_c_stops_the_run_as_in_python(
     assert runs["whole"][1] == -1  # (the fault came out of whole periods in C)
 
 
-def test_ctrl_c_inside_whole_periods_in_c_lifts_the_pen_as_in_python(built, monkeypatch,
-                                                                      tmp_path):
-    plane = SurfaceEstimate.plane
-    calls = [0]
+def _at_sixth_solve(monkeypatch, scenario, act) -> dict:
+    """``scenario`` run each way (:func:`_runs`) with ``act()`` called at the plane's 6th solve,
+    well inside the drawing (the solve is Python's, called from C in whole periods)."""
+    plane, calls = SurfaceEstimate.plane, [0]
 
-    def interrupted(sums, prior):  # (the plane's 6th solve: well inside the drawing)
+    def solve(sums, prior):
         calls[0] += 1
         if calls[0] == 6:
-            raise KeyboardInterrupt
+            act()
         return plane(sums, prior)
 
-    monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(interrupted))
+    monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(solve))
     runs = {}
     for way in WAYS:
         calls[0] = 0
-        runs |= _runs(_line(tmp_path), monkeypatch, ways=(way,))
+        runs |= _runs(scenario, monkeypatch, ways=(way,))
+    return runs
+
+
+def test_ctrl_c_inside_whole_periods_in_c_lifts_the_pen_as_in_python(built, monkeypatch,
+                                                                      tmp_path):
+    def interrupt():
+        raise KeyboardInterrupt
+
+    runs = _at_sixth_solve(monkeypatch, _line(tmp_path), interrupt)
     _assert_same(runs)
     assert runs["whole"][0].status == "interrupted" and runs["whole"][1] == -1
 
 
 def test_the_plant_diverging_inside_whole_periods_in_c_fails_the_run_as_in_python(
         built, monkeypatch, tmp_path):
-    plants, calls = [], [0]
-    init, plane = MujocoPlant.__init__, SurfaceEstimate.plane
+    plants, init = [], MujocoPlant.__init__
     monkeypatch.setattr(MujocoPlant, "__init__", lambda plant, *a, **k: (
         plants.append(plant), init(plant, *a, **k))[1])
 
-    def push(sums, prior):  # (at the plane's 6th solve, well inside the drawing: a kick)
-        calls[0] += 1
-        if calls[0] == 6:
-            plants[-1].data.qvel[3] = 500.0
-        return plane(sums, prior)
+    def kick():
+        plants[-1].data.qvel[3] = 500.0
 
-    monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(push))
-    runs = {}
-    for way in WAYS:
-        calls[0] = 0
-        runs |= _runs(_line(tmp_path), monkeypatch, ways=(way,))
+    runs = _at_sixth_solve(monkeypatch, _line(tmp_path), kick)
     _assert_same(runs)
     failed = runs["whole"][0]
     assert failed.status == "failed" and re.search(r"moves at [0-9.]+ rad/s", failed.reason)
