@@ -1,7 +1,8 @@
 """The optional C extensions of inkarm: one control period of the simulated plant
 (``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`) and the built-in position
 law's feed-forward and the member's period (``inkarm/control/_law.c``, ``_member.c``, through
-:mod:`inkarm.control.compiled`).
+:mod:`inkarm.control.compiled`), and the felt-tip marker's pen between physics steps
+(``inkarm/ink/_pen.c``, through :mod:`inkarm.ink.compiled_pen`).
 
 It compiles against the headers shipped with MuJoCo (the ``mujoco-core`` wheel, which the build
 requirement ``mujoco>=4.0`` brings: the runtime's own requirement, so that a fresh install
@@ -41,11 +42,13 @@ def _extensions() -> list[Extension]:
                     sources=["inkarm/control/_law.c", "inkarm/control/_member.c"],
                     depends=["inkarm/control/_law.h", "inkarm/core/_plant.h"],
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
+    pen = Extension("inkarm.ink._pen", sources=["inkarm/ink/_pen.c"],
+                    extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     found = _mujoco()
     if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
-        return [law]  # (no MuJoCo headers: the plant's period in Python)
+        return [law, pen]  # (no MuJoCo headers: the plant's period in Python)
     include, mujoco_version = found
-    return [law, Extension(
+    return [law, pen, Extension(
         "inkarm.sim._period",
         sources=["inkarm/sim/_period.c"],
         depends=["inkarm/core/_plant.h"],

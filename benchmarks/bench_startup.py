@@ -165,8 +165,11 @@ def main() -> int:
                             repeats={name: repeats if name in short else 1 for name in cases})
         loaded = set(json.loads(Path(modules["draw"]).read_text()))
     heavy = [name for name in HEAVY if name in loaded]
+    scipy = sorted({name for name in loaded if name.count(".") == 1
+                    and name.startswith("scipy.") and not name.startswith("scipy._")})
     print(report(result, phases, blocks, repeats) + "\nHeavy libraries `inkarm draw` of the "
-          f"default loads: {', '.join(heavy)}.")
+          f"default loads: {', '.join(heavy)}; SciPy's subpackages among them: "
+          f"{', '.join(scipy) or 'none'}.")
     return 0
 
 

@@ -10,12 +10,20 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib
+import os
 import pkgutil
 import sys
 import warnings
 
 import inkarm
 from inkarm.errors import InkarmError
+
+# One BLAS thread unless the user says otherwise: inkarm's linear algebra is small (a 7-joint
+# arm's kinematics, banded LQT solves) and its parallelism is processes (sweeps, ensembles, their
+# workers inherit this), where BLAS threads only compete. Starting OpenBLAS's thread pools was
+# most of the CPU of importing NumPy and SciPy (``import numpy, scipy.linalg``: 370 ms of CPU,
+# 170 ms with one thread; benchmarks/bench_startup.py). Set before anything imports NumPy.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def command_names() -> dict[str, str]:

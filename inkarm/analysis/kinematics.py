@@ -17,8 +17,9 @@ from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
-from scipy.signal import find_peaks
 
+from inkarm.analysis.butterworth import butter_sections, filtfilt_odd
+from inkarm.analysis.peaks import find_peaks
 from inkarm.core.trajectory import Trajectory, time_derivative
 from inkarm.errors import InputError
 
@@ -137,8 +138,8 @@ def speed_peak_indices(traj: Trajectory, threshold: float = 0.1,
     if not 0.0 <= prominence < 1.0:
         raise InputError(f"speed peak prominence: expected a fraction in [0, 1), got "
                          f"{prominence}", key="prominence", value=prominence)
-    peaks, _ = find_peaks(v, height=threshold * vmax, prominence=max(prominence, PEAK_PROMINENCE)
-                          * vmax)
+    peaks = find_peaks(v, height=threshold * vmax,
+                       prominence=max(prominence, PEAK_PROMINENCE) * vmax)
     return peaks.astype(int)
 
 
@@ -195,7 +196,8 @@ def normalised_jerk(traj: Trajectory) -> float:
 def lowpass(traj: Trajectory, cutoff_hz: float, order: int = 2) -> Trajectory:
     """The positions low-pass filtered forwards and backwards (zero phase) by a Butterworth
     filter of ``order`` with its -3 dB point at ``cutoff_hz`` [Hz] (the filtfilt'ed response
-    is -6 dB there), on the mean sampling rate; velocities and pressure are dropped (the
+    is -6 dB there), on the mean sampling rate (:mod:`inkarm.analysis.butterworth`: SciPy's
+    butter and filtfilt in NumPy); velocities and pressure are dropped (the
     derivatives then come from the filtered positions). The ends are padded by point
     reflection (odd extension) over the stroke's length, so a line at constant speed is kept.
 
@@ -213,14 +215,11 @@ def lowpass(traj: Trajectory, cutoff_hz: float, order: int = 2) -> Trajectory:
     wn = 2.0 * cutoff_hz * dt  # fraction of the Nyquist frequency
     if wn >= 1.0:
         return traj
-    from scipy.signal import butter, filtfilt
-
-    b, a = butter(order, wn)
     # Padded by point reflection about each end over the whole stroke: a straight line at
     # constant speed comes out exact (the default 3 (order + 1) samples leave the filter's
     # start-up transient in the first and last tenths of a second: false speed peaks).
-    return Trajectory(t=traj.t, pos=filtfilt(b, a, traj.pos, axis=0, padtype="odd",
-                                             padlen=traj.n - 1))
+    return Trajectory(t=traj.t, pos=filtfilt_odd(butter_sections(order, wn), traj.pos,
+                                                 padlen=traj.n - 1))
 
 
 @dataclass(frozen=True)

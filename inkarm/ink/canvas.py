@@ -48,6 +48,7 @@ from inkarm.errors import InputError
 from inkarm.ink.brush import BrushInk
 from inkarm.ink.capsules import CAPSULE_FIELDS, rasterise
 from inkarm.ink.checks import FORCE_SCALE_RANGE_N, WIDTH_RANGE_MM, require_positive
+from inkarm.ink.compiled_pen import pen_module, touch_rows
 from inkarm.ink.inks import INK_MODELS, InkModel, TexturedInk, make_ink
 from inkarm.ink.marker import MarkerInk
 from inkarm.ink.memory import (
@@ -158,16 +159,21 @@ class Canvas:
 
     def touch_many(self, steps) -> None:
         """The calls of a control period's physics steps ``steps`` = ((force [N], x [mm],
-        y [mm], t [s]), ...) (floats) in one: :meth:`touch` at each step whose force is
-        positive, :meth:`lift` at the others (a no-op out of contact); the same canvas as those
-        calls one at a time (:func:`inkarm.sim.compiled.feed`)."""
+        y [mm], t [s]), ...) (floats, or an (n, 4) array) in one: :meth:`touch` at each step
+        whose force is positive, :meth:`lift` at the others (a no-op out of contact); the same
+        canvas as those calls one at a time (:func:`inkarm.sim.compiled.feed`). A marker's pen
+        runs in C where it can (:mod:`inkarm.ink.compiled_pen`: the same bits)."""
         if not self._pen[0]:  # out of contact: nothing to do unless a step touches
             for step in steps:
                 if step[0] > 0.0:
                     break
             else:
                 return
-        self._touch_rows(steps, True)
+        pen = pen_module() if type(self.ink) is MarkerInk and self._path is None else None
+        if pen is None:
+            self._touch_rows(steps.tolist() if isinstance(steps, np.ndarray) else steps, True)
+        else:
+            touch_rows(self, pen, steps, _QUEUE_FLOATS)
 
     def _touch_rows(self, rows, lifts: bool) -> None:
         """:meth:`touch` for each (force [N] >= 0, x [mm], y [mm], t [s]) of ``rows`` (floats);
@@ -211,7 +217,8 @@ class Canvas:
                     path.append((x, y, force))
                 dt = t - lt
                 if dt > 0.0:
-                    raw = math.hypot(x - lx, y - ly) / dt
+                    dx, dy = x - lx, y - ly  # (not math.hypot: the C pen's arithmetic)
+                    raw = math.sqrt(dx * dx + dy * dy) / dt
                     if speed is None:
                         speed = raw
                     else:
@@ -270,12 +277,15 @@ class Canvas:
         return self._pen[0]
 
     def clear(self) -> None:
-        """Blank the page (and forget any stroke in progress)."""
+        """Blank the page (and forget any stroke in progress). Only the inked box is written:
+        every capsule, and so every non-zero pixel of the stroke and of the image, lies in it."""
         self._queue.clear()
-        for buf in (self._stroke, self._image):
-            buf.fill(0.0)
+        if self._inked_box is not None:
+            r0, r1, c0, c1 = self._inked_box
+            for buf in (self._stroke, self._image):
+                buf[r0:r1, c0:c1] = 0.0
+            self._dirty_box = _union(self._dirty_box, self._inked_box)
         self._stroke_box = self._stale_box = self._saved_box = None
-        self._dirty_box = [0, self.shape[0], 0, self.shape[1]]
         self._inked_box = None
         self._revision += 1
         self.n_strokes = 0
@@ -288,6 +298,13 @@ class Canvas:
         """A counter that grows at every change of the raster."""
         self._rasterise_queue()
         return self._revision
+
+    @property
+    def inked_box(self) -> tuple[int, int, int, int] | None:
+        """The pixel box (r0, r1, c0, c1), half-open, that every capsule since the page was
+        blank lies in: outside it the page is 0. None on a blank page."""
+        self._rasterise_queue()
+        return None if self._inked_box is None else tuple(self._inked_box)
 
     @property
     def image(self) -> np.ndarray:
@@ -324,7 +341,9 @@ class Canvas:
         if self._inked_box is not None:
             r0, r1, c0, c1 = self._inked_box
             grey[r0:r1, c0:c1] = png_pixels(image[r0:r1, c0:c1])
-        Image.fromarray(grey).save(path, format="PNG")  # 2-D uint8: mode "L"
+        # (2-D uint8: mode "L"; zlib's fastest level: half the time of the default, and a page
+        # that is mostly blank still packs to tens of kB)
+        Image.fromarray(grey).save(path, format="PNG", compress_level=1)
         return path
 
     def take_dirty_box(self) -> tuple[int, int, int, int] | None:

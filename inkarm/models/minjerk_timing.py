@@ -12,7 +12,6 @@ Units: positions in [mm], times in [s], jerk cost in [mm^2/s^5].
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 from inkarm.errors import InputError
 
@@ -137,6 +136,8 @@ def optimal_times(points: np.ndarray, duration: float) -> np.ndarray:
         if cost < best_cost:
             best_cost, best_logits = cost, np.array(logits, dtype=float)
         return cost, (h * (dj_dh - dj_dh @ h))[1:]  # chain rule through the softmax
+
+    from scipy.optimize import minimize  # here: importing minjerk plans costs no SciPy
 
     start = np.clip(np.log(chords[1:] / chords[0]), -_LOGIT_BOUND, _LOGIT_BOUND)
     logits = start

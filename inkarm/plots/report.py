@@ -323,5 +323,5 @@ def write_report(path: str | Path, **kwargs) -> Path:
 
     path = Path(path)
     with atomic_file(path) as partial:
-        report_image(**kwargs).save(partial, format="PNG")
+        report_image(**kwargs).save(partial, format="PNG", compress_level=1)  # (as to_png)
     return path

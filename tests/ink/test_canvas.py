@@ -157,10 +157,30 @@ def test_dirty_box_reports_the_changed_pixels_once_and_clear_blanks():
     rows, cols = np.nonzero(canvas.image)
     assert r0 <= rows.min() and rows.max() < r1 and c0 <= cols.min() and cols.max() < c1
     assert canvas.take_dirty_box() is None
-    revision = canvas.revision
+    revision, inked = canvas.revision, canvas.inked_box
     canvas.clear()
     assert canvas.image.max() == 0.0 and canvas.revision > revision
-    assert canvas.take_dirty_box() == (0, 200, 0, 200)
+    assert canvas.take_dirty_box() == inked  # (clear writes the inked box only)
+
+
+@pytest.mark.parametrize("ink", ["marker", "pencil", "brush"])
+def test_clear_blanks_every_raster_mid_stroke_too(ink):
+    """What clear leaves is a fresh page: no pixel of the image or of the stroke in progress
+    (its capsules rasterised or still queued) is left, though only the inked box is written."""
+    canvas = Canvas(size_mm=(30.0, 30.0), ink=ink)
+    _draw(canvas, [[5.0, 25.0], [20.0, 6.0], [25.0, 25.0]])
+    t = 10.0
+    for x in np.linspace(3.0, 27.0, 400):  # a stroke left in progress
+        canvas.touch((x, 3.0 + 0.8 * x), 1.0, t)
+        t += 0.001
+    assert canvas.image.any() and canvas._base is not None  # (composited mid-stroke)
+    canvas.clear()
+    assert not canvas._stroke.any() and not canvas._image.any() and not canvas.in_contact
+    assert canvas.inked_box is None and canvas.n_strokes == 0
+    _draw(canvas, [[5.0, 5.0], [9.0, 9.0]])
+    fresh = Canvas(size_mm=(30.0, 30.0), ink=ink)
+    _draw(fresh, [[5.0, 5.0], [9.0, 9.0]])
+    assert canvas.image.tobytes() == fresh.image.tobytes()
 
 
 def test_image_is_a_read_only_view():

@@ -4,13 +4,16 @@ truths the batched plant refuses, each naming its field."""
 
 from __future__ import annotations
 
+import glob
+import weakref
+
 import numpy as np
 import pytest
 
 from inkarm.core.budget import BudgetError
 from inkarm.core.log import LIFT
 from inkarm.errors import InputError
-from inkarm.jobs.ensemble import iter_ensemble, run_ensemble
+from inkarm.jobs.ensemble import iter_ensemble, member_scenario, run_ensemble
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario
 
@@ -63,6 +66,19 @@ def assert_same_bits(batched, alone):
     assert batched.canvas.n_strokes == alone.canvas.n_strokes
 
 
+@pytest.mark.parametrize("path", sorted(glob.glob("scenarios/*.toml")))
+def test_a_member_is_the_scenario_with_its_plant_seed_overridden(path):
+    """member_scenario shares the scenario's parts instead of parsing it again: the same tables,
+    the same plant, the same name, and the scenario itself untouched."""
+    scenario = load_scenario(path)
+    before = scenario.to_dict()
+    fast, parsed = member_scenario(scenario, 7), scenario.with_overrides({"plant.seed": 7})
+    assert fast.to_dict() == parsed.to_dict()
+    assert fast.plant == parsed.plant and fast.plant.seed == 7
+    assert fast.path == parsed.path and fast.calibration == parsed.calibration
+    assert scenario.to_dict() == before
+
+
 def test_members_match_run_one_by_one(quick):
     scenario = quick.with_overrides(REALISTIC)
     seeds = [4, 11, 27]
@@ -95,6 +111,34 @@ def test_a_failed_member_stops_while_the_others_finish(quick):
     (single,) = run_ensemble(scenario, [0])
     assert np.array_equal(single.log.q, runs[0].log.q)
     assert np.array_equal(single.canvas.image, runs[0].canvas.image)
+
+
+def canvas_ref(run):
+    """keep: a weak reference to the member's canvas (holds nothing: the page may be reused)."""
+    return weakref.ref(run.canvas), run.canvas.image.tobytes(), run.canvas.n_strokes
+
+
+def kept_view(run):
+    """keep: a view of the member's page (holds its raster: the page must not be reused)."""
+    return run.canvas.image
+
+
+def test_a_page_nobody_kept_is_blanked_for_the_next_member_and_inks_as_a_fresh_one(quick):
+    """A page the kept summaries do not hold is reused (blanked in its inked box, not
+    reallocated); each member's ink is still the single run's, bit for bit. A page whose
+    image view was kept is never written again."""
+    scenario = quick.with_overrides(RISKY)
+    seeds = [0, 3, 9, 4]  # (drawn, never touched, pressed too hard, drawn)
+    kept = list(iter_ensemble(scenario, seeds, processes=1, keep=canvas_ref))
+    pages = {id(ref()) for ref, _, _ in kept}
+    assert None not in {ref() for ref, _, _ in kept} and len(pages) == 1  # one page, reused
+    for seed, (_, image, strokes) in zip(seeds, kept):
+        alone = member(scenario, seed)
+        assert image == alone.canvas.image.tobytes() and strokes == alone.canvas.n_strokes
+    views = list(iter_ensemble(scenario, seeds, processes=1, keep=kept_view))
+    assert len({id(v.base) for v in views}) == len(seeds)  # a page each, none written again
+    for seed, view in zip(seeds, views):
+        assert view.tobytes() == member(scenario, seed).canvas.image.tobytes()
 
 
 def test_iter_ensemble_yields_the_members_in_order_with_progress(quick):

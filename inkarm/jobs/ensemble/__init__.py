@@ -28,7 +28,9 @@ whole ensemble, every share (a plain KeyboardInterrupt: no partial Runs are kept
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -38,14 +40,13 @@ from inkarm.control.executor import execute
 from inkarm.core.budget import require_memory
 from inkarm.core.trajectory import Drawing
 from inkarm.errors import InkarmError, InputError, RunFault
-from inkarm.ink.canvas import require_raster_memory
+from inkarm.ink.canvas import Canvas, require_raster_memory
 from inkarm.jobs.calibration import believed_model
 from inkarm.jobs.ensemble.workers import available_cpus, may_start_workers, stream_shares
 from inkarm.jobs.outcome import Run, failed_run, finished_run
 from inkarm.jobs.preflight import placed_within_budget, simulated_seconds, substeps
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import Scenario
-from inkarm.jobs.sweep.design import with_point
 from inkarm.sim.batch import BatchPlant, check_batchable, member_model
 from inkarm.sim.batch_members import BatchMembers
 from inkarm.sim.cell import Cell
@@ -130,7 +131,7 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
     keep = keep or _whole
     if batch_refusal(scenario, seeds) is not None:  # each member a batch of one
         for seed in seeds:
-            yield keep(run(with_point(scenario, {"plant.seed": seed})))
+            yield keep(run(member_scenario(scenario, seed)))
         return
     cell = Cell(scenario.cell, scenario.robot)
     believed, notes = believed_model(scenario, cell)
@@ -145,9 +146,10 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
                           speed_limits=scenario.robot.speed_limits, progress=progress)
     except InkarmError as e:
         raise e.within(file=scenario.path) from None
+    canvas = None
     for k, (seed, result) in enumerate(zip(seeds, results)):
-        member = with_point(scenario, {"plant.seed": seed})
-        canvas = scenario.ink.canvas(cell.paper_size_mm)
+        member = member_scenario(scenario, seed)
+        canvas = _blank_again(canvas, scenario) or scenario.ink.canvas(cell.paper_size_mm)
         plant.feed(k, canvas)
         log = result.log if isinstance(result, RunFault) else result
         log.wall_s *= len(seeds) / members
@@ -156,6 +158,15 @@ def share_runs(scenario: Scenario, drawing: Drawing, seeds: list[int], nthread: 
             yield keep(failed_run(member, drawing, result, canvas, believed, notes=said))
         else:
             yield keep(finished_run(member, drawing, result, canvas, believed, notes=said))
+
+
+def member_scenario(scenario: Scenario, seed: int) -> Scenario:
+    """The member of ``seed``: ``scenario`` with ``plant.seed = seed``, equal to
+    ``scenario.with_overrides({"plant.seed": seed})`` (the tests compare their tables) without
+    parsing the scenario again (its parts are frozen, so the member shares them). ``seed`` is
+    an int the caller has checked (:func:`iter_ensemble` realises every member's truth first)."""
+    return dataclasses.replace(scenario, path=f"{scenario.path} (with overrides)",
+                               plant=dataclasses.replace(scenario.plant, seed=seed))
 
 
 def batch_refusal(scenario: Scenario, seeds: Sequence[int]) -> str | None:
@@ -174,8 +185,26 @@ def batch_refusal(scenario: Scenario, seeds: Sequence[int]) -> str | None:
     return None
 
 
+def _blank_again(canvas: Canvas | None, scenario: Scenario) -> Canvas | None:
+    """The previous member's ``canvas`` blanked for the next, with a fresh ink of
+    ``scenario``, when nothing but the caller holds it or its rasters (what ``keep`` kept holds
+    neither the canvas, nor its Run, nor a view of its image: CPython's reference counts say
+    so); else None. Blanking writes the ink's box only, where a new page's zeros cost a write
+    of the whole page (2 x 25 MB at A4 and 10 px/mm) or a page fault per page touched."""
+    # (references: the caller's name, this argument and getrefcount's own; a raster's: the
+    # canvas's attribute and getrefcount's)
+    if canvas is None or sys.getrefcount(canvas) > 3:
+        return None
+    for name in ("_stroke", "_image", "_base"):
+        if getattr(canvas, name) is not None and sys.getrefcount(getattr(canvas, name)) > 2:
+            return None
+    canvas.clear()
+    canvas.ink = scenario.ink.make()
+    return canvas
+
+
 def _whole(run: Run) -> Run:
     return run
 
 
-__all__ = ["iter_ensemble", "run_ensemble", "share_runs"]
+__all__ = ["iter_ensemble", "member_scenario", "run_ensemble", "share_runs"]

@@ -24,7 +24,6 @@ from functools import cached_property, lru_cache
 from math import comb
 
 import numpy as np
-from scipy.interpolate import BSpline
 
 from inkarm.core.plan import StrokePlan
 from inkarm.errors import InputError, PlanError
@@ -133,6 +132,8 @@ def state_stencils(n: int, discretisation: str) -> tuple[np.ndarray, ...]:
     """
     if discretisation == "euler":
         return tuple(difference(k) for k in range(n))
+    from scipy.interpolate import BSpline  # zoh only: the default (euler) goes without it
+
     spline = BSpline.basis_element(np.arange(n + 2, dtype=float), extrapolate=False)
     at = n - np.arange(n, dtype=float)  # B_n(n - j) multiplies c_{t+j}
     out = []
