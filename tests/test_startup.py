@@ -15,6 +15,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("scipy", "matplotlib", "mujoco", "pyarrow", "ray", "glfw", "dynamixel_sdk", "skimage")
+SCIPY_NOT_FOR_DRAWING = ("scipy.signal", "scipy.stats", "scipy.optimize", "scipy.interpolate",
+                         "scipy.ndimage")
+"""SciPy's parts that a drawing of the default does not use: speed peaks and the low-pass in
+NumPy (analysis/peaks, analysis/butterworth), the minimum-jerk timing's search, the LQT's
+zero-order-hold stencils and the ink's filters imported where they are used."""
 
 
 def loaded_after(code: str, heavy: tuple[str, ...] = HEAVY, env=None) -> set[str]:
@@ -60,16 +65,16 @@ def test_gcode_for_a_plotter_loads_no_simulator_and_no_figures(tmp_path):
 
 @pytest.mark.sim
 def test_draw_writes_its_report_without_matplotlib_nor_glfw(tmp_path):
-    """`inkarm draw` (report.png included) loads MuJoCo, which drawing uses, without its
-    OpenGL (glfw: nothing is rendered), and none of matplotlib (report.png is drawn with
-    Pillow) nor the other backends' libraries. SciPy still comes with the default's LQT
-    (models/lqt) and the metrics (analysis/metrics, analysis/kinematics), not the planner."""
+    """`inkarm draw` of the default (report.png included) loads MuJoCo, which drawing uses,
+    without its OpenGL (glfw: nothing is rendered), and none of matplotlib (report.png is
+    drawn with Pillow) nor the other backends' libraries. SciPy still comes with the LQT's
+    banded solves (scipy.linalg) and the ink chamfer's k-d tree (scipy.spatial), none of
+    :data:`SCIPY_NOT_FOR_DRAWING`."""
     env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}  # as a user starts it
     loaded = loaded_after(f"""
         from inkarm.cli import main
-        assert main(["draw", "scenarios/quick_stroke.toml", "--quiet", "--out",
-                     {str(tmp_path / "out")!r}]) == 0
-    """, env=env)
+        assert main(["draw", "--quiet", "--out", {str(tmp_path / "out")!r}]) == 0
+    """, heavy=HEAVY + SCIPY_NOT_FOR_DRAWING, env=env)
     assert (tmp_path / "out" / "report.png").is_file()
     assert "mujoco" in loaded
     assert loaded <= {"mujoco", "scipy"}
@@ -77,9 +82,11 @@ def test_draw_writes_its_report_without_matplotlib_nor_glfw(tmp_path):
 
 def test_the_arms_planner_imports_no_scipy():
     """Splines in NumPy (inkarm.core.spline) and the IK's Cholesky solve imported on its first
-    call: the planner's modules import without SciPy."""
+    call: the planner's modules import without SciPy; so do the plans' minimum-jerk kind, the
+    LQT's problem and the kinematic measures (SciPy imported where a call needs it)."""
     assert "scipy" not in loaded_after("""
         import inkarm.control.ik, inkarm.control.reference, inkarm.control.sequencing
+        import inkarm.plans.kinds.minjerk, inkarm.models.lqt.problem, inkarm.analysis.humanlike
     """)
 
 
@@ -94,3 +101,18 @@ def test_a_command_parses_with_its_own_parser_only():
         build_parser("draw").parse_args(["draw", "--quiet"])
     """, heavy=tuple(command_names().values()))
     assert commands == {"inkarm.commands.draw"}
+
+
+@pytest.mark.parametrize(("given", "expected"), [(None, "1"), ("3", "3")])
+def test_the_cli_runs_blas_on_one_thread_unless_told_otherwise(given, expected):
+    """OpenBLAS's thread pools cost most of NumPy's and SciPy's import CPU and buy nothing for
+    inkarm's small linear algebra: the command sets one thread before NumPy loads, and keeps a
+    user's own setting."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    code = ("import sys, os, inkarm.cli; assert 'numpy' not in sys.modules; "
+            "print(os.environ['OPENBLAS_NUM_THREADS'])")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == expected

@@ -16,9 +16,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from inkarm.analysis.content_cache import ContentCache
+from inkarm.analysis.medial_axis import depth_at, ridge_at
 from inkarm.errors import InputError
 
 METRIC_KEYS = (
@@ -105,67 +106,70 @@ def resample_polyline(points_mm, spacing_mm: float) -> np.ndarray:
 
 # Rows of a raster scanned at a time by ink_box (a few MB of boolean temporaries).
 _SCAN_ROWS = 512
-# Blank pixels kept around the ink's box by ink_centreline_mm: one is enough for the distance
-# transform and the 3 x 3 ridge test to see what they see on the whole page (see there).
-_CROP_MARGIN_PX = 2
+# The plans last resampled and their KD-trees (ink_chamfer_mm), by content: an ensemble's
+# members share one plan.
+_PLANS = ContentCache(4)
+
+Box = tuple[int, int, int, int]
 
 
-def ink_box(darkness, threshold: float, *, strict: bool = False,
-            margin: int = 0) -> tuple[int, int, int, int] | None:
+def ink_box(darkness, threshold: float, *, strict: bool = False, margin: int = 0,
+            within: Box | None = None) -> Box | None:
     """The pixel box (r0, r1, c0, c1), half-open, of the pixels of the 2-D raster ``darkness``
     that are >= ``threshold`` (> it when ``strict``), grown by ``margin`` pixels on every side
     and clipped to the raster; None when there is no such pixel.
 
+    ``within``: a box outside which the raster is 0 (:attr:`inkarm.ink.canvas.Canvas.
+    inked_box`), the only part scanned (unless 0 itself passes the threshold); None: all of it.
     Scans :data:`_SCAN_ROWS` rows at a time: no page-sized temporary."""
     image = np.asarray(darkness)
     if image.ndim != 2:
         raise InputError(f"ink_box: darkness must be 2-D, got shape {image.shape}")
     n_rows, n_cols = image.shape
-    row_any = np.zeros(n_rows, bool)
-    col_any = np.zeros(n_cols, bool)
-    for r0 in range(0, n_rows, _SCAN_ROWS):
-        block = image[r0 : r0 + _SCAN_ROWS]
+    zero_is_ink = 0.0 > threshold if strict else 0.0 >= threshold
+    w0, w1, wc0, wc1 = (0, n_rows, 0, n_cols) if within is None or zero_is_ink else within
+    part = image[w0:w1, wc0:wc1]
+    row_any = np.zeros(part.shape[0], bool)
+    col_any = np.zeros(part.shape[1], bool)
+    for r0 in range(0, part.shape[0], _SCAN_ROWS):
+        block = part[r0 : r0 + _SCAN_ROWS]
         ink = block > threshold if strict else block >= threshold
         row_any[r0 : r0 + len(block)] = ink.any(axis=1)
         col_any |= ink.any(axis=0)
-    rows, cols = np.flatnonzero(row_any), np.flatnonzero(col_any)
+    rows, cols = np.flatnonzero(row_any) + w0, np.flatnonzero(col_any) + wc0
     if rows.size == 0:
         return None
     return (max(0, int(rows[0]) - margin), min(n_rows, int(rows[-1]) + 1 + margin),
             max(0, int(cols[0]) - margin), min(n_cols, int(cols[-1]) + 1 + margin))
 
 
-def ink_centreline_mm(darkness, px_per_mm: float, threshold: float = 0.5) -> np.ndarray:
+def ink_centreline_mm(darkness, px_per_mm: float, threshold: float = 0.5, *,
+                      within: Box | None = None) -> np.ndarray:
     """Centres in [mm], shape (M, 2), of the pixels on the discrete medial axis of the ink.
 
     The ink is the set of pixels of ``darkness`` (rows, cols; row 0 at the top of the page, the
     :class:`inkarm.ink.canvas.Canvas` convention) that are >= ``threshold``; its medial axis is
     taken as the ink pixels whose Euclidean distance to the nearest blank pixel (the page's
     border counting as blank) is a maximum of their 3 x 3 neighbourhood (a ridge of the
-    distance transform). For a line of any width this lies within half a pixel of the line's
-    centre.
+    distance transform, :mod:`inkarm.analysis.medial_axis`). For a line of any width this lies
+    within half a pixel of the line's centre. In row-major order.
 
-    Work and memory follow the ink, not the page: both transforms run on the ink's bounding
-    box (:func:`ink_box`) grown by :data:`_CROP_MARGIN_PX` blank pixels, with the same result
-    as on the whole page. An ink pixel's nearest blank pixel q, if outside the crop, can be
-    replaced by q clamped onto the box grown by one pixel, which is blank, inside the crop and
-    no farther (clamping to a box containing the ink pixel shortens every coordinate's
-    difference); and the 3 x 3 windows of ink pixels lie inside the crop, reaching its edge
-    only where it is the page's edge, as on the whole page.
+    Work and memory follow the ink, not the page: the depths and the ridge are computed at the
+    ink pixels only, in the ink's bounding box (:func:`ink_box`, scanning only ``within``
+    where given), everything outside which is blank.
     """
     image = np.asarray(darkness)
     if image.ndim != 2:
         raise InputError(f"ink_centreline_mm: darkness must be 2-D, got shape {image.shape}")
     n_rows = image.shape[0]
-    box = ink_box(image, threshold, margin=_CROP_MARGIN_PX)
+    box = ink_box(image, threshold, within=within)
     if box is None:
         return np.empty((0, 2))
     r0, r1, c0, c1 = box
     ink = image[r0:r1, c0:c1] >= threshold
-    depth = ndimage.distance_transform_edt(np.pad(ink, 1))[1:-1, 1:-1]
-    ridge = ink & (depth >= ndimage.maximum_filter(depth, size=3) - 1e-9)
-    rows, cols = np.nonzero(ridge)
-    rows, cols = rows + r0, cols + c0
+    rows, cols = np.nonzero(ink)
+    ridge = ridge_at(ink, rows, cols, depth_at(ink, rows, cols))
+    rows, cols = rows[ridge] + r0, cols[ridge] + c0
     return np.column_stack(((cols + 0.5) / px_per_mm, (n_rows - rows - 0.5) / px_per_mm))
 
 
@@ -181,13 +185,34 @@ def chamfer_mm(points_a, points_b) -> float:
         raise InputError("chamfer_mm: both point sets are empty")
     if len(a) == 0 or len(b) == 0:
         return math.inf
-    a_to_b, _ = cKDTree(b).query(a)
+    return _chamfer(a, b, cKDTree(b))
+
+
+def _chamfer(a: np.ndarray, b: np.ndarray, b_tree: cKDTree) -> float:
+    """:func:`chamfer_mm` of non-empty A and B, with B's KD-tree ``b_tree`` given."""
+    a_to_b, _ = b_tree.query(a)
     b_to_a, _ = cKDTree(a).query(b)
     return float(0.5 * (a_to_b.mean() + b_to_a.mean()))
 
 
+def _plan_points(plan_strokes, px_per_mm: float) -> tuple[np.ndarray, cKDTree]:
+    """The plan's (x, y) in [mm] resampled at half a pixel (:func:`ink_chamfer_mm`), read-only,
+    and its KD-tree: computed once per plan's content and ``px_per_mm`` (:data:`_PLANS`)."""
+    strokes = [np.asarray(s, dtype=float) for s in plan_strokes]
+
+    def compute() -> tuple[np.ndarray, cKDTree]:
+        points = [resample_polyline(s, 0.5 / px_per_mm) for s in strokes]
+        if not points or sum(len(p) for p in points) == 0:
+            raise InputError("ink_chamfer_mm: the plan has no stroke")
+        plan = np.concatenate([p[:, :2] for p in points])
+        plan.flags.writeable = False
+        return plan, cKDTree(plan)
+
+    return _PLANS.get(strokes, compute, float(px_per_mm))
+
+
 def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes,
-                   threshold: float | None = None) -> float:
+                   threshold: float | None = None, *, within: Box | None = None) -> float:
     """Ink-versus-plan distance in [mm]: the symmetric chamfer distance (:func:`chamfer_mm`)
     between the ink's centreline (:func:`ink_centreline_mm` of the raster ``darkness`` at
     ``px_per_mm``, ink = darkness >= ``threshold``) and the plan, each stroke of
@@ -199,17 +224,21 @@ def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes,
     The centreline, not every inked pixel, is compared so that the line width does not count
     as error: with all pixels of a line of width w on its plan, the ink-to-plan term would be
     w/4. A drawing traced exactly scores below half a pixel; a drawing shifted by s scores s.
-    Returns inf when there is no ink."""
-    strokes = [resample_polyline(s, 0.5 / px_per_mm) for s in plan_strokes]
-    if not strokes or sum(len(s) for s in strokes) == 0:
-        raise InputError("ink_chamfer_mm: the plan has no stroke")
-    plan = np.concatenate([s[:, :2] for s in strokes])
+    Returns inf when there is no ink. ``within``: a box outside which ``darkness`` is 0, the
+    only part read (:func:`ink_box`). The plan's side is computed once per plan
+    (:func:`_plan_points`)."""
+    plan, plan_tree = _plan_points(plan_strokes, px_per_mm)
     if threshold is None:
-        darkest = float(np.max(darkness)) if np.size(darkness) else 0.0
+        image = np.asarray(darkness)
+        if within is not None:
+            r0, r1, c0, c1 = within
+            image = image[r0:r1, c0:c1]
+        darkest = float(np.max(image)) if image.size else 0.0
         if not darkest > 0.0:
             return float("inf")
         threshold = 0.5 * darkest
-    return chamfer_mm(ink_centreline_mm(darkness, px_per_mm, threshold), plan)
+    ink = ink_centreline_mm(darkness, px_per_mm, threshold, within=within)
+    return _chamfer(ink, plan, plan_tree) if len(ink) else math.inf
 
 
 @dataclass(frozen=True)
@@ -331,7 +360,8 @@ def compute_metrics(
         q: Joint positions (N, J) in [rad].
         joint_range: Joint limits (J, 2) in [rad].
         wall_time_s: Wall-clock duration of the run in [s].
-        canvas: The ink raster (anything with ``image`` and ``px_per_mm``, row 0 at the top).
+        canvas: The ink raster (anything with ``image`` and ``px_per_mm``, row 0 at the top;
+            its ``inked_box``, where it has one, spares a scan of the whole page).
         plan_strokes: Planned strokes, (K, 2) polylines in page [mm]; by default the reference
             over each run of drawing samples.
         contact_threshold_n: Force in [N] at or below which the pen counts as off the paper.
@@ -354,12 +384,15 @@ def compute_metrics(
     gaps = pen_gaps(reference, force_n, mask, contact_threshold_n)
     force_mean, force_std = contact_force_stats(force_n, mask, contact_threshold_n)
     force_p1, force_p99 = force_percentiles(force_n, mask)
+    image = canvas.image
+    # where the canvas keeps the box its ink lies in (Canvas.inked_box; None: a blank page),
+    # only that is read: not the whole page, for each member of an ensemble
+    within = (canvas.inked_box or (0, 0, 0, 0)) if hasattr(canvas, "inked_box") else None
     return {
         "tracking_rms_mm": tracking.rms_mm,
         "tracking_max_mm": tracking.max_mm,
-        "ink_chamfer_mm": ink_chamfer_mm(
-            canvas.image, canvas.px_per_mm, plan_strokes, ink_threshold
-        ),
+        "ink_chamfer_mm": ink_chamfer_mm(image, canvas.px_per_mm, plan_strokes, ink_threshold,
+                                         within=within),
         "gap_mm": gaps.total_mm,
         "contact_force_mean_n": force_mean,
         "contact_force_std_n": force_std,

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from inkarm.analysis.content_cache import ContentCache
 from inkarm.analysis.metrics import compute_metrics
 from inkarm.core.log import DrawLog
 from inkarm.core.run import Metrics, Senses, Shortfall, Status, judge
@@ -23,6 +24,8 @@ from inkarm.ink.canvas import Canvas
 from inkarm.jobs.scenario import Scenario
 from inkarm.sim.cell_config import Cell
 
+# The plan measures of the drawings last measured (with_plan_measures), by content.
+_PLAN_MEASURES = ContentCache(4)
 OK, DEGRADED, FAILED, INTERRUPTED = Status.OK, Status.DEGRADED, Status.FAILED, Status.INTERRUPTED
 # What the simulation senses: everything (the pen's tip, the ink, contact and force are the
 # plant's own truth).
@@ -148,16 +151,23 @@ def measured(log: DrawLog | None, drawing: Drawing, believed, canvas,
 def with_plan_measures(metrics: Metrics, drawing: Drawing) -> Metrics:
     """``metrics`` with the human-likeness of the planned ``drawing`` (``plan_beta``,
     ``plan_peaks_per_second``, ``plan_jerk_per_peak``), each left out where the drawing does
-    not define it (no stroke long enough to measure, a straight line has no power law)."""
+    not define it (no stroke long enough to measure, a straight line has no power law).
+    Computed once per drawing's content (:data:`_PLAN_MEASURES`: an ensemble's members share
+    one plan)."""
+    arrays = [a for s in drawing.strokes for a in (s.t, s.pos, s.vel, s.pressure)]
+    return metrics.replace(**_PLAN_MEASURES.get(arrays, lambda: _plan_measures(drawing)))
+
+
+def _plan_measures(drawing: Drawing) -> dict[str, float]:
     from inkarm.analysis.humanlike import human_stats
 
     try:
         stats = human_stats(drawing, lognormal=False)
     except InputError:
-        return metrics
+        return {}
     values = {"plan_beta": stats.beta, "plan_peaks_per_second": stats.peaks_per_second,
               "plan_jerk_per_peak": stats.jerk_per_peak}
-    return metrics.replace(**{k: float(v) for k, v in values.items() if np.isfinite(v)})
+    return {k: float(v) for k, v in values.items() if np.isfinite(v)}
 
 
 def undefined_unsensed(metrics, senses: Senses) -> Metrics:

@@ -336,3 +336,107 @@ def test_force_percentiles_are_over_every_drawing_sample_gaps_included():
     force[151] = 0.0
     assert M.force_percentiles(force, drawing)[0] < 0.9
     assert all(math.isnan(v) for v in M.force_percentiles(force, np.zeros(201, bool)))
+
+
+def _masks():
+    """Ink masks: sparse and dense noise, blobs grown from it, single pixels, ink on every
+    edge of the page, a filled page."""
+    def grown(mask, n):
+        for _ in range(n):
+            mask = mask.copy()
+            mask[1:] |= mask[:-1].copy()
+            mask[:, 1:] |= mask[:, :-1].copy()
+        return mask
+
+    shapes = st.tuples(st.integers(1, 40), st.integers(1, 40))
+    noise = shapes.flatmap(lambda s: st.tuples(
+        st.just(s), st.integers(0, 2**32 - 1), st.sampled_from([0.01, 0.2, 0.6, 0.95, 1.0]),
+        st.integers(0, 9), st.booleans()))
+
+    def build(args):
+        (h, w), seed, density, grow, edges = args
+        mask = grown(np.random.default_rng(seed).random((h, w)) < density, grow)
+        if edges:
+            mask[0, :: 3] = mask[-1, 1::2] = mask[:, 0] = True
+        return mask
+
+    return noise.map(build)
+
+
+@settings(max_examples=150, deadline=None)
+@given(_masks())
+def test_depths_and_centreline_are_scipys_bit_for_bit(mask):
+    from scipy import ndimage
+
+    from inkarm.analysis.medial_axis import depth_at
+
+    rows, cols = np.nonzero(mask)
+    expected = ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1][rows, cols]
+    depth = depth_at(mask, rows, cols)
+    assert depth.dtype == expected.dtype and np.array_equal(depth, expected)
+    image = mask.astype(np.float32)
+    whole = _centreline_on_the_whole_page(image, 7.0, 0.5)
+    for within in (None, M.ink_box(image, 0.5) or (0, 0, 0, 0)):
+        got = M.ink_centreline_mm(image, 7.0, 0.5, within=within)
+        assert got.shape == whole.shape and got.dtype == whole.dtype
+        np.testing.assert_array_equal(got, whole)
+
+
+def test_the_depth_of_a_filled_disk_is_scipys_and_its_centreline_its_centre():
+    rows, cols = np.mgrid[:121, :101]
+    image = ((rows - 60) ** 2 + (cols - 50) ** 2 <= 45**2).astype(np.float32)
+    got = M.ink_centreline_mm(image, 1.0, 0.5)
+    np.testing.assert_array_equal(got, _centreline_on_the_whole_page(image, 1.0, 0.5))
+    np.testing.assert_array_equal(got, [[50.5, 60.5]])
+
+
+@pytest.mark.parametrize("name", list(_canvases()))
+def test_the_canvas_inked_box_holds_all_its_ink_and_the_metrics_read_only_it(name):
+    canvas = _canvases()[name]
+    image = np.array(canvas.image)
+    r0, r1, c0, c1 = canvas.inked_box
+    outside = image.copy()
+    outside[r0:r1, c0:c1] = 0.0
+    assert image[r0:r1, c0:c1].max() > 0 and not outside.any()
+    plan = [np.array([[10.0, 10.0], [20.0, 30.0], [5.0, 12.0]])]
+    whole = M.ink_chamfer_mm(image, canvas.px_per_mm, plan)
+    assert M.ink_chamfer_mm(image, canvas.px_per_mm, plan, within=canvas.inked_box) == whole
+    image[r0:r1, c0:c1] = 0.0  # what lies outside ``within`` is not read
+    assert M.ink_chamfer_mm(image + outside, canvas.px_per_mm, plan,
+                            within=(r0, r1, c0, c1)) == math.inf
+    blank = Canvas(size_mm=(20.0, 10.0))
+    assert blank.inked_box is None
+    run = {"times_s": [0.0, 1.0], "reference_mm": [[1.0, 1.0], [4.0, 1.0]],
+           "tip_mm": [[1.0, 1.0], [4.0, 1.0]], "force_n": [1.0, 1.0],
+           "drawing": np.ones(2, bool), "q": np.zeros((2, 1)), "joint_range": [[-1.0, 1.0]],
+           "wall_time_s": 1.0}
+    assert M.compute_metrics(**run, canvas=blank)["ink_chamfer_mm"] == math.inf
+    assert M.compute_metrics(**run, canvas=canvas)["ink_chamfer_mm"] == M.ink_chamfer_mm(
+        canvas.image, canvas.px_per_mm, M.plan_strokes_from_reference(
+            np.array(run["reference_mm"]), run["drawing"]))
+
+
+def test_the_plans_side_is_computed_once_per_plan_and_never_stale(monkeypatch):
+    image = np.zeros((60, 80), np.float32)
+    image[20:24, 10:70] = 1.0
+    calls = []
+    resample = M.resample_polyline
+    monkeypatch.setattr(M, "resample_polyline", lambda *a: calls.append(1) or resample(*a))
+    monkeypatch.setattr(M, "_PLANS", type(M._PLANS)(2))
+
+    def fresh(strokes, px_per_mm=10.0):
+        plan = np.concatenate([resample(s, 0.5 / px_per_mm)[:, :2] for s in strokes])
+        return M.chamfer_mm(M.ink_centreline_mm(image, px_per_mm, 0.5), plan)
+
+    a = [np.array([[1.0, 3.8], [7.0, 3.8]]), np.array([[2.0, 1.0, 0.0], [2.0, 5.0, 9.0]])]
+    b = [np.array([[1.0, 3.0], [7.0, 3.0]])]
+    assert M.ink_chamfer_mm(image, 10.0, a) == fresh(a) and len(calls) == 2
+    assert M.ink_chamfer_mm(image, 10.0, [s.copy() for s in a]) == fresh(a)
+    assert len(calls) == 2  # the same content: not resampled again
+    assert M.ink_chamfer_mm(image, 10.0, b) == fresh(b) != fresh(a)
+    assert M.ink_chamfer_mm(image, 5.0, b) == fresh(b, 5.0)
+    b[0][1, 1] = 4.0  # mutated in place: a different plan
+    assert M.ink_chamfer_mm(image, 10.0, b) == fresh(b)
+    assert M.ink_chamfer_mm(image, 10.0, a) == fresh(a) and len(M._PLANS) == 2
+    with pytest.raises(InputError, match="ink_chamfer_mm: the plan has no stroke"):
+        M.ink_chamfer_mm(image, 10.0, [])
