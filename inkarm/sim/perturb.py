@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import weakref
 from collections.abc import Callable
 
 import mujoco
@@ -66,7 +67,7 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None,
         changes["friction"] = truth.nib_friction
     if changes:
         cell = Cell(dataclasses.replace(config, **changes), cell.robot)
-    spec = build_spec(cell)
+    spec = _fresh_spec(cell)
     if edit_spec is not None:
         edit_spec(spec)
     _move_paper(spec, truth)
@@ -87,6 +88,19 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None,
     if has_relief(truth):
         _turnable(model, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, RELIEF))
     return model
+
+
+_BUILT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Cell -> its spec, unedited
+
+
+def _fresh_spec(cell: Cell) -> mujoco.MjSpec:
+    """An editable spec of ``cell``: a copy of the one built for it once (:func:`build_spec`;
+    a copy costs a twentieth of a build, and compiles to the same model bit for bit: an
+    ensemble builds one plant model per member)."""
+    built = _BUILT.get(cell)
+    if built is None:
+        built = _BUILT[cell] = build_spec(cell)
+    return built.copy()
 
 
 def _turnable(model: mujoco.MjModel, geom: int) -> None:

@@ -156,3 +156,32 @@ def test_servo_velocity_comes_in_whole_units_and_the_force_sensor_has_its_bias()
     readings = np.array([noisy.force(1.0) for _ in range(4000)])
     assert readings.mean() == pytest.approx(1.0, abs=0.005)
     assert readings.std() == pytest.approx(0.05, rel=0.05)
+
+
+def _model_bytes(model: mujoco.MjModel) -> dict[str, bytes]:
+    return {name: getattr(model, name).tobytes() for name in dir(model)
+            if not name.startswith("_") and isinstance(getattr(model, name, None), np.ndarray)}
+
+
+def test_a_plant_model_is_built_from_a_copy_of_its_cells_spec_with_the_same_bits():
+    """plant_model copies the spec it built once per cell (an ensemble's member models): the
+    models equal those built from scratch, bit for bit, and one call's edits never reach the
+    next."""
+    from inkarm.sim.cell import build_spec
+    from inkarm.sim.perturb import _change_geometry, _change_links, _move_paper
+
+    cell = make_cell()
+    truth = PlantTruth(paper_height_mm=1.5, mass_scale=1.1, com_offset_mm=10.0, payload_kg=0.2,
+                       link_length_error_mm=0.5, seed=3)
+    spec = build_spec(cell)
+    _move_paper(spec, truth)
+    scratch = spec.compile()
+    _change_links(scratch, cell, truth)
+    _change_geometry(scratch, cell, truth)
+    extra = lambda s: s.worldbody.add_site(name="edited_once")
+    edited = plant_model(cell, truth, edit_spec=extra)
+    assert mujoco.mj_name2id(edited, mujoco.mjtObj.mjOBJ_SITE, "edited_once") >= 0
+    for _ in range(2):
+        again = plant_model(cell, truth)
+        assert mujoco.mj_name2id(again, mujoco.mjtObj.mjOBJ_SITE, "edited_once") == -1
+        assert _model_bytes(again) == _model_bytes(scratch)
