@@ -22,8 +22,10 @@ Cases:
   child just before it ends); MuJoCo imported without OpenGL, as ``inkarm draw`` imports it;
   per run, then medians per phase;
 - the floor: a process that imports what drawing needs and draws, writing nothing; and
-  ``python -c "import mujoco"`` with OpenGL off, as ``inkarm draw`` imports it (interpreter,
-  NumPy, MuJoCo: what no drawing process avoids).
+  ``python -c "import mujoco"`` with OpenGL off and one BLAS thread, as ``inkarm draw``
+  imports it (interpreter, NumPy, MuJoCo: what no drawing process avoids). The split and
+  the floor import ``inkarm.cli`` first, as the console command does (its BLAS setting); the
+  reference ``import numpy`` runs as a user's would, with OpenBLAS's default threads.
 
 Targets (the performance issue): ``inkarm --help`` at most 3x the reference; the drawing at
 least half of the CPU of ``inkarm draw``.
@@ -57,6 +59,7 @@ import json, resource, sys, time
 start = time.process_time()
 out, modules, write = sys.argv[1], sys.argv[2], sys.argv[3] == "write"
 import importlib
+import inkarm.cli  # (as the console command: its one BLAS thread set before NumPy loads)
 from inkarm.sim.gl import import_mujoco_without_gl
 import_mujoco_without_gl()  # as `inkarm draw` imports MuJoCo: without OpenGL (no glfw)
 for name in json.load(open(modules)):
@@ -85,8 +88,9 @@ print(json.dumps({"start-up": start, "imports": t1 - start, "drawing": t3 - t2,
                   "late": late}))
 """
 
-# MuJoCo alone, as a drawing process imports it (OpenGL off: no glfw).
-MUJOCO = "import os; os.environ['MUJOCO_GL'] = 'disable'; import mujoco"
+# MuJoCo alone, as a drawing process imports it (OpenGL off: no glfw; one BLAS thread).
+MUJOCO = ("import os; os.environ['MUJOCO_GL'] = 'disable'; "
+          "os.environ.setdefault('OPENBLAS_NUM_THREADS', '1'); import mujoco")
 
 # The modules `inkarm draw` (argv[3] "draw") or a bare drawing (else) has loaded when it
 # ends, in the order it loaded them, into the JSON file argv[2].
