@@ -2,7 +2,8 @@
 (``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`) and the built-in position
 law's feed-forward and the member's period (``inkarm/control/_law.c``, ``_member.c``, through
 :mod:`inkarm.control.compiled`), and the felt-tip marker's pen between physics steps
-(``inkarm/ink/_pen.c``, through :mod:`inkarm.ink.compiled_pen`).
+(``inkarm/ink/_pen.c``, through :mod:`inkarm.ink.compiled_pen`), and the batched plant's physics
+steps (``inkarm/sim/_batch.c``, through :mod:`inkarm.sim.batch_substeps`).
 
 It compiles against the headers shipped with MuJoCo (the ``mujoco-core`` wheel, which the build
 requirement ``mujoco>=4.0`` brings: the runtime's own requirement, so that a fresh install
@@ -44,11 +45,13 @@ def _extensions() -> list[Extension]:
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     pen = Extension("inkarm.ink._pen", sources=["inkarm/ink/_pen.c"],
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
+    batch = Extension("inkarm.sim._batch", sources=["inkarm/sim/_batch.c"],
+                      extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     found = _mujoco()
     if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
-        return [law, pen]  # (no MuJoCo headers: the plant's period in Python)
+        return [law, pen, batch]  # (no MuJoCo headers: the plant's period in Python)
     include, mujoco_version = found
-    return [law, pen, Extension(
+    return [law, pen, batch, Extension(
         "inkarm.sim._period",
         sources=["inkarm/sim/_period.c"],
         depends=["inkarm/core/_plant.h"],

@@ -25,6 +25,9 @@ after each physics step (the batch reads the caller's models at every step), as 
 does; read-out jitter draws each member's reading ages from its own seed, as its MujocoPlant
 would (:mod:`inkarm.sim.senses`).
 
+The physics steps of a control period run in C where the extension is built
+(:mod:`inkarm.sim.batch_substeps`: the same bits as the NumPy step here; stiction keeps NumPy's).
+
 Supported truths: every model-level field, and at run time ``encoder_ticks_per_rev``,
 ``q_noise_rad``, ``velocity`` (all three modes), ``force_noise_n``, ``force_bias_n``,
 ``sensing_delay_ms``, ``readout_jitter_ms``, ``stiction_nm`` and ``actuation_delay_ms``, equal
@@ -48,6 +51,8 @@ from inkarm.errors import InputError, SimulationError
 from inkarm.robots.gains import PIDGains
 from inkarm.sim import perturb
 from inkarm.sim.actuators import affine_drives, native_drive
+from inkarm.sim.batch_substeps import substeps_for
+from inkarm.sim.batch_touches import Touches
 from inkarm.sim.cell import HOME_KEY, PAPER_ORIGIN, PEN_TIP, Cell
 from inkarm.sim.divergence import divergence_error, route_mujoco_warnings
 from inkarm.sim.drive import JointDrive
@@ -193,9 +198,7 @@ class BatchPlant:
         to_page = 1000.0 * site_xmat[:, origin].reshape(N, 3, 3)
         self._to_page = to_page.copy()
         self._page_offset = np.einsum("ki,kij->kj", site_xpos[:, origin], to_page)
-        self._touches: list = []
-        self._everyone = np.ones(N, dtype=bool)
-        self._stacked: tuple | None = None
+        self._touches = Touches(N)
         self.max_joint_speed = float(max_joint_speed)
         self._warnings = self._warning_counts()
         # The drive law is elementwise: one JointDrive runs every member's drive on (N, n)
@@ -220,7 +223,7 @@ class BatchPlant:
                       and self.jitter_steps == 0.0)
         self.act_delay = round(truth.actuation_delay_ms / 1000.0 / self.h)
         self._rngs = [np.random.default_rng([int(s), 0x5E45]) for s in seeds]
-        self._draws = np.zeros((N, 0))
+        self._draws, self._drawn = np.zeros((N, 0)), 0  # (blocks; the columns used so far)
         self._age_rngs = [jitter_generator(s) for s in seeds]
         self._uniforms = np.zeros((N, 0))
         self._aged: tuple[int, BatchState] | None = None
@@ -239,6 +242,8 @@ class BatchPlant:
         if not self.ideal:
             q, qd = self._qpos[:, self._qpos_adr].copy(), self._qvel[:, self._dof_adr].copy()
             self._record(q, qd)
+        # every physics step in C where it can (the NumPy step below is the reference)
+        self._compiled = substeps_for(self)
 
     def _setup_stiction(self, stiction: np.ndarray, dofs: np.ndarray) -> None:
         """Each member's joints switch their dry friction between stuck and sliding, from the
@@ -263,11 +268,16 @@ class BatchPlant:
     def _normal_draws(self, k: int) -> np.ndarray:
         """(N, k) standard normals, each member's next from its own stream (the same stream,
         in the same order, as its MujocoPlant's Senses)."""
-        if self._draws.shape[1] < k:
+        self._reserve_draws(k)
+        self._drawn += k
+        return self._draws[:, self._drawn - k : self._drawn]
+
+    def _reserve_draws(self, k: int) -> None:
+        """At least ``k`` unused columns of draws (blocks of 4096 per member)."""
+        if self._draws.shape[1] - self._drawn < k:
             fresh = np.stack([r.standard_normal(4096) for r in self._rngs])
-            self._draws = np.concatenate([self._draws, fresh], axis=1)
-        out, self._draws = self._draws[:, :k], self._draws[:, k:]
-        return out
+            self._draws = np.concatenate([self._draws[:, self._drawn :], fresh], axis=1)
+            self._drawn = 0
 
     def _position(self, q: np.ndarray) -> np.ndarray:
         if self.exact_q:
@@ -385,6 +395,9 @@ class BatchPlant:
         members that diverged, with the error each would have raised."""
         ids = np.asarray(ids, dtype=np.int32)
         every = len(ids) == self.n_members  # (whole-array writes then: no fancy indexing)
+        if self._compiled is not None:
+            self._compiled.period(ids, every)
+            return self._diverged(ids)
         b = self.batch
         vel = int(mujoco.mjtStage.mjSTAGE_VEL)
         for _ in range(self.substeps):
@@ -428,37 +441,22 @@ class BatchPlant:
         return self._diverged(ids)
 
     def _record_touches(self, ids: np.ndarray | None, force: np.ndarray) -> None:
-        """Keep this step's pen forces and tips (N, 3) (of the state the step left: ``_tip_prev``
-        is replaced after each step, never written in place) of members ``ids`` (None: all)."""
+        """Keep this step's pen forces and tips (N, 3) (of the state the step left:
+        ``_tip_prev``, copied into the rows) of members ``ids`` (None: all)."""
         if ids is None:
-            self._touches.append((self.time - self.h, self._everyone, force, self._tip_prev))
+            self._touches.add(self.time - self.h, True, force, self._tip_prev)
             return
         stepped = np.zeros(self.n_members, dtype=bool)
         stepped[ids] = True
-        self._touches.append((self.time - self.h, stepped, np.where(stepped, force, 0.0),
-                              self._tip_prev))
+        self._touches.add(self.time - self.h, stepped, np.where(stepped, force, 0.0),
+                          self._tip_prev)
 
     def feed(self, member: int, canvas) -> None:
         """Give ``canvas`` every touch of member ``member`` so far, in order, as MujocoPlant
         gives its canvas during the run (``touch`` while the force is positive, ``lift`` when
         the contact ends, and at the end), in one ``touch_many`` call. The canvas is passive, so
         feeding it afterwards draws the same ink; an ensemble holds one page at a time."""
-        if not self._touches:
-            return
-        if self._stacked is None or len(self._stacked[0]) != len(self._touches):
-            t, stepped, force, tips = (np.array(c) for c in zip(*self._touches))
-            # every step's tips on the page [mm] at once, each member's p A - o (element-wise)
-            A, o, (x, y, z) = self._to_page, self._page_offset, np.moveaxis(tips, 2, 0)
-            self._stacked = (t, stepped, force,
-                             x * A[:, 0, 0] + y * A[:, 1, 0] + z * A[:, 2, 0] - o[:, 0],
-                             x * A[:, 0, 1] + y * A[:, 1, 1] + z * A[:, 2, 1] - o[:, 1])
-        t, stepped, force, px, py = self._stacked
-        f, on = force[:, member], stepped[:, member]
-        contact = on & (f > 0.0)
-        ends = np.flatnonzero(on[1:] & contact[:-1] & ~contact[1:]) + 1
-        rows = np.union1d(np.flatnonzero(contact), ends)  # (touch_many lifts at the ends)
-        canvas.touch_many(np.column_stack((f, px[:, member], py[:, member], t))[rows].tolist())
-        canvas.lift()
+        self._touches.feed(member, canvas, self._to_page, self._page_offset)
 
     def _warning_counts(self) -> np.ndarray:
         return self.batch.warning[:, _DIVERGENCE_WARNINGS, 1].astype(np.int64)
