@@ -34,10 +34,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import find_peaks
 from scipy.spatial import cKDTree
 
 from inkarm.analysis.metrics import chamfer_mm, ink_centreline_mm, resample_polyline
+from inkarm.analysis.peaks import find_peaks
 from inkarm.control.laws.sensorimotor import Sensorimotor, Targets, dppla_targets, stroke_rows
 from inkarm.control.reference import JointReference, plan_within_speed_limits
 from inkarm.core.log import DRAW
@@ -214,7 +214,7 @@ def speed_profile(speed: tuple[np.ndarray, ...], time: tuple[np.ndarray, ...],
     for v, t in zip(speed, time):
         if len(v) < 3:
             continue
-        found, _ = find_peaks(v, prominence=prominence * float(v.max()))
+        found = find_peaks(v, prominence=prominence * float(v.max()))
         peaks += len(found)
         duration += float(t[-1] - t[0])
         top = max(top, float(v.max()))
@@ -295,7 +295,8 @@ def _measure(law: str, label: str, settings, result: Run, plan: JointReference, 
     peaks, top = speed_profile(tuple(speeds), tuple(times))
     canvas = result.canvas
     ink = ink_centreline_mm(canvas.image, canvas.px_per_mm,
-                            0.5 * max(float(np.max(canvas.image)), 1e-9))
+                            0.5 * max(float(np.max(canvas.image)), 1e-9),
+                            within=canvas.inked_box)
     to_reference = 0.0 if reference_ink is None else chamfer_mm(ink, reference_ink)
     return LawResult(
         law=law, label=label, settings=settings, run=result, time=tuple(times), tip=tuple(tips),
