@@ -19,28 +19,17 @@ from __future__ import annotations
 
 import functools
 import logging
-import os
+
+from inkarm.core.compiled import SWITCH, extension, switched_on
 
 _LOG = logging.getLogger(__name__)
-SWITCH = "INKARM_COMPILED"
-"""Set to 0 to run every compiled part of inkarm in Python (the same bits): here and the
-plant's period (:mod:`inkarm.sim.compiled`)."""
 API = 2  # (inkarm/control/_law.c's INKARM_LAW_API)
 
 
 @functools.cache
 def _load():
     """The extension module, or None (why logged once)."""
-    try:
-        from inkarm.control import _law
-    except ImportError as error:
-        _LOG.debug("compiled position law not used (the extension is not built: %s)", error)
-        return None
-    if getattr(_law, "API", 0) != API:
-        _LOG.debug("compiled position law not used: the extension is of another inkarm (API %s, "
-                   "this is %s): build it again (pip install -e .)", getattr(_law, "API", 0), API)
-        return None
-    return _law
+    return extension("inkarm.control._law", API, "compiled position law", _LOG)
 
 
 def position_law():
@@ -54,11 +43,6 @@ def position_law():
 def member_module():
     """The extension module (``MemberPeriod``, ``NotForLane``), or None as :func:`position_law`."""
     return _load() if switched_on() else None
-
-
-def switched_on() -> bool:
-    """False where ``INKARM_COMPILED=0`` asks for the Python arithmetic everywhere."""
-    return os.environ.get(SWITCH, "1") != "0"
 
 
 __all__ = ["SWITCH", "member_module", "position_law", "switched_on"]

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import functools
 import logging
-import os
 
 import numpy as np
+
+from inkarm.core.compiled import extension, switched_on
 
 _LOG = logging.getLogger(__name__)
 API = 1  # (inkarm/ink/_pen.c's INKARM_PEN_API)
@@ -26,22 +27,13 @@ API = 1  # (inkarm/ink/_pen.c's INKARM_PEN_API)
 @functools.cache
 def _load():
     """The extension module, or None (why logged once)."""
-    try:
-        from inkarm.ink import _pen
-    except ImportError as error:
-        _LOG.debug("compiled pen not used (the extension is not built: %s)", error)
-        return None
-    if getattr(_pen, "API", 0) != API:
-        _LOG.debug("compiled pen not used: the extension is of another inkarm (API %s, this is "
-                   "%s): build it again (pip install -e .)", getattr(_pen, "API", 0), API)
-        return None
-    return _pen
+    return extension("inkarm.ink._pen", API, "compiled pen", _LOG)
 
 
 def pen_module():
     """The extension module (``advance``), or None: switched off with ``INKARM_COMPILED=0``, or
     not usable here (logged once, debug)."""
-    return _load() if os.environ.get("INKARM_COMPILED", "1") != "0" else None
+    return _load() if switched_on() else None
 
 
 def touch_rows(canvas, pen, steps, queue_floats: int) -> None:

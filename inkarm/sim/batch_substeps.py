@@ -24,7 +24,7 @@ import logging
 import mujoco
 import numpy as np
 
-from inkarm.control.compiled import switched_on
+from inkarm.core.compiled import extension, switched_on
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT
 
 _LOG = logging.getLogger(__name__)
@@ -34,17 +34,7 @@ API = 1  # (inkarm/sim/_batch.c's INKARM_BATCH_API)
 @functools.cache
 def _load():
     """The extension module, or None (why logged once)."""
-    try:
-        from inkarm.sim import _batch
-    except ImportError as error:
-        _LOG.debug("compiled batch substeps not used (the extension is not built: %s)", error)
-        return None
-    if getattr(_batch, "API", 0) != API:
-        _LOG.debug("compiled batch substeps not used: the extension is of another inkarm (API "
-                   "%s, this is %s): build it again (pip install -e .)",
-                   getattr(_batch, "API", 0), API)
-        return None
-    return _batch
+    return extension("inkarm.sim._batch", API, "compiled batch substeps", _LOG)
 
 
 def substeps_module():

@@ -24,7 +24,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from inkarm.control.compiled import SWITCH, switched_on
+from inkarm.core.compiled import SWITCH, extension, switched_on
 
 _LOG = logging.getLogger(__name__)
 API = 3  # (inkarm/sim/_period.c's INKARM_PERIOD_API)
@@ -43,18 +43,14 @@ def _load():
     if isinstance(reason, str):
         _LOG.debug("compiled period not used, the plant runs its Python period: %s", reason)
         return None
-    return reason
+    return reason  # (the module, or None)
 
 
 def _unusable():
-    """The bound extension module, or why it cannot be used (a string)."""
-    try:
-        from inkarm.sim import _period
-    except ImportError as error:
-        return f"the extension is not built ({error})"
-    if getattr(_period, "API", 1) != API:
-        return (f"the extension is of another inkarm (API {getattr(_period, 'API', 1)}, this "
-                f"is {API}): build it again (pip install -e .)")
+    """The bound extension module, or why it cannot be used (a string; None: logged already)."""
+    _period = extension("inkarm.sim._period", API, "compiled period", _LOG)
+    if _period is None:
+        return None
     if _period.MUJOCO_VERSION != mujoco.__version__:
         return (f"the extension was built for MuJoCo {_period.MUJOCO_VERSION}, "
                 f"this is {mujoco.__version__}")

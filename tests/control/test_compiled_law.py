@@ -6,7 +6,6 @@ Python path whenever the extension cannot or may not be used."""
 from __future__ import annotations
 
 import logging
-import os
 import sys
 from types import SimpleNamespace
 
@@ -17,8 +16,8 @@ import inkarm.control
 from inkarm.control import compiled
 from inkarm.control.laws import Setpoint, position_goals
 from inkarm.control.laws.position_goals import PositionGoals
+from tests.compiled import compiled_or_skip
 
-REQUIRE = "INKARM_REQUIRE_COMPILED"  # (as tests/sim/test_compiled_period.py: CI fails, not skips)
 ROWS, N = 40, 3
 
 
@@ -27,13 +26,7 @@ def built():
     """The extension's PositionLaw, or a skip that says why (a failure with
     INKARM_REQUIRE_COMPILED=1)."""
     compiled._load.cache_clear()
-    law = compiled.position_law()
-    if law is None:
-        why = "the compiled position law is not usable here (INKARM_COMPILED=0 or not built)"
-        if os.environ.get(REQUIRE) == "1":
-            pytest.fail(why)
-        pytest.skip(why)
-    return law
+    return compiled_or_skip(compiled.position_law(), "the compiled position law")
 
 
 class _Plan(SimpleNamespace):

@@ -6,7 +6,6 @@ Python for a reading it cannot take, and the errors that name what was expected.
 
 from __future__ import annotations
 
-import os
 import re
 import sys
 
@@ -20,6 +19,7 @@ from inkarm.jobs.outcome import RunInterrupted
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario, parse_scenario
 from inkarm.sim.plant import MujocoPlant
+from tests.compiled import compiled_or_skip
 
 pytestmark = pytest.mark.sim
 
@@ -27,7 +27,6 @@ LOGGED = ("time", "q", "qd", "torque", "tip", "force", "reference", "phase", "st
 LINE = {"source": {"kind": "plan", "plan": {"strokes": [{"targets": [
     {"mean": [0.0, 0.0], "cov": 1.0}, {"mean": [20.0, 5.0], "cov": 1.0}]}]}},
     "ink": {"px_per_mm": 4.0}}
-REQUIRE = "INKARM_REQUIRE_COMPILED"  # (as tests/sim/test_compiled_period.py: CI fails, not skips)
 # The executor's three ways: every step in Python (the extensions off), the member's steps in
 # one C call a period (the plant's port withheld), and whole periods in C through the port.
 WAYS = ("python", "period", "whole")
@@ -36,11 +35,7 @@ WAYS = ("python", "period", "whole")
 @pytest.fixture
 def built():
     compiled._load.cache_clear()
-    if compiled.member_module() is None:
-        why = "the compiled member period is not usable here (INKARM_COMPILED=0 or not built)"
-        if os.environ.get(REQUIRE) == "1":
-            pytest.fail(why)
-        pytest.skip(why)
+    return compiled_or_skip(compiled.member_module(), "the compiled member period")
 
 
 def _runs(scenario, monkeypatch, ways=WAYS) -> dict:

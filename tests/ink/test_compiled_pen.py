@@ -6,7 +6,8 @@ wherever the C may not run (other inks, a marker subclass, INKARM_COMPILED=0).""
 
 from __future__ import annotations
 
-import os
+import logging
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,11 +15,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import inkarm.ink
 from inkarm.errors import InputError
 from inkarm.ink import compiled_pen
 from inkarm.ink.canvas import Canvas, MarkerInk
+from tests.compiled import compiled_or_skip
 
-REQUIRE = "INKARM_REQUIRE_COMPILED"  # (as tests/sim/test_compiled_period.py: CI fails, not skips)
 SIZE_MM = (40.0, 30.0)
 
 
@@ -26,13 +28,7 @@ SIZE_MM = (40.0, 30.0)
 def built():
     """The extension module, or a skip that says why (a failure with INKARM_REQUIRE_COMPILED=1)."""
     compiled_pen._load.cache_clear()
-    pen = compiled_pen.pen_module()
-    if pen is None:
-        why = "the compiled pen is not usable here (INKARM_COMPILED=0 or not built)"
-        if os.environ.get(REQUIRE) == "1":
-            pytest.fail(why)
-        pytest.skip(why)
-    return pen
+    return compiled_or_skip(compiled_pen.pen_module(), "the compiled pen")
 
 
 def touches(rng, n: int, lift_rate: float = 0.05, repeat_rate: float = 0.05) -> np.ndarray:
@@ -134,25 +130,22 @@ def test_other_inks_run_the_python_loop(built, monkeypatch, ink):
     assert canvas.n_strokes >= 1
 
 
-def test_switched_off_or_not_built_means_the_python_loop(monkeypatch):
+def test_switched_off_or_not_built_means_the_python_loop(monkeypatch, caplog):
     monkeypatch.setenv("INKARM_COMPILED", "0")
     assert compiled_pen.pen_module() is None
     monkeypatch.setenv("INKARM_COMPILED", "1")
+    monkeypatch.delattr(inkarm.ink, "_pen", raising=False)
+    monkeypatch.setitem(sys.modules, "inkarm.ink._pen", None)  # (its import fails)
     compiled_pen._load.cache_clear()
-    monkeypatch.setattr("builtins.__import__", _refusing_pen_import)
     try:
-        assert compiled_pen.pen_module() is None
+        with caplog.at_level(logging.DEBUG, logger="inkarm.ink.compiled_pen"):
+            assert compiled_pen.pen_module() is None
+            canvas = Canvas(SIZE_MM, px_per_mm=8.0)
+            canvas.touch_many(touches(np.random.default_rng(2), 50))
     finally:
         compiled_pen._load.cache_clear()
-
-
-_real_import = __import__
-
-
-def _refusing_pen_import(name, globals=None, locals=None, fromlist=(), level=0):
-    if name == "inkarm.ink" and fromlist and "_pen" in fromlist:
-        raise ImportError("no _pen here")
-    return _real_import(name, globals, locals, fromlist, level)
+    assert "compiled pen not used (the extension is not built" in caplog.text
+    assert canvas.in_contact or canvas.n_strokes > 0  # (the Python loop drew)
 
 
 def test_bad_rows_are_refused_by_the_extension_itself(built):

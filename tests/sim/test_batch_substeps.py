@@ -7,8 +7,6 @@ the ink fed to each member's canvas are the same bits."""
 
 from __future__ import annotations
 
-import os
-
 import mujoco
 import numpy as np
 import pytest
@@ -17,9 +15,9 @@ from inkarm.sim import batch_substeps
 from inkarm.sim.batch import BatchPlant, member_model
 from inkarm.sim.cell import PAPER, make_cell
 from inkarm.sim.imperfections import PlantTruth
+from tests.compiled import compiled_or_skip
 
 pytestmark = pytest.mark.sim
-REQUIRE = "INKARM_REQUIRE_COMPILED"  # (as tests/sim/test_compiled_period.py: CI fails, not skips)
 SEEDS = [3, 8, 11]
 RANDOM = {"paper_height_mm": [0.0, 2.0], "mass_scale": [0.9, 1.1]}
 RAISE_M = 0.240  # [m] the sheet raised to the pen at home: it touches, presses and lifts
@@ -45,13 +43,7 @@ def cell():
 def built():
     """The extension, or a skip that says why (a failure with INKARM_REQUIRE_COMPILED=1)."""
     batch_substeps._load.cache_clear()
-    module = batch_substeps.substeps_module()
-    if module is None:
-        why = "the compiled batch substeps are not usable here (INKARM_COMPILED=0 or not built)"
-        if os.environ.get(REQUIRE) == "1":
-            pytest.fail(why)
-        pytest.skip(why)
-    return module
+    return compiled_or_skip(batch_substeps.substeps_module(), "the compiled batch substeps")
 
 
 class Rows:

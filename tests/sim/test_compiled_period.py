@@ -23,6 +23,7 @@ from inkarm.robots.gains import PIDGains
 from inkarm.sim import compiled
 from inkarm.sim.cell import build_model
 from inkarm.sim.drive import JointDrive
+from tests.compiled import compiled_or_skip
 
 pytestmark = pytest.mark.sim
 
@@ -32,20 +33,13 @@ LINE = {"source": {"kind": "plan", "plan": {"strokes": [{"targets": [
     "ink": {"px_per_mm": 4.0}}
 
 
-REQUIRE = "INKARM_REQUIRE_COMPILED"
-"""Set to 1 where the extension must be there (CI): a build that broke fails, not skips."""
-
-
 @pytest.fixture
 def built():
     """The extension, or a skip that says why it is not usable here (a failure with
     INKARM_REQUIRE_COMPILED=1)."""
     compiled._load.cache_clear()
-    if compiled.period_module() is None:
-        why = f"the compiled period is not usable here: {compiled._unusable()}"
-        if os.environ.get(REQUIRE) == "1":
-            pytest.fail(why)
-        pytest.skip(why)
+    return compiled_or_skip(compiled.period_module(), "the compiled period",
+                            str(compiled._unusable() or "logged at debug level"))
 
 
 def _run_both(scenario, monkeypatch):
@@ -245,7 +239,7 @@ def test_an_extension_of_an_older_checkout_is_not_used(built, monkeypatch, caplo
             assert sim_plant.MujocoPlant(build_model())._period is None
     finally:
         compiled._load.cache_clear()
-    assert f"of another inkarm (API 1, this is {compiled.API}): build it again" in caplog.text
+    assert f"of another inkarm (API none, this is {compiled.API}): build it again" in caplog.text
 
 
 def test_the_switch_and_a_library_not_loaded_leave_the_python_period(built, monkeypatch):
