@@ -6,8 +6,9 @@ controller in its own worker process) against the same N runs on a process pool 
 status, metrics and simulated time), in the same process, on the same machine.
 
 Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]
-[--repeat R]`` (R interleaved runs of each executor, medians; default 1: the pool takes about
-15 s for 64 members on two cores). Prints one markdown table: wall time, members per second,
+[--repeat R]`` (R blocks, each running every executor once and then the physics floors, so
+that a busy minute on a shared machine hits subject and reference alike; medians of the blocks;
+default 3: a block takes about 10 s for 64 members on two cores). Prints one markdown table: wall time, members per second,
 the aggregate real-time factor (simulated seconds of all members over the wall time), the
 throughput ratio against the process pool, the CPU time per member (all processes and threads:
 the pool's workers with their start, the ensemble's workers from their fork) and its ratio; then
@@ -175,7 +176,7 @@ def main() -> int:
     parser.add_argument("--members", type=int, default=None)
     parser.add_argument("--scenario", default=str(DEFAULT))
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--repeat", type=int, default=1, help="median of this many runs")
+    parser.add_argument("--repeat", type=int, default=3, help="median of this many runs")
     args = parser.parse_args()
     n = args.members or (8 if args.quick else 64)
     seeds = list(range(n))
@@ -190,9 +191,12 @@ def main() -> int:
                        lambda: batched(args.scenario, seeds, cpus, cold=True)),
                       (f"batched, {cpus} worker processes, kept from the previous ensemble",
                        lambda: batched(args.scenario, seeds, cpus))]
-    # Interleaved repeats, so that a busy minute on a shared machine hits every executor alike.
+    # Interleaved repeats, so that a busy minute on a shared machine hits every executor and
+    # the physics floors alike (a block: each executor once, then each floor).
     walls: dict[str, list[float]] = {name: [] for name, _ in executors}
     cpus_used: dict[str, list[float]] = {name: [] for name, _ in executors}
+    floors: list[float] = []
+    open_loops: list[float] = []
     last = {}
     for _ in range(args.repeat):
         for name, measure in executors:
@@ -200,6 +204,8 @@ def main() -> int:
             walls[name].append(wall)
             cpus_used[name].append(cpu)
             last[name] = (simulated, results)
+        floors.append(trajectory_floor(args.scenario, seeds[:8]) / min(n, 8))
+        open_loops.append(rollout_floor(args.scenario, seeds[:8]) / min(n, 8))
     rows = [(name, statistics.median(walls[name]), statistics.median(cpus_used[name]),
              *last[name]) for name, _ in executors]
     reference, reference_cpu = n / rows[0][1], rows[0][2] / n
@@ -213,10 +219,7 @@ def main() -> int:
     for name, wall, cpu, simulated, _ in rows:
         print(f"| {name} | {wall:.1f} | {n / wall:.2f} | {simulated / wall:.1f} | "
               f"{n / wall / reference:.2f}x | {cpu / n:.3f} | {reference_cpu / (cpu / n):.2f}x |")
-    floor = statistics.median(trajectory_floor(args.scenario, seeds[:8]) / min(n, 8)
-                              for _ in range(args.repeat))
-    open_loop = statistics.median(rollout_floor(args.scenario, seeds[:8]) / min(n, 8)
-                                  for _ in range(args.repeat))
+    floor, open_loop = statistics.median(floors), statistics.median(open_loops)
     kept = rows[-1][2] / n
     print(f"\nPhysics floor: `mujoco.rollout` of each member's plant model through the controls "
           f"its drives applied at each physics step (its own trajectory, the pen pressed; 8 "
