@@ -29,9 +29,7 @@ class BatchMember:
         self.dt = members.dt
 
     def read(self) -> PlantState:
-        time, q, qd, force, tip, torque = self._members.rows()
-        m = self.index
-        return PlantState(time[m], q[m], qd[m], force[m], tip[m], torque=torque[m])
+        return self._members.states()[self.index]
 
     def command(self, command) -> None:
         if type(command) is not PositionCommand:
@@ -55,22 +53,22 @@ class BatchMembers:
         self.dt = plant.dt
         self.orders: list[PositionCommand | None] = [None] * plant.n_members  # pending
         self._zero = np.zeros(plant.n)
-        self._rows: tuple | None = None
+        self._states: list[PlantState] | None = None
         self.plants = tuple(BatchMember(self, m) for m in range(plant.n_members))
 
     def now(self) -> float:
         return self.plant.now()
 
-    def rows(self) -> tuple:
-        """The batch's reading as per-member rows: (times [s], q, qd, force [N], tip [mm],
-        torque), each a list over the members (rows of the arrays, forces as floats)."""
-        if self._rows is None:
+    def states(self) -> list[PlantState]:
+        """The batch's reading as each member's :class:`PlantState` (rows of the arrays, forces
+        as floats), read once a period for all of them."""
+        if self._states is None:
             s = self.plant.read()
             n = self.plant.n_members
             times = [s.time] * n if s.times is None else s.times.tolist()  # (jitter: its own)
-            self._rows = (times, list(s.q), list(s.qd), s.force.tolist(), list(s.tip_mm),
-                          list(s.torque))
-        return self._rows
+            self._states = [PlantState(*row[:5], torque=row[5]) for row in zip(
+                times, s.q, s.qd, s.force.tolist(), s.tip_mm, s.torque)]
+        return self._states
 
     def step(self, members: list[int]) -> dict[int, RunFault]:
         ids = [m for m, order in enumerate(self.orders) if order is not None]
@@ -81,7 +79,7 @@ class BatchMembers:
                 np.array([zero if o.qd is None else o.qd for o in given], dtype=float),
                 np.array([zero if o.torque is None else o.torque for o in given], dtype=float))
             self.orders = [None] * len(self.orders)
-        self._rows = None
+        self._states = None
         return self.plant.step(np.asarray(members))
 
 
