@@ -171,7 +171,8 @@ class Canvas:
                 return
         pen = pen_module() if type(self.ink) is MarkerInk and self._path is None else None
         if pen is None:
-            self._touch_rows(steps.tolist() if isinstance(steps, np.ndarray) else steps, True)
+            self._touch_rows(np.asarray(steps, float).tolist()
+                             if isinstance(steps, np.ndarray) else steps, True)
         else:
             touch_rows(self, pen, steps, _QUEUE_FLOATS)
 
@@ -237,7 +238,7 @@ class Canvas:
                         waiting = False
                     sx, sy, sw, sa = x, y, width, 0.0
                 elif (
-                    (x - sx) ** 2 + (y - sy) ** 2 >= segment2
+                    (x - sx) * (x - sx) + (y - sy) * (y - sy) >= segment2
                     or abs(width - sw) * ppm >= 0.5
                     or abs(opacity - sa) >= 0.05
                 ):

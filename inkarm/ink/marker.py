@@ -21,6 +21,7 @@ monotone with w'(F_th) = k / F0; w(F_th) = w0, so the width is continuous where 
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 from inkarm.ink.checks import (
@@ -51,6 +52,10 @@ class MarkerInk:
     threshold_n: float = 0.08
 
     def __post_init__(self) -> None:
+        for name in ("w0_mm", "k_mm", "f0_n", "opacity", "threshold_n"):  # (Python floats: the
+            value = getattr(self, name)  # pen's arithmetic in float64, whatever was given)
+            if isinstance(value, numbers.Real) and not isinstance(value, bool):
+                object.__setattr__(self, name, float(value))
         require_range("MarkerInk", "w0_mm", self.w0_mm, WIDTH_RANGE_MM, "a width [mm]")
         require_range("MarkerInk", "k_mm", self.k_mm, (0.0, WIDTH_RANGE_MM[1]),
                       "an extra width [mm]")

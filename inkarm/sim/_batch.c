@@ -67,10 +67,11 @@ typedef struct {
   int *qpos_adr, *dof_adr, *arm;
   double h, alpha, tick, q_noise, force_noise, force_bias, servo_unit;
   double* scratch; /* 3 N n: q_m, the recorded q, qd */
-  /* where the last period stopped when it raised (a Ctrl-C in the batch's step): the
-   * counters of the physics steps it completed, for progress() */
+  /* where the last call of period() stopped, whatever ended it (a Ctrl-C in the batch's
+   * step, an array refused): the counters of the physics steps it completed and the set
+   * points it applied, for progress(); left = 0 where its arguments were not taken */
   double left_since, left_time;
-  Py_ssize_t left_steps, left_cursor, left_row;
+  Py_ssize_t left_steps, left_cursor, left_row, left_events;
   int left_active, left_have_prev, left_have_sq, left;
 } Substeps;
 
@@ -108,6 +109,50 @@ static void release(Substeps* self) {
 static void substeps_dealloc(Substeps* self) {
   release(self);
   Py_TYPE(self)->tp_free((PyObject*)self);
+}
+
+/* The largest of n ints, or -1. */
+static int largest(const int* x, int n) {
+  int top = -1;
+  for (int i = 0; i < n; i++) top = x[i] > top ? x[i] : top;
+  return top;
+}
+
+/* Whether every array the C indexes has the rows and columns it indexes (else ValueError naming
+ * the first that does not): the members' rows N, the joints' n, the ring's slots, and the
+ * indices into the batch's arrays (qpos, qvel, ctrl, sensordata, site_xpos) within them. */
+static int fits(Substeps* self) {
+  const Py_buffer* b = self->bufs;
+  const int N = self->N, n = self->n, ring = self->ring;
+  for (int i = 0; i < NBUF; i++) {
+    if (i == GAINS || i == RING_TIME) continue;
+    const int ring_array = i >= RING_Q && i <= RING_TIP;
+    const Py_ssize_t first = ring_array ? ring : N, second = ring_array ? N : -1;
+    if (b[i].shape[0] != first || (second >= 0 && b[i].shape[1] != second)) {
+      PyErr_Format(PyExc_ValueError, "Substeps: %s has %zd rows, expected %zd", names[i],
+                   b[i].shape[0], first);
+      return -1;
+    }
+  }
+  const int ring_n[] = {RING_Q, RING_QD, RING_TORQUE}, ring_3[] = {RING_TIP};
+  for (int i = 0; i < 3; i++)
+    if (b[ring_n[i]].shape[2] != n) {
+      PyErr_Format(PyExc_ValueError, "Substeps: %s must be (ring, N, n)", names[ring_n[i]]);
+      return -1;
+    }
+  if (b[ring_3[0]].shape[2] != 3 || b[TIP_PREV].shape[1] != 3 || b[OFFSET].shape[1] != 3 ||
+      b[TO_PAGE].shape[1] != 3 || b[TO_PAGE].shape[2] != 3 || b[SITE_XPOS].shape[2] != 3 ||
+      largest(self->qpos_adr, n) >= b[QPOS].shape[1] ||
+      largest(self->dof_adr, n) >= b[QVEL].shape[1] ||
+      largest(self->arm, n) >= b[CTRL].shape[1] || largest(self->arm, n) >= b[ACT_FORCE].shape[1] ||
+      self->tip_site < 0 || self->tip_site >= b[SITE_XPOS].shape[1] || self->normal_adr < 0 ||
+      self->normal_count < 0 || self->normal_adr + 3 * self->normal_count > b[SENSOR].shape[1]) {
+    PyErr_SetString(PyExc_ValueError,
+                    "Substeps: an index past its array (qpos_adr, dof_adr, arm, tip_site or the "
+                    "sensor's normals), or a tip, page or frame array not of 3");
+    return -1;
+  }
+  return 0;
 }
 
 /* n ints of the sequence `seq` into out. */
@@ -177,7 +222,7 @@ static int substeps_init(Substeps* self, PyObject* args, PyObject* kwds) {
   if (int_list(qpos_adr, n, self->qpos_adr, "qpos_adr") < 0 ||
       int_list(dof_adr, n, self->dof_adr, "dof_adr") < 0 || int_list(arm, n, self->arm, "arm") < 0)
     return -1;
-  return 0;
+  return fits(self);
 }
 
 typedef struct {
@@ -352,10 +397,15 @@ static PyObject* substeps_period(Substeps* self, PyObject* args) {
     PyErr_SetString(PyExc_RuntimeError, "Substeps: not initialised");
     return NULL;
   }
-  if (!PyArg_ParseTuple(args, "OOOO!OnOOOOnddnppp", &step, &ids, &stepped_obj, &PyList_Type, &events,
+  self->left = 0;
+  PyObject* given_events;
+  if (!PyArg_ParseTuple(args, "OOOOOnOOOOnddnppp", &step, &ids, &stepped_obj, &given_events,
                         &draws_obj, &cursor, &t_obj, &on_obj, &f_obj, &tip_obj, &row, &since,
                         &time, &steps, &active, &have_prev, &have_sq))
     return NULL;
+  /* (a tuple of its own: the step's callback cannot change what is being applied) */
+  events = PySequence_Tuple(given_events);
+  if (events == NULL) return NULL;
   const int N = self->N, n = self->n, every = stepped_obj == Py_None;
   Py_buffer bufs[6];
   View views[6];
@@ -363,6 +413,7 @@ static PyObject* substeps_period(Substeps* self, PyObject* args) {
   const int nd[6] = {2, 1, 2, 2, 3, 1}, sizes[6] = {8, 8, 1, 8, 8, 1};
   const char* what[6] = {"draws", "touch_t", "touch_on", "touch_force", "touch_tip", "stepped"};
   int got = 0;
+  Py_ssize_t next = 0; /* the set points applied */
   PyObject* result = NULL;
   for (; got < (every ? 5 : 6); got++)
     if (get_view(objs[got], bufs + got, views + got, nd[got], got > 0 && got < 5, sizes[got],
@@ -371,17 +422,30 @@ static PyObject* substeps_period(Substeps* self, PyObject* args) {
   Draws d = {views[0], cursor, bufs[0].shape[1]};
   const int per_step = (self->exact_q || self->q_noise == 0.0 ? 0 : 2 * n) +
                        (self->force_noise != 0.0 && !self->ideal);
-  if (bufs[0].shape[0] != N || cursor + (Py_ssize_t)self->substeps * per_step > d.columns ||
-      row + self->substeps > bufs[1].shape[0] || bufs[2].shape[1] != N) {
-    PyErr_SetString(PyExc_ValueError, "Substeps: too few draws or touch rows for a period");
+  if (bufs[0].shape[0] != N || cursor < 0 || row < 0 ||
+      cursor + (Py_ssize_t)self->substeps * per_step > d.columns) {
+    PyErr_SetString(PyExc_ValueError, "Substeps: too few draws for a period");
+    goto done;
+  }
+  /* every touch array: rows for the period's steps, one column per member (the tips' 3) */
+  const Py_ssize_t rows = bufs[1].shape[0];
+  for (int i = 2; i < 5; i++)
+    if (bufs[i].shape[0] != rows || bufs[i].shape[1] != N || (i == 4 && bufs[i].shape[2] != 3)) {
+      PyErr_Format(PyExc_ValueError, "Substeps: %s must have %zd rows of the %d members",
+                   what[i], rows, N);
+      goto done;
+    }
+  if (row + self->substeps > rows || (!every && bufs[5].shape[0] != N)) {
+    PyErr_SetString(PyExc_ValueError,
+                    "Substeps: too few touch rows for a period, or stepped not one per member");
     goto done;
   }
   View touch_t = views[1], touch_on = views[2], touch_f = views[3], touch_tip = views[4];
   View* v = self->v;
   double* q_m = self->scratch;
-  Py_ssize_t next = 0, nevents = PyList_GET_SIZE(events);
+  const Py_ssize_t nevents = PyTuple_GET_SIZE(events);
   for (int s = 0; s < self->substeps; s++) {
-    PyObject* event = next < nevents ? PyList_GET_ITEM(events, next) : NULL;
+    PyObject* event = next < nevents ? PyTuple_GET_ITEM(events, next) : NULL;
     int due = 0;
     if (event != NULL) {
       if (!PyTuple_Check(event) || PyTuple_GET_SIZE(event) != 4) {
@@ -440,23 +504,22 @@ static PyObject* substeps_period(Substeps* self, PyObject* args) {
                          PyBool_FromLong(active), PyBool_FromLong(have_prev),
                          PyBool_FromLong(have_sq));
 done:
-  self->left = result == NULL;
-  if (self->left) {
-    self->left_since = since, self->left_time = time;
-    self->left_steps = steps, self->left_cursor = got == (every ? 5 : 6) ? d.cursor : cursor;
-    self->left_row = row, self->left_active = active;
-    self->left_have_prev = have_prev, self->left_have_sq = have_sq;
-  }
+  self->left = 1;
+  self->left_since = since, self->left_time = time;
+  self->left_steps = steps, self->left_cursor = got == (every ? 5 : 6) ? d.cursor : cursor;
+  self->left_row = row, self->left_events = next, self->left_active = active;
+  self->left_have_prev = have_prev, self->left_have_sq = have_sq;
   for (int i = 0; i < got; i++) PyBuffer_Release(bufs + i);
+  Py_DECREF(events);
   return result;
 }
 
 static PyObject* substeps_progress(Substeps* self, PyObject* Py_UNUSED(ignored)) {
   if (!self->left) Py_RETURN_NONE;
-  return Py_BuildValue("(ddnnnNNN)", self->left_since, self->left_time, self->left_steps,
+  return Py_BuildValue("(ddnnnNNNn)", self->left_since, self->left_time, self->left_steps,
                        self->left_cursor, self->left_row, PyBool_FromLong(self->left_active),
                        PyBool_FromLong(self->left_have_prev),
-                       PyBool_FromLong(self->left_have_sq));
+                       PyBool_FromLong(self->left_have_sq), self->left_events);
 }
 
 static PyMethodDef substeps_methods[] = {

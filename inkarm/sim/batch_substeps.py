@@ -84,27 +84,33 @@ class CompiledSubsteps:
             (p.h, drive.alpha, p.tick, p.q_noise, p.force_noise, p.force_bias,
              SERVO_VELOCITY_UNIT))
 
-    def _events(self) -> list:
+    def _events(self) -> tuple[list, list[list]]:
         """The set points that come due in the coming period, as (substep, q, qd, tau_ff) with
         the goals held then (the queue's commands merged as ``BatchPlant._actuate`` merges
-        them: all that come due at one step are one set point, the integral's once)."""
-        p, events = self.plant, []
+        them: all that come due at one step are one set point, the integral's once), and the
+        queue's entries each one merged (taken off the queue)."""
+        p, events, taken = self.plant, [], []
         queue = p._queue
         for s in range(p.substeps):
-            due = False
+            merged = []
             while queue and queue[0][0] <= p.steps + s:
-                _, who, q, qd, tau = queue.pop(0)
-                for held, new in zip(p._goal, (q, qd, tau)):
-                    held[who] = new
-                due = True
-            if due:
+                entry = queue.pop(0)
+                for held, new in zip(p._goal, entry[2:]):
+                    held[entry[1]] = new
+                merged.append(entry)
+            if merged:
                 events.append((s, *(np.array(g) for g in p._goal)))
-        return events
+                taken.append(merged)
+        return events, taken
 
     def period(self, ids: np.ndarray, every: bool) -> None:
-        """One control period of members ``ids`` (``every``: all of them)."""
+        """One control period of members ``ids`` (``every``: all of them). Where the C call
+        raises (a Ctrl-C in the batch's step, an array refused), the plant keeps what the steps
+        it completed did and the commands it did not reach stay queued, as the NumPy step
+        leaves them."""
         p, drive, touches = self.plant, self.plant.drive, self.plant._touches
-        events = self._events()
+        held = [g.copy() for g in p._goal]
+        events, taken = self._events()
         p._reserve_draws(p.substeps * self.per_step)
         touches.reserve(p.substeps)
         stepped = None
@@ -112,17 +118,19 @@ class CompiledSubsteps:
             stepped = np.zeros(p.n_members, dtype=bool)
             stepped[ids] = True
         try:
-            done = self.c.period(
+            self.c.period(
                 p.batch.step, None if every else ids, stepped, events, p._draws, p._drawn,
                 touches.t, touches.on, touches.force, touches.tip, touches.count, drive.since,
                 p.time, p.steps, drive.active, drive.q_prev is not None,
                 p._sq_prev is not None)
-        except BaseException:  # (a Ctrl-C in the batch's step: keep the steps it completed)
-            done = self.c.progress()
-            if done is not None:
-                self._take(done)
+        except BaseException:
+            applied = self.c.progress()[-1]
+            if applied < len(events):  # (the goals held after the last set point applied)
+                p._goal = [np.array(g) for g in events[applied - 1][1:]] if applied else held
+                p._queue[:0] = [entry for merged in taken[applied:] for entry in merged]
             raise
-        self._take(done)
+        finally:  # (the counters are the C's after every call, whatever ended it)
+            self._take(self.c.progress()[:-1])
 
     def _take(self, done: tuple) -> None:
         """The plant's counters and the drives' state after the physics steps ``done`` says

@@ -141,6 +141,18 @@ def test_a_page_nobody_kept_is_blanked_for_the_next_member_and_inks_as_a_fresh_o
         assert view.tobytes() == member(scenario, seed).canvas.image.tobytes()
 
 
+def test_where_reference_counts_do_not_count_every_holder_no_page_is_reused(quick,
+                                                                             monkeypatch):
+    """(CPython 3.14 borrows references, other interpreters count otherwise): a new page for
+    every member there."""
+    from inkarm.jobs import ensemble
+
+    monkeypatch.setattr(ensemble, "_COUNTS_EVERY_REFERENCE", False)
+    kept = list(iter_ensemble(quick.with_overrides(RISKY), [0, 4], processes=1,
+                              keep=canvas_ref))
+    assert [ref() for ref, _, _ in kept] == [None, None]  # (each page freed with its Run)
+
+
 def test_iter_ensemble_yields_the_members_in_order_with_progress(quick):
     scenario = quick.with_overrides(RISKY)
     reports = []

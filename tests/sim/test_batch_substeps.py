@@ -145,13 +145,78 @@ def test_the_c_refuses_arrays_of_another_shape_naming_them(built, cell, monkeypa
     c, _ = pair(cell, monkeypatch, TRUTHS["realistic"])
     s = c._compiled.c
     touches = c._touches
+    touches.reserve(c.substeps)
     with pytest.raises(TypeError, match="touch_on must be a writable 2-d bool array"):
         s.period(c.batch.step, None, None, [], c._draws, c._drawn, touches.t,
                  touches.force, touches.force, touches.tip, 0, 0.0, 0.0, 0, False, False, False)
-    with pytest.raises(ValueError, match="too few draws or touch rows"):
+    with pytest.raises(ValueError, match="too few draws for a period"):
         s.period(c.batch.step, None, None, [], c._draws[:, :0], 0, touches.t, touches.on,
                  touches.force, touches.tip, 0, 0.0, 0.0, 0, False, False, False)
+    with pytest.raises(ValueError, match="touch_force must have .* rows of the 3 members"):
+        s.period(c.batch.step, None, None, [], c._draws, c._drawn, touches.t, touches.on,
+                 touches.force[:1], touches.tip, 0, 0.0, 0.0, 0, False, False, False)
+    with pytest.raises(ValueError, match="stepped not one per member"):
+        s.period(c.batch.step, np.array([0], np.int32), np.ones(2, bool), [], c._draws,
+                 c._drawn, touches.t, touches.on, touches.force, touches.tip, 0, 0.0, 0.0, 0,
+                 False, False, False)
     assert c.steps == 0  # (nothing stepped)
+    monkeypatch.setitem(c._ring, "q", c._ring["q"][:, :2])  # (2 members' columns of 3)
+    with pytest.raises(ValueError, match="ring_q has .* rows|ring_q must be"):
+        batch_substeps.CompiledSubsteps(c, built)
+
+
+@pytest.mark.parametrize("delay_ms", [2.0, 4.0])
+def test_a_ctrl_c_before_a_delayed_command_keeps_it_queued(built, cell, monkeypatch, delay_ms):
+    """A KeyboardInterrupt from the batch's first step of a period whose later steps a delayed
+    command comes due in: the command stays queued (the goals as they were), and the plants go
+    on equal to the NumPy step's (helper R's finding F1)."""
+    c, p = pair(cell, monkeypatch, {**TRUTHS["realistic"], "actuation_delay_ms": delay_ms})
+    drive_both(c, p, 10)
+    ids = np.arange(len(SEEDS))
+    q0 = c.read().q[0].copy()
+    p.read()
+    for plant in (c, p):
+        plant.command(ids, np.stack([q0 + 0.01] * 3), np.zeros((3, len(q0))),
+                      np.zeros((3, len(q0))))
+        real = plant.batch.step
+
+        def interrupted(*args):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(plant.batch, "step", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            plant.step(ids)
+        monkeypatch.setattr(plant.batch, "step", real)
+    assert len(c._queue) == len(p._queue) == 1
+    for _ in range(3):
+        for plant in (c, p):
+            assert plant.step(ids) == {}
+    assert_same(c, p)
+
+
+def test_the_counters_are_the_c_calls_even_when_the_return_is_interrupted(built, cell,
+                                                                          monkeypatch):
+    """A Ctrl-C that lands just after the C period returned (before Python took its counters):
+    the plant still counts the steps taken (helper R's finding F2)."""
+    c, p = pair(cell, monkeypatch, TRUTHS["realistic"])
+    drive_both(c, p, 5)
+    ids = np.arange(len(SEEDS))
+    real = c._compiled.c
+
+    class Late:
+        def period(self, *args):
+            real.period(*args)
+            raise KeyboardInterrupt  # (as a signal handled at the next bytecode)
+
+        def progress(self):
+            return real.progress()
+
+    monkeypatch.setattr(c._compiled, "c", Late())
+    with pytest.raises(KeyboardInterrupt):
+        c.step(ids)
+    monkeypatch.setattr(c._compiled, "c", real)
+    assert p.step(ids) == {}
+    assert_same(c, p)
 
 
 def test_a_ctrl_c_in_the_batchs_step_leaves_the_steps_taken_counted(built, cell, monkeypatch):
