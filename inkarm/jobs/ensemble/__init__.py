@@ -23,7 +23,9 @@ and ink (bit for bit in the tests), whatever the shares (a member's simulation d
 on the others', and its controller is the same code on the same numbers). ``log.wall_s`` of a
 batched member is its share's wall time divided by the number of members (the shares run at
 once, so each Run's real-time factor is about the ensemble's aggregate one). Ctrl-C stops the
-whole ensemble, every share (a plain KeyboardInterrupt: no partial Runs are kept).
+whole ensemble, every share (a plain KeyboardInterrupt: no partial Runs are kept). A page that
+nothing kept of a member's Run (``keep`` returned a summary) is blanked in its inked box and
+inked again for the next member of the share, instead of a new one (:func:`_blank_again`).
 """
 
 from __future__ import annotations
