@@ -39,7 +39,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
-from collections.abc import Generator
+from collections.abc import Callable, Generator
 
 import numpy as np
 
@@ -202,6 +202,17 @@ def run_drawing(
     return result
 
 
+def _send(command: Callable, order, time: float) -> None:
+    """``command(order)``: a command the plant does not take is the law's fault at ``time``
+    [s] (:func:`law_error`), as a watchdog's, not a crash."""
+    try:
+        command(order)
+    except RunFault:
+        raise
+    except Exception as e:
+        raise law_error(e, time) from e
+
+
 def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: Board,
             t_first: float | None, port=None) -> Generator[None, None, DrawLog]:
     """One member's periods (module docstring); yields after each command, returns its log or
@@ -284,12 +295,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
                     lane, chunk = None, 0
                 else:
                     logged = True
-                    try:
-                        command(order)
-                    except RunFault:
-                        raise
-                    except Exception as e:  # a command the plant does not take
-                        raise law_error(e, state.time) from e
+                    _send(command, order, state.time)
                     fresh = False
                     yield
                     rows[member] = i
@@ -361,12 +367,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
                 error = math.hypot(tip[0] - page_x[seen], tip[1] - page_y[seen])
             # (watched before the command goes out: a fault's first command is the safe stop's)
             check(state.time, state.q, state.qd, state.torque, force_f, error)
-            try:
-                command(order)
-            except RunFault:
-                raise
-            except Exception as e:  # a command the plant does not take
-                raise law_error(e, state.time) from e
+            _send(command, order, state.time)
             fresh = False
             yield
             rows[member] = i

@@ -180,6 +180,16 @@ class ForceLoop:
             self._measure(f, False)
         return f
 
+    def restore(self, state: dict) -> None:
+        """Go on from a state kept elsewhere (the member's compiled period hands its own back,
+        :meth:`inkarm.control.member_lane.Lane.hand_over`): ``z``, ``force``, ``rate``,
+        ``lead``, ``h_prev``, the recent ``depths`` and the surface's ``sums``, ``count``,
+        ``coef`` and ``origin``."""
+        self.z, self.force, self.rate = state["z"], state["force"], state["rate"]
+        self._lead, self._h_prev = state["lead"], state["h_prev"]
+        self._depths.extend(state["depths"])
+        self.surface.restore(state["sums"], state["count"], state["coef"], state["origin"])
+
     def search_failed(self, time: float) -> RunFault:
         """The fault of a guarded search that ran out of range at plant ``time`` [s]."""
         return RunFault(f"paper_not_found: no contact within {self.limit_mm:g} mm beyond where "

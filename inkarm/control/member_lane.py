@@ -72,13 +72,7 @@ class Lane:
         ``i``, ``row``, ``waited``, ``settled_for``, ``force_f``, ``t_first`` and the three
         columns as lists, for the Python steps to go on from."""
         state = self.kernel.export()
-        force_loop.z, force_loop.force = state["z"], state["force"]
-        force_loop.rate, force_loop._lead = state["rate"], state["lead"]
-        force_loop._h_prev = state["h_prev"]
-        force_loop._depths.extend(state["depths"])
-        surface = force_loop.surface
-        surface._sums, surface.count = state["sums"], state["count"]
-        surface.coef, surface.origin = state["coef"], state["origin"]
+        force_loop.restore(state)
         return {key: state[key] for key in ("i", "row", "waited", "settled_for", "force_f",
                                             "t_first")} | {
             "commanded": self.commanded.tolist(), "ref_row": self.ref_row.tolist(),

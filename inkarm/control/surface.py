@@ -60,6 +60,12 @@ class SurfaceEstimate:
         if self.count == 1 or self.count % self.refit_every == 0:
             self.coef = self.plane(s, self.prior)
 
+    def restore(self, sums: list[float], count: int, coef: tuple[float, float, float],
+                origin: tuple[float, float] | None) -> None:
+        """Go on from a state kept elsewhere (the member's compiled period hands its own back):
+        the nine sums, the sample count, the plane's coefficients and the sums' origin [mm]."""
+        self._sums, self.count, self.coef, self.origin = list(sums), count, coef, origin
+
     @staticmethod
     def plane(sums: list[float], prior: float) -> tuple[float, float, float]:
         """(a, b, c) [m, 1, 1] from the normal equations' ``sums`` (sum 1, u, v, u^2, u v, v^2,
