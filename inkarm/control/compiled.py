@@ -17,19 +17,16 @@ Why a fallback is taken is logged once at debug level on ``inkarm.control.compil
 
 from __future__ import annotations
 
-import functools
 import logging
 
-from inkarm.core.compiled import SWITCH, extension, switched_on
+from inkarm.core.compiled import SWITCH, loader, switched_on
 
 _LOG = logging.getLogger(__name__)
 API = 2  # (inkarm/control/_law.c's INKARM_LAW_API)
 
 
-@functools.cache
-def _load():
-    """The extension module, or None (why logged once)."""
-    return extension("inkarm.control._law", API, "compiled position law", _LOG)
+# the module, or None (why logged once)
+_load = loader("inkarm.control._law", API, "compiled position law", _LOG)
 
 
 def position_law():

@@ -11,9 +11,12 @@ asked.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import logging
 import os
+from collections.abc import Callable
+from types import ModuleType
 
 SWITCH = "INKARM_COMPILED"
 """Set to 0 to run every compiled part of inkarm in Python (the same bits)."""
@@ -40,4 +43,11 @@ def extension(name: str, api: int, what: str, log: logging.Logger):
     return module
 
 
-__all__ = ["SWITCH", "extension", "switched_on"]
+def loader(name: str, api: int, what: str,
+           log: logging.Logger) -> Callable[[], ModuleType | None]:
+    """:func:`extension` as a function that looks once a process (its ``cache_clear()``
+    looks again)."""
+    return functools.cache(lambda: extension(name, api, what, log))
+
+
+__all__ = ["SWITCH", "extension", "loader", "switched_on"]

@@ -13,21 +13,18 @@ environment variable ``INKARM_COMPILED`` is not ``0`` (the switch of every compi
 
 from __future__ import annotations
 
-import functools
 import logging
 
 import numpy as np
 
-from inkarm.core.compiled import extension, switched_on
+from inkarm.core.compiled import loader, switched_on
 
 _LOG = logging.getLogger(__name__)
 API = 1  # (inkarm/ink/_pen.c's INKARM_PEN_API)
 
 
-@functools.cache
-def _load():
-    """The extension module, or None (why logged once)."""
-    return extension("inkarm.ink._pen", API, "compiled pen", _LOG)
+# the module, or None (why logged once)
+_load = loader("inkarm.ink._pen", API, "compiled pen", _LOG)
 
 
 def pen_module():

@@ -18,23 +18,20 @@ is of this source (``API``), and the environment variable ``INKARM_COMPILED`` is
 
 from __future__ import annotations
 
-import functools
 import logging
 
 import mujoco
 import numpy as np
 
-from inkarm.core.compiled import extension, switched_on
+from inkarm.core.compiled import loader, switched_on
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT
 
 _LOG = logging.getLogger(__name__)
 API = 1  # (inkarm/sim/_batch.c's INKARM_BATCH_API)
 
 
-@functools.cache
-def _load():
-    """The extension module, or None (why logged once)."""
-    return extension("inkarm.sim._batch", API, "compiled batch substeps", _LOG)
+# the module, or None (why logged once)
+_load = loader("inkarm.sim._batch", API, "compiled batch substeps", _LOG)
 
 
 def substeps_module():
