@@ -387,7 +387,8 @@ static void record(Substeps* self, Draws* d, Py_ssize_t slot, double time, int* 
  * bool mask of them, or None), each by step(ids, 1, stage) (the batch's Batch.step, looked up
  * by the caller at each period), the set points `events` ((substep, q, qd, tau_ff), in order)
  * applied at their steps, normals drawn from column `cursor` of `draws`, touches written from
- * row `row`. Returns (since, time, steps, cursor, row, active, have_prev, have_sq_prev). */
+ * row `row`. Returns None; progress() says where it stopped, whatever ended it: (since, time,
+ * steps, cursor, row, active, have_prev, have_sq_prev, set points applied). */
 static PyObject* substeps_period(Substeps* self, PyObject* args) {
   PyObject *step, *ids, *stepped_obj, *events, *draws_obj, *t_obj, *on_obj, *f_obj, *tip_obj;
   Py_ssize_t cursor, row, steps;
@@ -500,9 +501,7 @@ static PyObject* substeps_period(Substeps* self, PyObject* args) {
     PyErr_SetString(PyExc_ValueError, "Substeps: an event past the period's steps");
     goto done;
   }
-  result = Py_BuildValue("(ddnnnNNN)", since, time, steps, d.cursor, row,
-                         PyBool_FromLong(active), PyBool_FromLong(have_prev),
-                         PyBool_FromLong(have_sq));
+  result = Py_NewRef(Py_None); /* (what it did: progress()) */
 done:
   self->left = 1;
   self->left_since = since, self->left_time = time;

@@ -416,14 +416,13 @@ class BatchPlant:
                 self.motor = self._actuator_force[:, self._arm_ctrl].copy()
             self.time += self.h
             force = self._sensordata[:, self._normals].sum(axis=1)
-            if every:
-                self.pen_force = force.copy()  # (force itself is kept with the touches)
+            if every:  # (the touches copy the forces and tips into their rows)
+                self.pen_force = force
                 self._record_touches(None, force)
                 self._tip_prev = self._tip_xpos.copy()
             else:
                 self.pen_force[ids] = force[ids]
                 self._record_touches(ids, force)
-                self._tip_prev = self._tip_prev.copy()  # (the touches keep the one before)
                 self._tip_prev[ids] = self._tip_xpos[ids]
             self.steps += 1
             if not self.ideal:

@@ -81,16 +81,19 @@ class CompiledSubsteps:
             (p.h, drive.alpha, p.tick, p.q_noise, p.force_noise, p.force_bias,
              SERVO_VELOCITY_UNIT))
 
-    def _events(self) -> tuple[list, list[list]]:
+    def _events(self) -> tuple[list, list[list], list | None]:
         """The set points that come due in the coming period, as (substep, q, qd, tau_ff) with
         the goals held then (the queue's commands merged as ``BatchPlant._actuate`` merges
-        them: all that come due at one step are one set point, the integral's once), and the
-        queue's entries each one merged (taken off the queue)."""
-        p, events, taken = self.plant, [], []
+        them: all that come due at one step are one set point, the integral's once), the
+        queue's entries each one merged (taken off the queue), and the goals held before (a
+        copy; None where nothing came due)."""
+        p, events, taken, before = self.plant, [], [], None
         queue = p._queue
         for s in range(p.substeps):
             merged = []
             while queue and queue[0][0] <= p.steps + s:
+                if before is None:
+                    before = [g.copy() for g in p._goal]
                 entry = queue.pop(0)
                 for held, new in zip(p._goal, entry[2:]):
                     held[entry[1]] = new
@@ -98,7 +101,7 @@ class CompiledSubsteps:
             if merged:
                 events.append((s, *(np.array(g) for g in p._goal)))
                 taken.append(merged)
-        return events, taken
+        return events, taken, before
 
     def period(self, ids: np.ndarray, every: bool) -> None:
         """One control period of members ``ids`` (``every``: all of them). Where the C call
@@ -106,8 +109,7 @@ class CompiledSubsteps:
         it completed did and the commands it did not reach stay queued, as the NumPy step
         leaves them."""
         p, drive, touches = self.plant, self.plant.drive, self.plant._touches
-        held = [g.copy() for g in p._goal]
-        events, taken = self._events()
+        events, taken, held = self._events()
         p._reserve_draws(p.substeps * self.per_step)
         touches.reserve(p.substeps)
         stepped = None

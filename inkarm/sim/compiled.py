@@ -174,9 +174,7 @@ class Port:
         drive.q_goal = plant._position_goal = np.array(q)
         drive.qd_goal, drive.tau_ff, drive.since = np.array(qd), np.array(tau_ff), since
         plant._steps += steps
-        touching, plant._pen_force = plant._touching, rows[-1][0]
-        plant._touching = plant._pen_force > 0.0
-        feed(plant.canvas, touching, rows)
+        plant._touching, plant._pen_force = feed(plant.canvas, plant._touching, rows)
 
 
 __all__ = ["SWITCH", "Port", "feed", "period_for", "period_module", "set_point"]

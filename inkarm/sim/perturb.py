@@ -65,9 +65,10 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None,
         changes["paper_stiffness_n_per_mm"] = truth.paper_stiffness_n_per_mm
     if truth.nib_friction is not None:
         changes["friction"] = truth.nib_friction
+    built_for = cell
     if changes:
         cell = Cell(dataclasses.replace(config, **changes), cell.robot)
-    spec = _fresh_spec(cell)
+    spec = _fresh_spec(built_for, cell, tuple(sorted(changes.items())))
     if edit_spec is not None:
         edit_spec(spec)
     _move_paper(spec, truth)
@@ -90,17 +91,22 @@ def plant_model(cell: Cell, truth: PlantTruth | None = None,
     return model
 
 
-_BUILT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Cell -> its spec, unedited
+# the caller's Cell -> {its config's changes: the spec built, unedited}, a few each
+_BUILT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_CHANGES_KEPT = 4
 
 
-def _fresh_spec(cell: Cell) -> mujoco.MjSpec:
-    """An editable spec of ``cell``: a copy of the one built for it once (:func:`build_spec`;
-    a copy costs a twentieth of a build, and compiles to the same model bit for bit: an
-    ensemble builds one plant model per member)."""
-    built = _BUILT.get(cell)
-    if built is None:
-        built = _BUILT[cell] = build_spec(cell)
-    return built.copy()
+def _fresh_spec(cell: Cell, changed: Cell, changes: tuple) -> mujoco.MjSpec:
+    """An editable spec of ``changed`` (``cell`` with its config's ``changes``): a copy of the
+    one built for them once (:func:`build_spec`; a copy costs a twentieth of a build, and
+    compiles to the same model bit for bit: an ensemble builds one plant model per member).
+    Kept per ``cell``, the caller's, for the last :data:`_CHANGES_KEPT` changes."""
+    built = _BUILT.setdefault(cell, {})
+    if changes not in built:
+        while len(built) >= _CHANGES_KEPT:
+            del built[next(iter(built))]
+        built[changes] = build_spec(changed)
+    return built[changes].copy()
 
 
 def _turnable(model: mujoco.MjModel, geom: int) -> None:
