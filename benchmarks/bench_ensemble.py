@@ -104,11 +104,11 @@ def batched(path: str, seeds: list[int], processes: int, nthread: int = 0, cold:
     return wall, cpu_seconds() - cpu, sum(r[2] for r in results), results
 
 
-def trajectory_floor(path: str, seeds: list[int]) -> float:
-    """CPU [s] of ``mujoco.rollout`` over the members: each member's plant model from its start
-    state with the controls its drives applied at each physics step of its batched run (the
-    run's own trajectory, pen contacts included, without any controller: the floor of a
-    member's cost). Helper B, session 32."""
+def trajectory_cases(path: str, seeds: list[int]) -> list:
+    """The cases of the physics floor (:func:`rollout_cpu_s`): each member's plant model from
+    its start state with the controls its drives applied at each physics step of its batched
+    run (the run's own trajectory, pen contacts included, without any controller: the floor of
+    a member's cost). Helper B, session 32."""
     scenario = load_scenario(path)
     cell = Cell(scenario.cell, scenario.robot)
     drawing = placed_within_budget(scenario, cell)
@@ -139,7 +139,7 @@ def trajectory_floor(path: str, seeds: list[int]) -> float:
         mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         control = np.array([c[k] for ids, c in applied if ids is None or k in ids])
         cases.append((model, data, state, control))
-    return rollout_cpu_s(cases)
+    return cases
 
 
 def rollout_cpu_s(cases: list) -> float:
@@ -151,10 +151,10 @@ def rollout_cpu_s(cases: list) -> float:
     return time.process_time() - cpu
 
 
-def rollout_floor(path: str, seeds: list[int]) -> float:
-    """CPU [s] of ``mujoco.rollout`` over the members: each member's own plant model from its
-    start state, for as many physics steps as its run took, its logged torques held over each
-    control period open loop (the floor of sessions 29-31: the arm drifts off the letter and the
+def open_loop_cases(path: str, seeds: list[int]) -> list:
+    """The cases of the open-loop floor (:func:`rollout_cpu_s`): each member's own plant model
+    from its start state, for as many physics steps as its run took, its logged torques held
+    over each control period open loop (the floor of sessions 29-31: the arm drifts off the letter and the
     pen touches the paper in a few steps, so it leaves out most of the contact solving)."""
     cases = []
     for seed in seeds:
@@ -168,7 +168,7 @@ def rollout_floor(path: str, seeds: list[int]) -> float:
         control = np.zeros((len(torques) * plant.substeps, model.nu))
         control[:, plant._arm_ctrl] = np.repeat(np.nan_to_num(torques), plant.substeps, axis=0)
         cases.append((model, data, state, control))
-    return rollout_cpu_s(cases)
+    return cases
 
 
 def main() -> int:
@@ -195,6 +195,9 @@ def main() -> int:
     # the physics floors alike (a block: each executor once, then each floor).
     walls: dict[str, list[float]] = {name: [] for name, _ in executors}
     cpus_used: dict[str, list[float]] = {name: [] for name, _ in executors}
+    # (the floors' controls recorded once; only their rollouts are timed in each block)
+    trajectory, open_loop = (cases(args.scenario, seeds[:8])
+                             for cases in (trajectory_cases, open_loop_cases))
     floors: list[float] = []
     open_loops: list[float] = []
     last = {}
@@ -204,8 +207,8 @@ def main() -> int:
             walls[name].append(wall)
             cpus_used[name].append(cpu)
             last[name] = (simulated, results)
-        floors.append(trajectory_floor(args.scenario, seeds[:8]) / min(n, 8))
-        open_loops.append(rollout_floor(args.scenario, seeds[:8]) / min(n, 8))
+        floors.append(rollout_cpu_s(trajectory) / len(trajectory))
+        open_loops.append(rollout_cpu_s(open_loop) / len(open_loop))
     rows = [(name, statistics.median(walls[name]), statistics.median(cpus_used[name]),
              *last[name]) for name, _ in executors]
     reference, reference_cpu = n / rows[0][1], rows[0][2] / n

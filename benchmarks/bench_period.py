@@ -38,7 +38,6 @@ persistent ``mujoco.rollout.Rollout`` of 3 steps.
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import sys
 import time
@@ -49,7 +48,7 @@ import numpy as np
 from bench_draw import bare_mujoco_s
 from blocks import interleave
 from mujoco import rollout
-from pressed import recorded_physics, replay_s
+from pressed import period, recorded_physics, replay_s
 
 import inkarm.sim.plant as sim_plant
 from inkarm.control import executor
@@ -178,21 +177,6 @@ def one_call_per_period(cell: Cell, torques: np.ndarray, substeps: int = 3
     timing = interleave({"mj_step": stepped, "rollout": rolled}, blocks=5, repeats=1,
                         clock=None)
     return {name: 1e6 * timing.median(name) / len(torques) for name in timing.times}
-
-
-@contextmanager
-def period(kind: str):
-    """The plant's period for the runs inside: "compiled" (where the extension is usable) or
-    "python" (``INKARM_COMPILED=0``)."""
-    saved = os.environ.get(compiled.SWITCH)
-    os.environ[compiled.SWITCH] = "1" if kind == "compiled" else "0"
-    try:
-        yield
-    finally:
-        if saved is None:
-            del os.environ[compiled.SWITCH]
-        else:
-            os.environ[compiled.SWITCH] = saved
 
 
 def executor_cpu_s(scenario) -> float:

@@ -18,6 +18,7 @@ import copy
 import dataclasses
 import os
 import time
+from contextlib import contextmanager
 
 import mujoco
 import numpy as np
@@ -68,19 +69,30 @@ class _Recording:
         mujoco.mj_step2(m, d)
 
 
-def recorded_physics(scenario) -> Physics:
-    """The physics of one run of ``scenario`` (module docstring)."""
-    recording, saved = _Recording(), os.environ.get(compiled.SWITCH)
-    os.environ[compiled.SWITCH] = "0"
-    sim_plant.mujoco = recording
+@contextmanager
+def period(kind: str):
+    """The plant's period for the runs inside: "compiled" (where the extension is usable) or
+    "python" (``INKARM_COMPILED=0``)."""
+    saved = os.environ.get(compiled.SWITCH)
+    os.environ[compiled.SWITCH] = "1" if kind == "compiled" else "0"
     try:
-        result = run(scenario)
+        yield
     finally:
-        sim_plant.mujoco = mujoco
         if saved is None:
             del os.environ[compiled.SWITCH]
         else:
             os.environ[compiled.SWITCH] = saved
+
+
+def recorded_physics(scenario) -> Physics:
+    """The physics of one run of ``scenario`` (module docstring)."""
+    recording = _Recording()
+    sim_plant.mujoco = recording
+    try:
+        with period("python"):
+            result = run(scenario)
+    finally:
+        sim_plant.mujoco = mujoco
     return Physics(recording.model, recording.start, np.array(recording.controls),
                    recording.data.qpos.copy(), recording.in_contact, result.log.torque)
 

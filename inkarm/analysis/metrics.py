@@ -211,6 +211,27 @@ def _plan_points(plan_strokes, px_per_mm: float) -> tuple[np.ndarray, cKDTree]:
     return _PLANS.get(strokes, compute, float(px_per_mm))
 
 
+def half_darkest(darkness, within: Box | None = None) -> float | None:
+    """Half the darkness of the darkest pixel of ``darkness`` (only ``within`` read, a box
+    outside which it is 0: :func:`ink_within`), the core of a line whatever its ink; None
+    where no pixel is dark (no ink)."""
+    image = np.asarray(darkness)
+    if within is not None:
+        r0, r1, c0, c1 = within
+        image = image[r0:r1, c0:c1]
+    darkest = float(np.max(image)) if image.size else 0.0
+    return 0.5 * darkest if darkest > 0.0 else None
+
+
+def ink_within(canvas) -> Box | None:
+    """The box outside which ``canvas`` holds no ink: its ``inked_box`` (an empty box on a
+    blank page; :attr:`inkarm.ink.canvas.Canvas.inked_box`), or None (the whole page) for a
+    raster that keeps none."""
+    if not hasattr(canvas, "inked_box"):
+        return None
+    return canvas.inked_box or (0, 0, 0, 0)
+
+
 def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes,
                    threshold: float | None = None, *, within: Box | None = None) -> float:
     """Ink-versus-plan distance in [mm]: the symmetric chamfer distance (:func:`chamfer_mm`)
@@ -229,14 +250,9 @@ def ink_chamfer_mm(darkness, px_per_mm: float, plan_strokes,
     (:func:`_plan_points`)."""
     plan, plan_tree = _plan_points(plan_strokes, px_per_mm)
     if threshold is None:
-        image = np.asarray(darkness)
-        if within is not None:
-            r0, r1, c0, c1 = within
-            image = image[r0:r1, c0:c1]
-        darkest = float(np.max(image)) if image.size else 0.0
-        if not darkest > 0.0:
+        threshold = half_darkest(darkness, within)
+        if threshold is None:
             return float("inf")
-        threshold = 0.5 * darkest
     ink = ink_centreline_mm(darkness, px_per_mm, threshold, within=within)
     return _chamfer(ink, plan, plan_tree) if len(ink) else math.inf
 
@@ -385,9 +401,7 @@ def compute_metrics(
     force_mean, force_std = contact_force_stats(force_n, mask, contact_threshold_n)
     force_p1, force_p99 = force_percentiles(force_n, mask)
     image = canvas.image
-    # where the canvas keeps the box its ink lies in (Canvas.inked_box; None: a blank page),
-    # only that is read: not the whole page, for each member of an ensemble
-    within = (canvas.inked_box or (0, 0, 0, 0)) if hasattr(canvas, "inked_box") else None
+    within = ink_within(canvas)  # (not the whole page, for each member of an ensemble)
     return {
         "tracking_rms_mm": tracking.rms_mm,
         "tracking_max_mm": tracking.max_mm,

@@ -2,7 +2,7 @@
  * inkarm.ink.marker.MarkerInk (inkarm/ink/canvas.py, the reference, gives the same bits:
  * tests/ink/test_compiled_pen.py).
  *
- * advance(pen, rows, start, lifts, ink, motion, queue, queue_floats) walks the rows
+ * advance(pen, rows, start, ink, motion, queue, queue_floats) walks the rows
  * (force [N], x [mm], y [mm], t [s]) from row `start` and returns (pen, next row, why):
  *   DONE        every row taken;
  *   LIFT        row `next - 1` lifts the pen while it is down: the canvas lifts (Python), then
@@ -20,7 +20,7 @@
 #include <Python.h>
 #include <math.h>
 
-#define INKARM_PEN_API 1
+#define INKARM_PEN_API 2
 
 enum { DONE = 0, LIFT = 1, FLUSH = 2, NOT_FINITE = 3, BACKWARDS = 4 };
 
@@ -99,11 +99,11 @@ static int extend(PyObject* queue, double a, double b, double c, double d, doubl
 }
 
 /* One row of Canvas._touch_rows (its comments say why); returns the row's outcome. */
-static int take(Pen* p, const Marker* ink, double tau, double ppm, double segment2, int lifts,
+static int take(Pen* p, const Marker* ink, double tau, double ppm, double segment2,
                 const double* row, PyObject* queue, Py_ssize_t queue_floats, int* error) {
   const double force = row[0], x = row[1], y = row[2], t = row[3];
   *error = 0;
-  if (lifts && !(force > 0.0)) return p->down ? LIFT : DONE;
+  if (!(force > 0.0)) return p->down ? LIFT : DONE; /* (touch_many: a lift) */
   if ((x + y + t + force) * 0.0 != 0.0 &&
       !(isfinite(x) && isfinite(y) && isfinite(t) && isfinite(force)))
     return NOT_FINITE;
@@ -157,10 +157,9 @@ static int take(Pen* p, const Marker* ink, double tau, double ppm, double segmen
 static PyObject* advance(PyObject* self, PyObject* args) {
   PyObject *pen_tuple, *rows, *queue;
   Py_ssize_t start, queue_floats;
-  int lifts;
   Marker ink;
   double tau, ppm, segment2;
-  if (!PyArg_ParseTuple(args, "OOnp(ddddd)(ddd)O!n", &pen_tuple, &rows, &start, &lifts, &ink.w0,
+  if (!PyArg_ParseTuple(args, "OOn(ddddd)(ddd)O!n", &pen_tuple, &rows, &start, &ink.w0,
                         &ink.k, &ink.f0, &ink.opacity, &ink.threshold, &tau, &ppm, &segment2,
                         &PyList_Type, &queue, &queue_floats))
     return NULL;
@@ -180,7 +179,7 @@ static PyObject* advance(PyObject* self, PyObject* args) {
   Py_ssize_t i = start < 0 ? 0 : start;
   int why = DONE, error = 0;
   for (; i < n; i++) {
-    why = take(&p, &ink, tau, ppm, segment2, lifts, data + 4 * i, queue, queue_floats, &error);
+    why = take(&p, &ink, tau, ppm, segment2, data + 4 * i, queue, queue_floats, &error);
     if (error) goto done;
     if (why == NOT_FINITE || why == BACKWARDS) break;
     if (why != DONE) {
@@ -196,7 +195,7 @@ done:
 
 static PyMethodDef methods[] = {
     {"advance", advance, METH_VARARGS,
-     "advance(pen, rows, start, lifts, ink, motion, queue, queue_floats) -> (pen, next, why)"},
+     "advance(pen, rows, start, ink, motion, queue, queue_floats) -> (pen, next, why)"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_pen",

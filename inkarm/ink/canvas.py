@@ -277,9 +277,13 @@ class Canvas:
         """Whether a stroke is in progress (touched since the last lift)."""
         return self._pen[0]
 
-    def clear(self) -> None:
-        """Blank the page (and forget any stroke in progress). Only the inked box is written:
-        every capsule, and so every non-zero pixel of the stroke and of the image, lies in it."""
+    def clear(self, ink: InkModel | None = None) -> None:
+        """Blank the page (and forget any stroke in progress); with ``ink``, draw in it from
+        now on (a page reused for another drawing gets a fresh ink). Only the inked box is
+        written: every capsule, and so every non-zero pixel of the stroke and of the image,
+        lies in it."""
+        if ink is not None:
+            self.ink, self._textured = ink, isinstance(ink, TexturedInk)
         self._queue.clear()
         if self._inked_box is not None:
             r0, r1, c0, c1 = self._inked_box

@@ -20,7 +20,7 @@ import numpy as np
 from inkarm.core.compiled import loader, switched_on
 
 _LOG = logging.getLogger(__name__)
-API = 1  # (inkarm/ink/_pen.c's INKARM_PEN_API)
+API = 2  # (inkarm/ink/_pen.c's INKARM_PEN_API)
 
 
 # the module, or None (why logged once)
@@ -46,7 +46,7 @@ def touch_rows(canvas, pen, steps, queue_floats: int) -> None:
     motion = (canvas.speed_tau_s, canvas.px_per_mm, canvas.max_segment_mm**2)
     i, n = 0, len(rows)
     while i < n:
-        canvas._pen, i, why = pen.advance(canvas._pen, rows, i, True, law, motion,
+        canvas._pen, i, why = pen.advance(canvas._pen, rows, i, law, motion,
                                           canvas._queue, queue_floats)
         if why == pen.LIFT:
             canvas.lift()

@@ -36,7 +36,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from inkarm.analysis.metrics import chamfer_mm, ink_centreline_mm, resample_polyline
+from inkarm.analysis.metrics import (
+    chamfer_mm,
+    half_darkest,
+    ink_centreline_mm,
+    ink_within,
+    resample_polyline,
+)
 from inkarm.analysis.peaks import find_peaks
 from inkarm.control.laws.sensorimotor import Sensorimotor, Targets, dppla_targets, stroke_rows
 from inkarm.control.reference import JointReference, plan_within_speed_limits
@@ -294,9 +300,9 @@ def _measure(law: str, label: str, settings, result: Run, plan: JointReference, 
     error = np.concatenate(errors)
     peaks, top = speed_profile(tuple(speeds), tuple(times))
     canvas = result.canvas
+    within = ink_within(canvas)
     ink = ink_centreline_mm(canvas.image, canvas.px_per_mm,
-                            0.5 * max(float(np.max(canvas.image)), 1e-9),
-                            within=canvas.inked_box)
+                            half_darkest(canvas.image, within) or 0.5e-9, within=within)
     to_reference = 0.0 if reference_ink is None else chamfer_mm(ink, reference_ink)
     return LawResult(
         law=law, label=label, settings=settings, run=result, time=tuple(times), tip=tuple(tips),

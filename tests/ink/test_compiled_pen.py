@@ -152,6 +152,6 @@ def test_bad_rows_are_refused_by_the_extension_itself(built):
     """The C takes only what the canvas hands it: a (n, 4) float64 array and the pen tuple."""
     pen, law, motion = (False,) + (0.0,) * 16, (0.3, 0.5, 1.0, 1.0, 0.08), (0.02, 8.0, 0.25)
     with pytest.raises(TypeError, match=r"\(n, 4\) float64"):
-        built.advance(pen, np.zeros((3, 3)), 0, True, law, motion, [], 1792)
+        built.advance(pen, np.zeros((3, 3)), 0, law, motion, [], 1792)
     with pytest.raises(TypeError, match="17-tuple"):
-        built.advance(pen[:5], np.zeros((3, 4)), 0, True, law, motion, [], 1792)
+        built.advance(pen[:5], np.zeros((3, 4)), 0, law, motion, [], 1792)

@@ -205,8 +205,7 @@ def _blank_again(canvas: Canvas | None, scenario: Scenario) -> Canvas | None:
     for name in ("_stroke", "_image", "_base"):
         if getattr(canvas, name) is not None and sys.getrefcount(getattr(canvas, name)) > 2:
             return None
-    canvas.clear()
-    canvas.ink = scenario.ink.make()
+    canvas.clear(ink=scenario.ink.make())
     return canvas
 
 
