@@ -659,6 +659,15 @@ done:
   return result;
 }
 
+/* The member on to the plan row after its period's step: the hold's counters with it, nothing
+ * logged or read for the next period yet. */
+static void advance(MemberPeriod* self) {
+  self->i = self->next_i;
+  self->waited = self->next_waited;
+  self->settled_for = self->next_settled;
+  self->logged = self->fresh = 0;
+}
+
 /* run(port, periods) -> periods run: up to ``periods`` whole periods through the plant's port
  * (inkarm/core/_plant.h; a PyCapsule): read, steps 2-4, command, the plant's step, and the
  * advance of each but the last (advance() takes it, as after the executor's own yield); stops
@@ -694,12 +703,7 @@ static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_
   double* feedforward = goal + n;
   long done = 0;
   while (done < periods) {
-    if (done > 0) {  /* (the advance of the period before; the last one's is advance()'s) */
-      self->i = self->next_i;
-      self->waited = self->next_waited;
-      self->settled_for = self->next_settled;
-      self->logged = 0;
-    }
+    if (done > 0) advance(self); /* (the period before's; the last one's is advance()'s) */
     if (self->i >= self->rows) break;
     if (ready(self) < 0 || PyErr_CheckSignals() < 0) return NULL;
     if (plant->read(plant->self, &r.time, q, q + n, q + 2 * n, q + 3 * n, &r.force) < 0)
@@ -718,10 +722,7 @@ static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_
 
 /* advance() -> the plan row after this period's step (the executor calls it after the yield) */
 static PyObject* member_advance(MemberPeriod* self, PyObject* unused) {
-  self->i = self->next_i;
-  self->waited = self->next_waited;
-  self->settled_for = self->next_settled;
-  self->logged = self->fresh = 0;
+  advance(self);
   return PyLong_FromSsize_t(self->i);
 }
 

@@ -129,11 +129,9 @@ def pen_error(p: np.ndarray, R: np.ndarray, p_goal: np.ndarray,
     return e
 
 
-def pen_jacobian(R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray,
-                 out: np.ndarray | None = None) -> np.ndarray:
-    """The 5 x n task Jacobian J5 = [Jp ; x_s^T Jr ; y_s^T Jr] (module docstring), written
-    into ``out`` (5, n) when given."""
-    J5 = np.empty((5, Jp.shape[1])) if out is None else out
+def pen_jacobian(R: np.ndarray, Jp: np.ndarray, Jr: np.ndarray) -> np.ndarray:
+    """The 5 x n task Jacobian J5 = [Jp ; x_s^T Jr ; y_s^T Jr] (module docstring)."""
+    J5 = np.empty((5, Jp.shape[1]))
     J5[:3] = Jp
     np.dot(R.T[:2], Jr, out=J5[3:])
     return J5
