@@ -14,7 +14,7 @@ $(BIN)/activate:
 
 # (PYTHONWARNINGS: setuptools says, informally, that an editable install with a C extension
 # finds the package through a path hook; true and harmless here, kept off the commands' output)
-$(VENV)/.installed: $(BIN)/activate pyproject.toml setup.py inkarm/sim/_period.c inkarm/control/_law.c inkarm/control/_member.c inkarm/control/_law.h inkarm/core/_plant.h inkarm/ink/_pen.c inkarm/sim/_batch.c
+$(VENV)/.installed: $(BIN)/activate pyproject.toml setup.py inkarm/sim/_period.c inkarm/control/_law.c inkarm/control/_member.c inkarm/control/_law.h inkarm/core/_plant.h inkarm/ink/_pen.c inkarm/sim/_batch.c inkarm/sim/_drive.h
 	PYTHONWARNINGS="ignore:Editable installation:UserWarning" $(BIN)/pip install -q -e ".[test]"
 	touch $@
 

@@ -46,6 +46,7 @@ def _extensions() -> list[Extension]:
     pen = Extension("inkarm.ink._pen", sources=["inkarm/ink/_pen.c"],
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     batch = Extension("inkarm.sim._batch", sources=["inkarm/sim/_batch.c"],
+                      depends=["inkarm/sim/_drive.h"],
                       extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     found = _mujoco()
     if found is None or not (found[0] / "mujoco" / "mujoco.h").is_file():
@@ -54,7 +55,7 @@ def _extensions() -> list[Extension]:
     return [law, pen, batch, Extension(
         "inkarm.sim._period",
         sources=["inkarm/sim/_period.c"],
-        depends=["inkarm/core/_plant.h"],
+        depends=["inkarm/core/_plant.h", "inkarm/sim/_drive.h"],
         include_dirs=[str(include)],
         define_macros=[("INKARM_MUJOCO_VERSION", f'"{mujoco_version}"')],
         extra_compile_args=["-O2", "-ffp-contract=off"],  # (no fused multiply-add: the same bits)

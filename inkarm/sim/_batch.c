@@ -25,8 +25,10 @@
 #include <math.h>
 #include <string.h>
 
+#include "_drive.h"
+
 /* What this module offers, as inkarm.sim.batch_substeps.API expects it */
-#define INKARM_BATCH_API 1
+#define INKARM_BATCH_API 2
 
 /* The arrays a Substeps holds for its life (Python keeps them; it never replaces them). */
 enum {
@@ -35,7 +37,7 @@ enum {
   INTEGRAL, VEL, Q_PREV, SQ_PREV, MOTOR, PEN, TIP_PREV,
   GOAL_Q, GOAL_QD, GOAL_TAU, U, DU,
   RING_Q, RING_QD, RING_TORQUE, RING_FORCE, RING_TIP, RING_TIME,
-  GAINS, /* (5, n): K_p, K_i, K_d, K_p h, integral limit */
+  GAINS, /* (5, n): the drives' gains, _drive.h's rows */
   NBUF
 };
 static const char* names[NBUF] = {
@@ -254,21 +256,15 @@ static int set_point(Substeps* self, PyObject* event, const double* q_m, double*
                      int active) {
   View* v = self->v;
   const int N = self->N, n = self->n;
-  const double *kp = (double*)self->bufs[GAINS].buf, *ki = kp + n, *kd = kp + 2 * n;
-  const double *kp_h = kp + 3 * n, *limit = kp + 4 * n;
-  if (active && *since > 0.0) {
-    const double s = *since;
+  const double* g = (double*)self->bufs[GAINS].buf;
+  const double *kp = g + DRIVE_KP * n, *kd = g + DRIVE_KD * n, *ki = g + DRIVE_KI * n;
+  const double *kp_h = g + DRIVE_KP_H * n, *limit = g + DRIVE_LIMIT * n;
+  if (active && *since > 0.0)
     for (int k = 0; k < N; k++)
-      for (int j = 0; j < n; j++) {
-        double x = A2(v[GOAL_Q], k, j) + A2(v[GOAL_QD], k, j) * s;
-        x = x - q_m[k * n + j];
-        x = x * (ki[j] * s);
-        x = x + A2(v[INTEGRAL], k, j);
-        double floor = -limit[j];
-        x = (x > floor || x != x) ? x : floor;
-        A2(v[INTEGRAL], k, j) = (x < limit[j] || x != x) ? x : limit[j];
-      }
-  }
+      for (int j = 0; j < n; j++)
+        A2(v[INTEGRAL], k, j) = drive_integral(A2(v[INTEGRAL], k, j), A2(v[GOAL_Q], k, j),
+                                               A2(v[GOAL_QD], k, j), q_m[k * n + j], ki[j],
+                                               *since, limit[j]);
   for (int g = 0; g < 3; g++) { /* the goals as given: copied into the drive's */
     Py_buffer buf;
     View given;
@@ -285,14 +281,10 @@ static int set_point(Substeps* self, PyObject* event, const double* q_m, double*
   *since = 0.0;
   if (self->native)
     for (int k = 0; k < N; k++)
-      for (int j = 0; j < n; j++) {
-        double qd = A2(v[GOAL_QD], k, j);
-        double rest = kd[j] * qd;
-        rest = rest + A2(v[GOAL_TAU], k, j);
-        rest = rest + A2(v[INTEGRAL], k, j);
-        A2(v[U], k, j) = kp[j] * A2(v[GOAL_Q], k, j) + rest;
-        A2(v[DU], k, j) = kp_h[j] * qd;
-      }
+      for (int j = 0; j < n; j++)
+        drive_affine(kp[j], kd[j], kp_h[j], A2(v[GOAL_Q], k, j), A2(v[GOAL_QD], k, j),
+                     A2(v[GOAL_TAU], k, j), A2(v[INTEGRAL], k, j), &A2(v[U], k, j),
+                     &A2(v[DU], k, j));
   return 0;
 }
 
@@ -300,7 +292,8 @@ static int set_point(Substeps* self, PyObject* event, const double* q_m, double*
 static void torques(Substeps* self, const double* q_m, double* since, int* have_prev) {
   View* v = self->v;
   const int N = self->N, n = self->n;
-  const double *kp = (double*)self->bufs[GAINS].buf, *kd = kp + 2 * n;
+  const double* g = (double*)self->bufs[GAINS].buf;
+  const double *kp = g + DRIVE_KP * n, *kd = g + DRIVE_KD * n;
   if (self->native) {
     for (int k = 0; k < N; k++)
       for (int j = 0; j < n; j++) {

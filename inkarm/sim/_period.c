@@ -32,6 +32,7 @@
 #include <mujoco/mujoco.h>
 
 #include "../core/_plant.h"
+#include "_drive.h"
 
 #ifndef INKARM_MUJOCO_VERSION
 #define INKARM_MUJOCO_VERSION "unknown"
@@ -380,28 +381,16 @@ static void set_point(Period* self, double* u, double* du, double* integral, con
                       const double* qd_old, const double* q, const double* qd,
                       const double* tau_ff, const double* q_link, double since) {
   const int n = self->narm;
-  const double *kp = self->gains, *kd = kp + n, *ki = kp + 2 * n, *kp_h = kp + 3 * n;
-  const double* limit = kp + 4 * n;
-  if (q_old != NULL && q_link != NULL && since > 0.0) {
-    for (int i = 0; i < n; i++) {
-      double x = q_old[i] + (qd_old ? qd_old[i] : 0.0) * since;
-      x = x - q_link[i];
-      x = x * (ki[i] * since);
-      x = x + integral[i];
-      double floor = -limit[i];
-      /* np.maximum, np.minimum: NaN stays NaN; of two equal values the second (signed 0) */
-      x = (x > floor || x != x) ? x : floor;
-      integral[i] = (x < limit[i] || x != x) ? x : limit[i];
-    }
-  }
-  for (int i = 0; i < n; i++) {
-    double qdi = qd ? qd[i] : 0.0;
-    double rest = kd[i] * qdi;
-    rest = rest + (tau_ff ? tau_ff[i] : 0.0);
-    rest = rest + integral[i];
-    u[i] = kp[i] * q[i] + rest;
-    du[i] = kp_h[i] * qdi;
-  }
+  const double* g = self->gains;
+  const double *kp = g + DRIVE_KP * n, *kd = g + DRIVE_KD * n, *ki = g + DRIVE_KI * n;
+  const double *kp_h = g + DRIVE_KP_H * n, *limit = g + DRIVE_LIMIT * n;
+  if (q_old != NULL && q_link != NULL && since > 0.0)
+    for (int i = 0; i < n; i++)
+      integral[i] = drive_integral(integral[i], q_old[i], qd_old ? qd_old[i] : 0.0, q_link[i],
+                                   ki[i], since, limit[i]);
+  for (int i = 0; i < n; i++)
+    drive_affine(kp[i], kd[i], kp_h[i], q[i], qd ? qd[i] : 0.0, tau_ff ? tau_ff[i] : 0.0,
+                 integral[i], u + i, du + i);
 }
 
 /* command(u, du, integral, q_old, qd_old, q, qd, tau_ff, q_link, since): a new set point of the

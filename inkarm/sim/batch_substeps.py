@@ -27,7 +27,7 @@ from inkarm.core.compiled import loader, switched_on
 from inkarm.sim.imperfections import SERVO_VELOCITY_UNIT
 
 _LOG = logging.getLogger(__name__)
-API = 1  # (inkarm/sim/_batch.c's INKARM_BATCH_API)
+API = 2  # (inkarm/sim/_batch.c's INKARM_BATCH_API)
 
 
 # the module, or None (why logged once)
@@ -60,7 +60,7 @@ class CompiledSubsteps:
         self._u, self._du = np.zeros((N, n)), np.zeros((N, n))
         site_xpos = p.batch.bind("site_xpos")
         gains = np.ascontiguousarray(np.stack([np.broadcast_to(g, (n,)) for g in (
-            drive.kp, drive.ki, drive.kd, drive.kp_h, drive.limit)]), dtype=float)
+            drive.kp, drive.kd, drive.ki, drive.kp_h, drive.limit)]), dtype=float)  # (_drive.h)
         r = p._ring
         arrays = (p._qpos, p._qvel, p._ctrl, p._sensordata, p._actuator_force, site_xpos,
                   np.ascontiguousarray(p._floor), np.ascontiguousarray(p._limit),

@@ -86,7 +86,7 @@ def period_for(plant):
     arm = np.arange(m.nu)[plant._arm_ctrl].tolist()
     tip_geom = -1 if plant._only_tip_touches else plant._tip_geom
     drive = plant.drive
-    gains = [x for g in (drive.kp, drive.kd, drive.ki, drive.kp_h, drive.limit)
+    gains = [x for g in (drive.kp, drive.kd, drive.ki, drive.kp_h, drive.limit)  # (_drive.h)
              for x in np.broadcast_to(g, (len(arm),)).tolist()]
     return module.Period((m, d), m._address, d._address, arm, plant._tip_site, tip_geom,
                          plant._page_map, plant.substeps, plant._max_speed_sq,
