@@ -245,8 +245,6 @@ class PathTracker:
         self._J = np.empty((5 if spin_goal is None else 6, kin.n))
         self._JT = self._J.T
         self._rows = self._J[:3], self._J[3:5]
-        self._plain = (spin_goal is None and cfg._row_weights is None  # (track's loop inline)
-                       and kin.fixed_views is not None)
         self._R = self._tip = self._tilt = self._turn = None
         self._evaluate(self.q)
 
@@ -314,30 +312,36 @@ class PathTracker:
     def track(self, goals: list[list[float]]
               ) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
         """:meth:`step` towards each of ``goals`` (3 floats, [m]) in turn: the joint angles and
-        (tip, tilt) errors reached; 5 unweighted rows with the parts inline (fewer calls)."""
-        rows, errors = [], []
-        if not self._plain:
-            for goal in goals:
-                errors.append(self._step(goal))
-                rows.append(self.q)
-            return rows, errors
+        (tip, tilt) errors reached. The one implementation of the step (the class docstring):
+        :meth:`_evaluate`, :meth:`_error` and :meth:`_dls` written out in one loop (fewer calls)."""
         kin, cfg, J, JT, dposv = self.kin, self.cfg, self._J, self._JT, _spd_solver()
-        place, (p, R, Jp, Jr) = kin.jacobian_views, kin.fixed_views
-        (Jp_rows, tilt_rows), dot = self._rows, np.dot
-        RT, RT2, axis = R.T, R.T[:2], self.axis_goal
+        place, (Jp_rows, tilt_rows), dot = kin.jacobian_views, self._rows, np.dot
+        RT, RT2, axis, spin = self._RT, self._RT2, self.axis_goal, self._spin
         maximum, minimum, array, sqrt = np.maximum, np.minimum, np.array, math.sqrt
         (low, high), lower, upper, qp = self._band, kin.lower, kin.upper, self.q_posture
-        pg, lg, ridge, max_step = cfg.posture_gain, cfg.limit_gain, cfg._ridge5, cfg.max_step
+        pg, lg, max_step = cfg.posture_gain, cfg.limit_gain, cfg.max_step
+        w, n_rows = cfg._row_weights, J.shape[0]
+        ridge = cfg._ridge5 if n_rows == 5 else cfg.damping**2 * np.eye(n_rows)
+        if w is not None and n_rows != 5:  # (the spin row weighs as the tilt rows do)
+            w = np.append(w, [cfg.tilt_weight] * (n_rows - 5))
         tol_pos, tol_tilt, tilt_free = cfg.tol_pos, cfg.tol_tilt, cfg.tilt_weight == 0
         q, refine, (px, py, pz), (xa, ya, za) = self.q, self.max_refine, self._tip, self._tilt
+        turn, rows, errors = self._turn, [], []
         for gx, gy, gz in goals:
             dq0 = pg * (qp - q) + lg * (minimum(maximum(q, low), high) - q)  # (k = 0 only)
             e = [gx - px, gy - py, gz - pz, -ya, xa]
+            if spin is not None:
+                e.append(turn)
             for k in range(refine + 1):
-                A = J.dot(JT)
+                if w is None:
+                    Jw, JwT, ew = J, JT, array(e)
+                else:  # dls_update's weighted rows
+                    Jw = w[:, None] * J
+                    JwT, ew = Jw.T, w * array(e)
+                A = Jw.dot(JwT)
                 A += ridge
-                rhs = array(e) - J.dot(dq0) if not k else array(e)
-                dq = JT.dot(dposv(A, rhs)[1])
+                rhs = ew - Jw.dot(dq0) if not k else ew
+                dq = JwT.dot(dposv(A, rhs)[1])
                 if not k:
                     dq += dq0
                 biggest = max(map(abs, dq.tolist()))
@@ -345,30 +349,26 @@ class PathTracker:
                     dq *= max_step / biggest
                 dq += q
                 q = minimum(maximum(dq, lower, out=dq), upper, out=dq)
-                place(q)
+                p, R, Jp, Jr = place(q)  # (p and R: the same arrays at every evaluation)
                 Jp_rows[...] = Jp
                 dot(RT2, Jr, out=tilt_rows)
                 (px, py, pz), (xa, ya, za) = p.tolist(), RT.dot(axis).tolist()
                 ex, ey, ez = gx - px, gy - py, gz - pz
-                pos_err, tilt_err = sqrt(ex * ex + ey * ey + ez * ez), sqrt(ya * ya + xa * xa)
+                tilt = ya * ya + xa * xa
+                if spin is not None:  # pose_task's sixth row
+                    J[5] = R[:, 2] @ Jr
+                    turn = float(R[:, 1] @ spin)
+                    tilt += turn * turn
+                pos_err, tilt_err = sqrt(ex * ex + ey * ey + ez * ez), sqrt(tilt)
                 if pos_err < tol_pos and (tilt_free or tilt_err < tol_tilt):
                     break
                 e = [ex, ey, ez, -ya, xa]
+                if spin is not None:
+                    e.append(turn)
             rows.append(q)
             errors.append((pos_err, tilt_err))
-        self.q, self._tip, self._tilt = q, [px, py, pz], [xa, ya, za]
+        self.q, self._tip, self._tilt, self._turn = q, [px, py, pz], [xa, ya, za], turn
         return rows, errors
-
-    def _step(self, goal: list[float]) -> tuple[float, float]:
-        self.q = self._dls(self.q, self._error(goal)[2], null_space=True)
-        self._evaluate(self.q)
-        for _ in range(self.max_refine):
-            pos_err, tilt_err, e = self._error(goal)
-            if self.cfg.converged(pos_err, tilt_err):
-                return pos_err, tilt_err
-            self.q = self._dls(self.q, e, null_space=False)
-            self._evaluate(self.q)
-        return self._error(goal)[:2]
 
 
 def solve_ik(kin: ArmKinematics, p_goal, axis_goal, q0, q_posture=None,
@@ -492,6 +492,7 @@ def track_poses(kin: ArmKinematics, points: np.ndarray, axes: np.ndarray, spins:
     for goal, axis, spin in zip(np.asarray(points, float).tolist(), axes, spins, strict=True):
         tracker = PathTracker(kin, axis, q, q_posture, cfg, unit=True,  # (evaluated at its axis)
                               spin_goal=None if np.isnan(spin).any() else across(axis, spin))
-        errors.append(tracker._step(goal))
-        rows.append(q := tracker.q)
+        (q,), (error,) = tracker.track([goal])
+        rows.append(q)
+        errors.append(error)
     return _checked(kin, cfg, rows, errors, label, "with the pen's pose")

@@ -164,35 +164,6 @@ def test_jacobian_views_are_the_jacobian_without_copies(kin):
     assert not np.allclose(views[0], copies[0])
 
 
-@pytest.mark.parametrize("case", ["plain", "in the limit margins", "weighted rows"])
-def test_path_tracker_steps_as_the_per_sample_scheme_it_documents(kin, page, case):
-    line = page.to_robot(
-        np.column_stack([np.linspace(60, 150, 40), np.linspace(140, 170, 40), np.zeros(40)])
-    )
-    q0 = solve_ik(kin, line[0], page.pen_axis, HOME, HOME).q
-    cfg = IKConfig(posture_gain=0.01, limit_gain=0.5)
-    if case == "in the limit margins":  # (the push acts from the first sample on)
-        cfg = IKConfig(posture_gain=0.01, limit_gain=0.5, limit_margin=1.2)
-    elif case == "weighted rows":  # (the loop on the parts, not inline)
-        cfg = IKConfig(posture_gain=0.01, limit_gain=0.5, position_weight=2.0, tilt_weight=0.5)
-    tracker = PathTracker(kin, page.pen_axis, q0, HOME, cfg)
-    pushed = np.any(limit_push(q0, kin.lower, kin.upper, cfg.limit_margin) != 0)
-    assert pushed == (case == "in the limit margins")
-    q = q0.copy()
-    for goal in line:
-        # reference: one null-space step, then task-only steps until within tolerance
-        q, _ = dls_step(kin, q, goal, page.pen_axis, HOME, cfg, null_space=True)
-        for _ in range(20):
-            pos_err, tilt_err = pose_error(kin, q, goal, page.pen_axis)
-            if pos_err < cfg.tol_pos and tilt_err < cfg.tol_tilt:
-                break
-            q, _ = dls_step(kin, q, goal, page.pen_axis, HOME, cfg, null_space=False)
-        errors = tracker.step(goal)
-        np.testing.assert_array_equal(tracker.q, q)  # the same numbers, bit for bit
-        np.testing.assert_allclose(errors, pose_error(kin, q, goal, page.pen_axis), atol=1e-12)
-        assert errors[0] < cfg.tol_pos and errors[1] < cfg.tol_tilt
-
-
 def test_plan_terms_are_the_jacobian_mass_and_bias_of_one_pass(kin):
     qd = np.linspace(-0.5, 0.5, 7)
     expected = (*kin.jacobian(Q_TEST), kin.mass(Q_TEST), kin.bias(Q_TEST, qd).copy())
