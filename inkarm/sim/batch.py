@@ -463,6 +463,8 @@ class BatchPlant:
     def _diverged(self, ids: np.ndarray) -> dict[int, SimulationError]:
         qvel = self._qvel[ids]
         warnings = self._warning_counts()
+        if (np.abs(qvel) <= self.max_joint_speed).all() and (warnings == self._warnings).all():
+            return {}  # (the common case in one test: a NaN fails the speed's comparison)
         new = (warnings[ids] > self._warnings[ids]).any(axis=1)
         # a joint faster than max_joint_speed, or not a number (NaN compares false)
         bad = new | ~(np.abs(qvel) <= self.max_joint_speed).all(axis=1)

@@ -89,6 +89,22 @@ def test_chamfer_mm_closed_form():
         M.chamfer_mm(np.empty((0, 2)), np.empty((0, 2)))
 
 
+@pytest.mark.parametrize("near", [0.0, 0.05, 0.3, 2.0, math.inf])
+def test_nearest_points_looked_for_nearby_first_are_the_exact_ones(near):
+    """The chamfer's bounded queries, then unbounded ones for the points beyond ``near``: the
+    same distances, bit for bit, as all pairs (the same arithmetic: dx^2 + dy^2, its root)."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(5)
+    a = np.concatenate([rng.uniform(0, 20, (300, 2)), rng.uniform(40, 60, (20, 2))])
+    b = np.round(rng.uniform(0, 30, (200, 2)) * 10.0) / 10.0  # (ties on a grid)
+    d = b[None, :, :] - a[:, None, :]
+    brute = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2).min(axis=1)
+    np.testing.assert_array_equal(M._nearest(cKDTree(b), a, near), brute)
+    exact = 0.5 * (brute.mean() + np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2).min(axis=0).mean())
+    assert M._chamfer(a, b, cKDTree(b), near) == M.chamfer_mm(a, b) == pytest.approx(exact)
+
+
 @settings(max_examples=30, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=2, max_size=6),
@@ -368,11 +384,11 @@ def _masks():
 def test_depths_and_centreline_are_scipys_bit_for_bit(mask):
     from scipy import ndimage
 
-    from inkarm.analysis.medial_axis import depth_at
+    from inkarm.analysis.medial_axis import depths
 
     rows, cols = np.nonzero(mask)
     expected = ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1][rows, cols]
-    depth = depth_at(mask, rows, cols)
+    depth = depths(mask)
     assert depth.dtype == expected.dtype and np.array_equal(depth, expected)
     image = mask.astype(np.float32)
     whole = _centreline_on_the_whole_page(image, 7.0, 0.5)

@@ -7,6 +7,8 @@ the ink fed to each member's canvas are the same bits."""
 
 from __future__ import annotations
 
+import re
+
 import mujoco
 import numpy as np
 import pytest
@@ -244,3 +246,28 @@ def test_a_ctrl_c_in_the_batchs_step_leaves_the_steps_taken_counted(built, cell,
     for plant in (c, p):
         assert plant.step(ids) == {}
     assert c.steps == p.steps == 11 * c.substeps + 1
+
+
+@pytest.mark.parametrize("push, message", [
+    (500.0, r"simulation diverged at t = [0-9.]+ s: joint[0-9] moves at [0-9.]+ rad/s, above"),
+    (np.nan, r"non-finite or huge joint state \(MuJoCo warned .*mjWARN_BADQVEL"),
+])
+def test_a_diverging_member_is_named_with_its_error_and_the_others_go_on(cell, monkeypatch,
+                                                                         tmp_path, push,
+                                                                         message):
+    """The divergence check of a period (its common case one test of all members): the member
+    pushed past the speed limit, or to NaN (MuJoCo's warning), is reported, alone."""
+    monkeypatch.chdir(tmp_path)  # (MuJoCo may append its warnings to ./MUJOCO_LOG.TXT)
+    truths = [PlantTruth(seed=s) for s in SEEDS]
+    plant = BatchPlant([member_model(cell, t) for t in truths], cell, truths[0], SEEDS,
+                       nthread=1, max_joint_speed=20.0)
+    every = np.arange(len(SEEDS))
+    q = plant.read().q
+    plant.command(every, q, np.zeros_like(q), np.zeros_like(q))
+    assert plant.step(every) == {}
+    plant._qvel[1, 3] = push  # (a joint of member 1; the arm's dofs come first)
+    diverged = plant.step(every)
+    assert list(diverged) == [1]
+    assert re.search(message, str(diverged[1]))
+    assert plant.step(np.array([0, 2])) == {}
+

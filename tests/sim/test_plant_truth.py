@@ -185,3 +185,28 @@ def test_a_plant_model_is_built_from_a_copy_of_its_cells_spec_with_the_same_bits
         again = plant_model(cell, truth)
         assert mujoco.mj_name2id(again, mujoco.mjtObj.mjOBJ_SITE, "edited_once") == -1
         assert _model_bytes(again) == _model_bytes(scratch)
+
+
+def test_set_const_on_the_threads_scratch_data_gives_a_new_datas_bits(monkeypatch):
+    """plant_model's mj_setConst reuses the thread's MjData while the layout stays: after
+    other truths, and a model of another layout between them, every model equals the one
+    mj_setConst makes on a new MjData, bit for bit."""
+    from inkarm.sim import perturb
+
+    cell = make_cell()
+    truths = [PlantTruth(mass_scale=1.0 + 0.05 * k, payload_kg=0.1 * k, com_offset_mm=5.0,
+                         paper_height_mm=float(k), seed=k) for k in range(4)]
+    extra = lambda s: s.worldbody.add_site(name="another_layout")
+
+    def build() -> list[mujoco.MjModel]:
+        return [plant_model(cell, t, edit_spec=extra if k == 2 else None)
+                for k, t in enumerate(truths)]
+
+    reused = build()
+    scratch = perturb._SCRATCH.data
+    plant_model(cell, truths[0])
+    assert perturb._SCRATCH.data is scratch  # (the same layout: the same data)
+    monkeypatch.setattr(perturb, "_set_const",
+                        lambda model: mujoco.mj_setConst(model, mujoco.MjData(model)))
+    for a, b in zip(reused, build(), strict=True):
+        assert _model_bytes(a) == _model_bytes(b)
