@@ -19,7 +19,7 @@
 #include "_law.h"
 
 /* What this module offers, as inkarm.control.compiled.API expects it (2: MemberPeriod) */
-#define INKARM_LAW_API 2
+#define INKARM_LAW_API 3
 
 static void release_views(PositionLaw* self) {
   for (int i = 0; i < self->held; i++) PyBuffer_Release(self->views + i);

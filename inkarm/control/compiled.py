@@ -22,7 +22,7 @@ import logging
 from inkarm.core.compiled import SWITCH, loader, switched_on
 
 _LOG = logging.getLogger(__name__)
-API = 2  # (inkarm/control/_law.c's INKARM_LAW_API)
+API = 3  # (inkarm/control/_law.c's INKARM_LAW_API)
 
 
 # the module, or None (why logged once)

@@ -27,8 +27,10 @@ field or calibrated map, no probing), they run in one C call per period
 (:mod:`inkarm.control.member_lane`); where, besides, the plant is stepped alone and offers its
 period in C (``compiled_port``: the simulated arm on its default path), whole periods run in C,
 the plant's step included, a tenth of a simulated second at a time (one yield each: the
-progress, Ctrl-C). Every path gives the same bits (tests/control/test_member_lane.py);
-``INKARM_COMPILED=0`` takes the Python steps throughout.
+progress, Ctrl-C); where the members are a batch's (N, ...) arrays, one C call takes every such
+member's period after its first (:mod:`inkarm.control.batch_lanes`). Every path gives the same
+bits (tests/control/test_member_lane.py, test_batch_lanes.py); ``INKARM_COMPILED=0`` takes the
+Python steps throughout.
 
 Units: page [mm] and [s] at this module's surface; the page-to-robot transform
 (:class:`inkarm.core.frames.PagePlacement`) converts once to SI for the kinematics.
@@ -265,8 +267,11 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     chunk = 0  # whole periods in C between two of this loop's (the plant alone: Lane.run)
     if lane is not None:
         commanded, ref_row, ref_blend = lane.commanded, lane.ref_row, lane.ref_blend
-        lane_period, lane_advance = lane.kernel.period, lane.kernel.advance
+        kernel = lane.kernel
+        lane_period, lane_advance = kernel.period, kernel.advance
         chunk = max(1, round(0.1 / dt)) if port is not None else 0
+        if board.lanes is not None and not chunk:  # (offered: a batch's C call may take it)
+            board.lanes[member] = kernel
     in_chunk = False
     loop_wall0 = _time.perf_counter()
     try:
@@ -293,12 +298,14 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
                     commanded, ref_row, ref_blend = (taken[k] for k in (
                         "commanded", "ref_row", "ref_blend"))
                     lane, chunk = None, 0
+                    if board.lanes is not None:
+                        board.lanes.pop(member, None)
                 else:
                     logged = True
                     _send(command, order, state.time)
                     fresh = False
                     yield
-                    rows[member] = i
+                    rows[member] = kernel.i  # (i, or where the batch's C periods left it)
                     i = lane_advance()  # (the descent's hold included)
                     continue
             # The time of the first period: the plants' clock where they have one (a reading may
@@ -382,7 +389,9 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
         if lane is not None:  # (where it is, what it logged, before its fault)
             row, logged, i = lane.kernel.row, lane.kernel.logged, lane.kernel.i
-            if in_chunk:  # (the plant's state handed back: its reading is the C period's)
+            # (the plant's state handed back, or the periods taken by a batch's C call:
+            # the reading is the C period's)
+            if in_chunk or member in board.taken:
                 fresh = lane.kernel.fresh
                 if fresh:
                     state = plant.read()

@@ -5,7 +5,8 @@ law and checks its watchdogs in Python. For the common case, the built-in ``posi
 its compiled feed-forward, the built-in force loop without a learnt field or calibrated map, no
 probing, and a plant that measures its pen tip, the same steps run in one C call per period
 (:class:`Lane`), with the same bits: the log, the commands and every fault are those of the
-Python steps (tests/control/test_member_lane.py). The plane's solve, the watchdogs whenever the
+Python steps (tests/control/test_member_lane.py); a batch's members take theirs in one C call
+for all (:mod:`inkarm.control.batch_lanes`). The plane's solve, the watchdogs whenever the
 extension's cheap test is not conclusive, and the messages of faults stay in Python, called
 from C.
 

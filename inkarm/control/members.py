@@ -16,6 +16,7 @@ from typing import Protocol
 
 import numpy as np
 
+from inkarm.control.batch_lanes import batch_lanes
 from inkarm.core.log import PHASES, DrawLog
 from inkarm.core.plant import Plant
 from inkarm.errors import RunFault
@@ -80,9 +81,9 @@ class Board:
     whether it is stopping after a fault (then it is not told of a Ctrl-C: it is lifting
     already), whether a Ctrl-C reached one of them (then every other one stops too), and, from a
     member stepped alone that ran whole periods in C, how many (for the progress) and that its
-    plant needs no step this time."""
+    plant needs no step this time; and which members' periods a batch's C call takes."""
 
-    __slots__ = ("interrupted", "rows", "stepped", "stopping", "ticks")
+    __slots__ = ("interrupted", "lanes", "rows", "stepped", "stopping", "taken", "ticks")
 
     def __init__(self, n: int):
         self.rows = [0] * n
@@ -90,6 +91,11 @@ class Board:
         self.interrupted = False
         self.ticks = 0  # periods a member ran whole in C beyond this one (Lane.run)
         self.stepped = False  # and its plant is stepped already (a plant stepped alone)
+        # Where one C call may take the members' periods (inkarm.control.batch_lanes): each
+        # member's compiled period, offered by its first period ({}; None: no such call), and
+        # the members whose periods it takes (their generators wait at their yield).
+        self.lanes: dict[int, object] | None = None
+        self.taken: set[int] = set()
 
 
 def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
@@ -97,7 +103,10 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
     """Advance every member one period at a time until each has finished or faulted.
 
     A member resumed by a fault (thrown in at its yield) commands the first period of its safe
-    stop at once: it is ``ready`` and is stepped before it is resumed again."""
+    stop at once: it is ``ready`` and is stepped before it is resumed again. Where the members
+    offer their rows to one C call (:mod:`inkarm.control.batch_lanes`), the members on their
+    compiled lanes take their periods there after their first, until they go back to their
+    generators (then for good)."""
     rows = board.rows
     results: list = [None] * len(runs)
     active = list(range(len(runs)))
@@ -106,6 +115,8 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
     report_every = max(1, round(0.1 / members.dt))
     interrupt: KeyboardInterrupt | None = None
     period = reported = 0
+    lanes = batch_lanes(members, board)  # (None: every period in the members' generators)
+    taken = board.taken
 
     def keep(m: int, end: BaseException) -> None:
         """Member ``m`` ended with ``end``: keep its result."""
@@ -131,35 +142,56 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
             keep(m, end)
         return False
 
+    def release(m: int, fault: BaseException | None = None) -> bool:
+        """Member ``m``, taken by the C call, back to its generator: :func:`resume`, a fault
+        thrown in while it is still ``taken`` (its reading then the C period's)."""
+        if fault is None:
+            lanes.drop(m)
+            return resume(m)
+        try:
+            return resume(m, fault)
+        finally:
+            lanes.drop(m)
+
     advance = [run.__next__ for run in runs]
     while active:
         try:
+            if board.lanes and interrupt is None:  # (the members' first periods offered them)
+                lanes.take(board.lanes, active, board.stopping)
+            ended: set[int] = set()
+            rest = active
+            if taken:  # the taken members' periods in one C call (the others' below)
+                rest = [m for m in active if m not in taken] if len(taken) < len(active) else ()
+                if interrupt is None:
+                    for m, fault in lanes.period():
+                        if not release(m, fault):
+                            ended.add(m)
+                else:  # Ctrl-C: lift and stop
+                    for m in list(lanes.ids):
+                        told.add(m)
+                        if not release(m, KeyboardInterrupt()):
+                            ended.add(m)
             if ready or interrupt is not None:
-                going = []
-                for m in active:
+                for m in rest:
                     if m in ready:
                         ready.discard(m)
-                        going.append(m)
                         continue
                     if interrupt is not None and m not in told and not board.stopping[m]:
                         told.add(m)  # Ctrl-C: lift and stop
                         alive = resume(m, KeyboardInterrupt())
                     else:
                         alive = resume(m)
-                    if alive:
-                        going.append(m)
-                active = going
+                    if not alive:
+                        ended.add(m)
             else:  # (the common case, without a call per member: this runs every period)
-                ended = None
-                for m in active:
+                for m in rest:
                     try:
                         advance[m]()
                     except (StopIteration, RunFault, KeyboardInterrupt) as end:
                         keep(m, end)
-                        ended = ended or set()
                         ended.add(m)
-                if ended:
-                    active = [m for m in active if m not in ended]
+            if ended:
+                active = [m for m in active if m not in ended]
             if board.interrupted and interrupt is None:  # a member met Ctrl-C: all stop
                 interrupt = KeyboardInterrupt()
             if not active:
@@ -170,7 +202,7 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
                 faults = members.step(active)
             if faults:
                 for m, fault in faults.items():
-                    if resume(m, fault):
+                    if release(m, fault) if m in taken else resume(m, fault):
                         ready.add(m)
                     else:
                         active.remove(m)

@@ -4,7 +4,10 @@ all of them stepped as one batch.
 
 A member's reading is its row of the batch's reading (taken once per period, for all members,
 and split into rows once); its position command waits until :meth:`BatchMembers.step` hands
-every pending command to the batch in one call (as (N, n) arrays) and steps the batch.
+every pending command to the batch in one call (as (N, n) arrays) and steps the batch. Members
+on their compiled lanes skip both: one C call reads their rows of the batch's reading and writes
+their commands into rows of the period's command arrays (:meth:`BatchMembers.lane_rows`,
+:mod:`inkarm.control.batch_lanes`), which :meth:`BatchMembers.step` hands over with the others'.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import numpy as np
 
 from inkarm.core.plant import PlantState, PositionCommand, unsupported
 from inkarm.errors import InputError, RunFault
-from inkarm.sim.batch import BatchPlant
+from inkarm.sim.batch import BatchPlant, BatchState
 
 
 class BatchMember:
@@ -44,6 +47,12 @@ class BatchMember:
         fed."""
 
 
+def _lane_ready(a: np.ndarray) -> bool:
+    """Whether the compiled period takes ``a``'s rows as they are (float64, C order): else
+    each member reads its own and its lane decides (period() refuses what it cannot take)."""
+    return type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
+
+
 class BatchMembers:
     """Every member of ``plant`` (:class:`BatchPlant`), for :func:`inkarm.control.executor.
     execute`."""
@@ -53,33 +62,73 @@ class BatchMembers:
         self.dt = plant.dt
         self.orders: list[PositionCommand | None] = [None] * plant.n_members  # pending
         self._zero = np.zeros(plant.n)
+        self._reading: BatchState | None = None
         self._states: list[PlantState] | None = None
+        # This period's command rows written by the compiled lanes (None: none yet): q [rad],
+        # qd [rad/s], tau_ff [N m], and which members gave theirs.
+        self._rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self.plants = tuple(BatchMember(self, m) for m in range(plant.n_members))
 
     def now(self) -> float:
         return self.plant.now()
 
+    def reading(self) -> BatchState:
+        """The batch's reading of this period (read once, for every member)."""
+        if self._reading is None:
+            self._reading = self.plant.read()
+        return self._reading
+
     def states(self) -> list[PlantState]:
         """The batch's reading as each member's :class:`PlantState` (rows of the arrays, forces
         as floats), read once a period for all of them."""
         if self._states is None:
-            s = self.plant.read()
+            s = self.reading()
             n = self.plant.n_members
             times = [s.time] * n if s.times is None else s.times.tolist()  # (jitter: its own)
             self._states = [PlantState(*row[:5], torque=row[5]) for row in zip(
                 times, s.q, s.qd, s.force.tolist(), s.tip_mm, s.torque)]
         return self._states
 
+    def lane_rows(self) -> tuple | None:
+        """This period's reading and command rows for the members' compiled periods in one
+        call (``_member.c``'s ``periods``): (time [s], times (N,) or None, q, qd, torque (N, n),
+        force (N,), tip_mm (N, 3), then the commands' q, qd, tau_ff (N, n) and given (N,)
+        bool, which the call writes). None where the reading's arrays are not float64 in C
+        order: each member then reads its :class:`PlantState` (:meth:`states`)."""
+        s = self.reading()
+        if not all(map(_lane_ready, (s.q, s.qd, s.torque, s.force, s.tip_mm))) or (
+                s.times is not None and not _lane_ready(s.times)):
+            return None
+        if self._rows is None:
+            shape = (self.plant.n_members, self.plant.n)
+            self._rows = (np.empty(shape), np.empty(shape), np.empty(shape),
+                          np.zeros(shape[0], dtype=bool))
+        return (s.time, s.times, s.q, s.qd, s.torque, s.force, s.tip_mm, *self._rows)
+
     def step(self, members: list[int]) -> dict[int, RunFault]:
-        ids = [m for m, order in enumerate(self.orders) if order is not None]
-        if ids:
-            given, zero = [self.orders[m] for m in ids], self._zero
+        given = [m for m, order in enumerate(self.orders) if order is not None]
+        zero = self._zero
+        if self._rows is not None:  # (the lanes' rows, and the others' orders into theirs)
+            q, qd, tau, gave = self._rows
+            for m in given:
+                order = self.orders[m]
+                q[m] = order.q
+                qd[m] = zero if order.qd is None else order.qd
+                tau[m] = zero if order.torque is None else order.torque
+                gave[m] = True
+            ids = np.flatnonzero(gave)
+            if len(ids) == len(gave):
+                self.plant.command(ids, q, qd, tau)
+            elif len(ids):
+                self.plant.command(ids, q[ids], qd[ids], tau[ids])
+        elif given:
+            orders = [self.orders[m] for m in given]
             self.plant.command(
-                np.array(ids, dtype=np.intp), np.array([o.q for o in given], dtype=float),
-                np.array([zero if o.qd is None else o.qd for o in given], dtype=float),
-                np.array([zero if o.torque is None else o.torque for o in given], dtype=float))
-            self.orders = [None] * len(self.orders)
-        self._states = None
+                np.array(given, dtype=np.intp), np.array([o.q for o in orders], dtype=float),
+                np.array([zero if o.qd is None else o.qd for o in orders], dtype=float),
+                np.array([zero if o.torque is None else o.torque for o in orders], dtype=float))
+        self.orders = [None] * len(self.orders)
+        self._rows = self._reading = self._states = None
         return self.plant.step(np.asarray(members))
 
 
