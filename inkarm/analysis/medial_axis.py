@@ -27,8 +27,8 @@ import numpy as np
 def squared_depths(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """D^2 in [px^2] (module docstring, eq. 1), int64, at the set pixels of the 2-D boolean
     ``mask`` in row-major order, everything outside ``mask`` unset. Returns (D^2, the pixels'
-    flat indices in the raster bordered by one unset pixel, that bordered raster (flat, int64,
-    0 where unset; scratch for the caller), its width).
+    flat indices in the raster bordered by one unset pixel, that bordered raster (flat, int64:
+    g of (2) at the set pixels, 0 elsewhere; scratch for the caller), its width).
 
     In two exact steps on integers (the decomposition of Saito and Toriwaki):
 

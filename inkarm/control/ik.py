@@ -218,8 +218,8 @@ class PathTracker:
     within tolerance (at most ``max_refine``). The Jacobian at the joint angles reached for
     one goal serves the first step towards the next, so each step costs one evaluation.
 
-    The solvers' loops run on its parts, the plain step's numbers in fewer NumPy calls: the
-    task at the last evaluation (J5, or J6 with a ``spin_goal``, in a buffer of its own; the
+    The solvers' loops run on its parts in few NumPy calls (:meth:`track` holds the one copy of
+    the per-goal step, its parts written out in one loop): the task at the last evaluation (J5, or J6 with a ``spin_goal``, in a buffer of its own; the
     tip and tilt as floats) and the null-space motion with its limit bands made once.
 
     Args:
@@ -312,11 +312,10 @@ class PathTracker:
     def track(self, goals: list[list[float]]
               ) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
         """:meth:`step` towards each of ``goals`` (3 floats, [m]) in turn: the joint angles and
-        (tip, tilt) errors reached. The one implementation of the step (the class docstring):
-        :meth:`_evaluate`, :meth:`_error` and :meth:`_dls` written out in one loop (fewer calls)."""
+        (tip, tilt) errors reached; the one copy of the step, its parts written out in one loop."""
         kin, cfg, J, JT, dposv = self.kin, self.cfg, self._J, self._JT, _spd_solver()
         place, (Jp_rows, tilt_rows), dot = kin.jacobian_views, self._rows, np.dot
-        RT, RT2, axis, spin = self._RT, self._RT2, self.axis_goal, self._spin
+        R_held, RT, RT2, axis, spin = self._R, self._RT, self._RT2, self.axis_goal, self._spin
         maximum, minimum, array, sqrt = np.maximum, np.minimum, np.array, math.sqrt
         (low, high), lower, upper, qp = self._band, kin.lower, kin.upper, self.q_posture
         pg, lg, max_step = cfg.posture_gain, cfg.limit_gain, cfg.max_step
@@ -349,7 +348,9 @@ class PathTracker:
                     dq *= max_step / biggest
                 dq += q
                 q = minimum(maximum(dq, lower, out=dq), upper, out=dq)
-                p, R, Jp, Jr = place(q)  # (p and R: the same arrays at every evaluation)
+                p, R, Jp, Jr = place(q)
+                if R is not R_held:  # (kinematics may give R afresh: its views made again)
+                    R_held, RT, RT2 = R, R.T, R.T[:2]
                 Jp_rows[...] = Jp
                 dot(RT2, Jr, out=tilt_rows)
                 (px, py, pz), (xa, ya, za) = p.tolist(), RT.dot(axis).tolist()
@@ -368,6 +369,7 @@ class PathTracker:
             rows.append(q)
             errors.append((pos_err, tilt_err))
         self.q, self._tip, self._tilt, self._turn = q, [px, py, pz], [xa, ya, za], turn
+        self._R, self._RT, self._RT2 = R_held, RT, RT2
         return rows, errors
 
 

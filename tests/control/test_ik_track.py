@@ -109,3 +109,25 @@ def test_track_takes_the_documented_step_bit_for_bit(cell, case):
     np.testing.assert_array_equal(after.q, fresh.q)
     assert (after.iterations, after.pos_error, after.tilt_error) == (
         fresh.iterations, fresh.pos_error, fresh.tilt_error)
+
+
+class _FreshViews(ArmKinematics):
+    """Kinematics whose ``jacobian_views`` gives new arrays at every evaluation (what its
+    docstring allows: valid until the next evaluation)."""
+
+    def jacobian_views(self, q):
+        return tuple(a.copy() for a in super().jacobian_views(q))
+
+
+def test_track_takes_the_rotation_of_every_evaluation(cell):
+    """A kinematics that gives R afresh tracks as the one that reuses its arrays, bit for bit
+    (track must not hold on to the first evaluation's R)."""
+    kin, placement = cell
+    fresh = _FreshViews.of(kinematic_model())
+    axis, q0, cfg, refine, spin, goals = setup(kin, placement, "spin set, tilted pen")
+    rows, errors = PathTracker(kin, axis, q0, HOME, cfg, refine, spin, unit=True).track(
+        goals.tolist())
+    rows_f, errors_f = PathTracker(fresh, axis, q0, HOME, cfg, refine, spin, unit=True).track(
+        goals.tolist())
+    assert np.array_equal(np.array(rows_f), np.array(rows))
+    assert errors_f == errors
