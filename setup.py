@@ -1,6 +1,7 @@
 """The optional C extensions of inkarm: one control period of the simulated plant
 (``inkarm/sim/_period.c``, used through :mod:`inkarm.sim.compiled`) and the built-in position
-law's feed-forward and the member's period (``inkarm/control/_law.c``, ``_member.c``, through
+law's feed-forward and the member's period (``inkarm/control/_law.c``, ``_member.c``,
+``_member_batch.c``, through
 :mod:`inkarm.control.compiled`), and the felt-tip marker's pen between physics steps
 (``inkarm/ink/_pen.c``, through :mod:`inkarm.ink.compiled_pen`), and the batched plant's physics
 steps (``inkarm/sim/_batch.c``, through :mod:`inkarm.sim.batch_substeps`).
@@ -40,8 +41,10 @@ def _extensions() -> list[Extension]:
         # maxsd/minsd do; elsewhere, aarch64's FMAX orders -0 below +0: the Python period runs)
         return []
     law = Extension("inkarm.control._law",
-                    sources=["inkarm/control/_law.c", "inkarm/control/_member.c"],
-                    depends=["inkarm/control/_law.h", "inkarm/core/_plant.h"],
+                    sources=["inkarm/control/_law.c", "inkarm/control/_member.c",
+                             "inkarm/control/_member_batch.c"],
+                    depends=["inkarm/control/_law.h", "inkarm/control/_member.h",
+                             "inkarm/core/_plant.h"],
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
     pen = Extension("inkarm.ink._pen", sources=["inkarm/ink/_pen.c"],
                     extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)

@@ -30,57 +30,19 @@
  * that is not a number) raises NotForLane before anything changes: the executor then goes on in
  * Python from this period (export() hands over the state).
  *
- * periods() takes the period of every member of a batch in one call, reading their rows of the
- * batch's arrays and writing their commands into rows of the period's command arrays
- * (inkarm/control/batch_lanes.py): the same steps, in member order, as each member's period().
+ * _member_batch.c's periods() takes the period of every member of a batch in one call, with
+ * these same steps (period_ready, period_steps, period_advance; _member.h).
  */
 #include <math.h>
 #include <string.h>
 
-#include "_law.h"
+#include "_member.h"
 #include "../core/_plant.h"
 
 static PyObject* NotForLane = NULL;
 static PyObject *s_time, *s_q, *s_qd, *s_torque, *s_force, *s_tip_mm;
 
 #define RATE_DEAD_BAND 4e-3 /* (inkarm.control.force.RATE_DEAD_BAND, checked at init) */
-
-enum { V_QREF, V_NORMAL, V_STEP, V_PX, V_PY, V_PHASE, V_HOLD, V_LTIME, V_LQ, V_LQD, V_LTORQUE,
-       V_LTIP, V_LFORCE, V_COMMANDED, V_REFROW, V_BLEND, V_QD, NV };
-
-typedef struct {
-  PyObject_HEAD
-  Py_buffer v[NV];          /* (obj NULL: not held) */
-  Py_ssize_t n, rows, capacity;
-  PyObject *qd_ref, *qdd_ref;   /* (rows, n): their rows are the command's qd, qdd (views) */
-  PositionLaw* law;
-  PyObject *check, *plane, *search_failed, *hypot, *empty, *command_type, *n_obj;
-  int approach, descend, draw, home;
-  int lookahead_rows, lookahead, senses_force, settle_ticks, timeout_ticks;
-  double dt, t_first;
-  int has_t_first;
-  /* the force loop (ForceLoop's attributes) */
-  double smoothing, threshold, k_force, f_star, z_limit, search_step, settle_tol;
-  double k_inv, rate_smoothing, inv_dt, lead_gain;
-  int sampling;
-  double z, force, rate, lead, h_prev;
-  int has_h_prev;
-  double* depths;               /* ring of lag (d, x, y), oldest at head */
-  int lag, head;
-  /* the plane (SurfaceEstimate's) */
-  double sums[9], coef[3], origin[2], prior;
-  long count, refit_every;
-  int has_origin;
-  /* the watchdogs' cheap test (4 n: mid, half, speed, effort; NULL: Python every period) */
-  double* envelope;
-  double force_limit, tracking_limit;
-  int dirty;
-  /* where the member is: the plan row, the log row, the descent's hold, the pending advance */
-  Py_ssize_t i, row, next_i;
-  int waited, settled_for, next_waited, next_settled, logged, fresh;
-  double force_f;
-  double* scratch;              /* q_row, and run()'s reading (q, qd, torque, tip), goal, tau_ff */
-} MemberPeriod;
 
 static void member_clear(MemberPeriod* self) {
   for (int k = 0; k < NV; k++)  /* (taken out of index order: each one that is held) */
@@ -403,14 +365,6 @@ static int reading(PyObject* obj, Py_buffer* view, Py_ssize_t n, const char* nam
   return 0;
 }
 
-/* A reading: the state object's arrays (period()) or the port's (run(): the objects NULL,
- * made only for the watchdogs in Python). */
-typedef struct {
-  double time, force;
-  const double *q, *qd, *torque, *tip;
-  PyObject *q_o, *qd_o, *torque_o;
-} Reading;
-
 /* A float64 array of n copied from x (for the watchdogs in Python). */
 static PyObject* array_of(MemberPeriod* self, const double* x) {
   PyObject* array = PyObject_CallOneArg(self->empty, self->n_obj);
@@ -459,7 +413,7 @@ static int python_check(MemberPeriod* self, const Reading* r, double dx, double 
 /* The period's steps 2-4 on reading r: the goal q* and tau_ff into goal and feedforward (n
  * each), the commanded plan row into *c_out, the log row written, the advance after the step
  * pending. 0, or -1 with the fault (a watchdog's, the search's) or an error set. */
-static int steps(MemberPeriod* self, const Reading* r, double* goal, double* feedforward,
+int period_steps(MemberPeriod* self, const Reading* r, double* goal, double* feedforward,
                  Py_ssize_t* c_out) {
   const Py_ssize_t n = self->n, i = self->i, rows = self->rows, row = self->row;
   const int64_t* phases = self->v[V_PHASE].buf;
@@ -560,7 +514,7 @@ static int steps(MemberPeriod* self, const Reading* r, double* goal, double* fee
   return 0;
 }
 
-static int ready(MemberPeriod* self) {
+int period_ready(MemberPeriod* self) {
   if (self->n == 0) {
     PyErr_SetString(PyExc_RuntimeError, "_law.MemberPeriod: not initialised");
     return -1;
@@ -575,7 +529,7 @@ static int ready(MemberPeriod* self) {
 
 /* period(state) -> PositionCommand (the file's docstring). */
 static PyObject* member_period(MemberPeriod* self, PyObject* state) {
-  if (ready(self) < 0) return NULL;
+  if (period_ready(self) < 0) return NULL;
   const Py_ssize_t n = self->n;
   Reading r = {0};
   PyObject *time_o = NULL, *force_o = NULL, *tip_o = NULL, *result = NULL;
@@ -627,7 +581,7 @@ static PyObject* member_period(MemberPeriod* self, PyObject* state) {
   have_g = 1;
   if (PyObject_GetBuffer(feedforward, &fb, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE) < 0) goto done;
   have_f = 1;  /* (fresh stays 0: the reading is the caller's, who knows it is not commanded) */
-  if (steps(self, &r, gb.buf, fb.buf, &c) < 0) goto done;
+  if (period_steps(self, &r, gb.buf, fb.buf, &c) < 0) goto done;
   PyObject* qd_c = PySequence_GetItem(self->qd_ref, c);
   PyObject* qdd_c = qd_c ? PySequence_GetItem(self->qdd_ref, c) : NULL;
   if (qdd_c == NULL) {
@@ -664,7 +618,7 @@ done:
 
 /* The member on to the plan row after its period's step: the hold's counters with it, nothing
  * logged or read for the next period yet. */
-static void advance(MemberPeriod* self) {
+void period_advance(MemberPeriod* self) {
   self->i = self->next_i;
   self->waited = self->next_waited;
   self->settled_for = self->next_settled;
@@ -706,14 +660,14 @@ static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_
   double* feedforward = goal + n;
   long done = 0;
   while (done < periods) {
-    if (done > 0) advance(self); /* (the period before's; the last one's is advance()'s) */
+    if (done > 0) period_advance(self); /* (the period before's; the last one's is advance()'s) */
     if (self->i >= self->rows) break;
-    if (ready(self) < 0 || PyErr_CheckSignals() < 0) return NULL;
+    if (period_ready(self) < 0 || PyErr_CheckSignals() < 0) return NULL;
     if (plant->read(plant->self, &r.time, q, q + n, q + 2 * n, q + 3 * n, &r.force) < 0)
       return NULL;
     self->fresh = 1;
     Py_ssize_t c;
-    if (steps(self, &r, goal, feedforward, &c) < 0) return NULL;
+    if (period_steps(self, &r, goal, feedforward, &c) < 0) return NULL;
     const double* qd_c = (const double*)self->v[V_QD].buf + c * n;
     if (plant->command(plant->self, goal, qd_c, feedforward) < 0) return NULL;
     self->fresh = 0;
@@ -723,198 +677,9 @@ static PyObject* member_run(MemberPeriod* self, PyObject* const* args, Py_ssize_
   return PyLong_FromLong(done);
 }
 
-/* The periods of a batch's members in one call (inkarm/control/batch_lanes.py): for each member
- * of ``ids`` from ``start`` on, what its generator's resume does on the lane path
- * (inkarm/control/executor.py, _member): ``rows[m]`` = its plan row, advance(), its reading
- * (row m of the batch's arrays, as BatchMembers.states() would make it), steps 2-4 and its command
- * written into row m of the command arrays (given[m] set), as BatchMembers.step packs a
- * PositionCommand(q*, qd_ref[c], qdd_ref[c], tau_ff). It stops at the first member it hands back
- * to its generator: returns (k, None) where member ids[k]'s next period is not for this call
- * (its plan ends, its reading is not one the lane takes: nothing of it changed), (k, exception)
- * where its period raised (a watchdog's fault, the search's, a Ctrl-C: its state then as
- * period()'s at that point, its reading taken, ``fresh``), (len(ids), None) when all ran. */
-
-static PyTypeObject MemberPeriodType;  /* (defined below) */
-
-/* The batch's row arrays: fetch()'s tuple (time, times or None, q, qd, torque, force, tip, q_cmd,
- * qd_cmd, tau_cmd, given). */
-enum { B_Q, B_QD, B_TORQUE, B_FORCE, B_TIP, B_TIMES, B_QCMD, B_QDCMD, B_TAUCMD, B_GIVEN, NB };
-
-typedef struct {
-  Py_buffer b[NB];  /* (obj NULL: not held) */
-  double time;
-  Py_ssize_t n;     /* the arm's joints (q's columns) */
-} BatchRows;
-
-static void rows_release(BatchRows* rows) {
-  for (int k = 0; k < NB; k++)
-    if (rows->b[k].obj != NULL) PyBuffer_Release(rows->b + k);
-}
-
-/* 0: taken; 1: fetch() gave None (no rows the lane takes); -1: an error set. */
-static int rows_take(BatchRows* rows, PyObject* fetch, Py_ssize_t members) {
-  static const char* names[NB] = {"q", "qd", "torque", "force", "tip", "times", "q_cmd",
-                                  "qd_cmd", "tau_cmd", "given"};
-  for (int k = 0; k < NB; k++) rows->b[k].obj = NULL;
-  PyObject* got = PyObject_CallNoArgs(fetch);
-  if (got == NULL) return -1;
-  if (got == Py_None) {
-    Py_DECREF(got);
-    return 1;
-  }
-  PyObject *time, *objs[NB];
-  if (!PyTuple_Check(got) ||
-      !PyArg_ParseTuple(got, "OOOOOOOOOOO", &time, objs + B_TIMES, objs + B_Q, objs + B_QD,
-                        objs + B_TORQUE, objs + B_FORCE, objs + B_TIP, objs + B_QCMD,
-                        objs + B_QDCMD, objs + B_TAUCMD, objs + B_GIVEN)) {
-    if (!PyErr_Occurred())
-      PyErr_SetString(PyExc_TypeError, "_law.periods: fetch() must return a tuple or None");
-    Py_DECREF(got);
-    return -1;
-  }
-  rows->time = PyFloat_AsDouble(time);
-  if (rows->time == -1.0 && PyErr_Occurred()) {
-    Py_DECREF(got);
-    return -1;
-  }
-  Py_ssize_t n = -1;
-  for (int k = 0; k < NB; k++) {
-    if (k == B_TIMES && objs[k] == Py_None) continue;
-    int out = k >= B_QCMD;
-    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_ND | (out ? PyBUF_WRITABLE : 0);
-    Py_buffer* b = rows->b + k;
-    if (PyObject_GetBuffer(objs[k], b, flags) < 0) {
-      b->obj = NULL;
-      rows_release(rows);
-      Py_DECREF(got);
-      return -1;
-    }
-    int ndim = (k == B_FORCE || k == B_TIMES || k == B_GIVEN) ? 1 : 2;
-    const char* fmt = k == B_GIVEN ? "?" : "d";
-    if (n < 0 && ndim == 2 && k != B_TIP) n = b->shape[1];
-    Py_ssize_t cols = k == B_TIP ? 3 : n;
-    if (b->format == NULL || strcmp(b->format, fmt) != 0 || b->ndim != ndim ||
-        b->shape[0] != members || (ndim == 2 && b->shape[1] != cols)) {
-      PyErr_Format(PyExc_ValueError, "_law.periods: the batch's %s must be of format %s, "
-                   "%d-d, %zd rows (x %zd)", names[k], fmt, ndim, members, ndim == 2 ? cols : 0);
-      rows_release(rows);
-      Py_DECREF(got);
-      return -1;
-    }
-  }
-  Py_DECREF(got);  /* (the buffers hold the arrays) */
-  rows->n = n;
-  return 0;
-}
-
-/* The raised exception as an object (a traceback kept), the error cleared. */
-static PyObject* raised(void) {
-#if PY_VERSION_HEX >= 0x030C0000
-  return PyErr_GetRaisedException();
-#else
-  PyObject *type, *value, *tb;
-  PyErr_Fetch(&type, &value, &tb);
-  PyErr_NormalizeException(&type, &value, &tb);
-  if (value != NULL && tb != NULL) PyException_SetTraceback(value, tb);
-  Py_XDECREF(type);
-  Py_XDECREF(tb);
-  return value;
-#endif
-}
-
-/* periods(kernels, ids, start, fetch, rows) -> (k, exception or None): above. kernels: one
- * MemberPeriod per member of the batch (N); ids: the members' indices, ascending; rows: the
- * board's plan rows (a list of N). */
-static PyObject* batch_periods(PyObject* unused, PyObject* const* args, Py_ssize_t nargs) {
-  if (nargs != 5 || !PyTuple_Check(args[0]) || !PyList_Check(args[1]) ||
-      !PyList_Check(args[4])) {
-    PyErr_SetString(PyExc_TypeError, "periods(kernels: tuple, ids: list, start, fetch, "
-                    "rows: list)");
-    return NULL;
-  }
-  PyObject *kernels = args[0], *ids = args[1], *fetch = args[3], *plan_rows = args[4];
-  const Py_ssize_t members = PyTuple_GET_SIZE(kernels);
-  Py_ssize_t k = PyLong_AsSsize_t(args[2]);
-  if (k == -1 && PyErr_Occurred()) return NULL;
-  if (k < 0) {
-    PyErr_Format(PyExc_ValueError, "_law.periods: start must be >= 0, not %zd", k);
-    return NULL;
-  }
-  if (PyList_GET_SIZE(plan_rows) != members) {
-    PyErr_Format(PyExc_ValueError, "_law.periods: rows has %zd items for %zd members",
-                 PyList_GET_SIZE(plan_rows), members);
-    return NULL;
-  }
-  BatchRows batch;
-  int fetched = 0;  /* 0: not yet; 1: taken; 2: none the lane takes */
-  PyObject* fault = NULL;
-  for (; k < PyList_GET_SIZE(ids); k++) {  /* (ids: the caller's, read afresh) */
-    Py_ssize_t m = PyLong_AsSsize_t(PyList_GET_ITEM(ids, k));
-    if (m == -1 && PyErr_Occurred()) goto failed;
-    if (m < 0 || m >= members ||
-        !PyObject_TypeCheck(PyTuple_GET_ITEM(kernels, m), &MemberPeriodType)) {
-      PyErr_Format(PyExc_ValueError, "_law.periods: member %zd has no MemberPeriod among the "
-                   "%zd kernels", m, members);
-      goto failed;
-    }
-    MemberPeriod* self = (MemberPeriod*)PyTuple_GET_ITEM(kernels, m);
-    if (self->n == 0 || self->next_i >= self->rows) break;  /* (its plan ends: its generator's) */
-    if (PyErr_CheckSignals() < 0) {  /* (a Ctrl-C before its period: at its generator's yield) */
-      fault = raised();
-      break;
-    }
-    if (!fetched) {
-      int got = rows_take(&batch, fetch, members);
-      if (got < 0) goto failed;
-      fetched = got == 0 ? 1 : 2;
-    }
-    const Py_ssize_t n = self->n;
-    const double time = batch.b[B_TIMES].obj ? ((const double*)batch.b[B_TIMES].buf)[m]
-                                             : batch.time;
-    if (fetched == 2 || batch.n != n || !isfinite(time)) break;  /* (period() would refuse it) */
-    PyObject* row = PyLong_FromSsize_t(self->i);
-    if (row == NULL) goto failed;
-    PyList_SetItem(plan_rows, m, row);  /* (the row stepped: the executor's rows[member] = i) */
-    advance(self);
-    if (ready(self) < 0) {
-      fault = raised();
-      break;
-    }
-    Reading r = {0};
-    r.time = time;
-    r.force = self->senses_force ? ((const double*)batch.b[B_FORCE].buf)[m] : NAN;
-    r.q = (const double*)batch.b[B_Q].buf + m * n;
-    r.qd = (const double*)batch.b[B_QD].buf + m * n;
-    r.torque = (const double*)batch.b[B_TORQUE].buf + m * n;
-    r.tip = (const double*)batch.b[B_TIP].buf + m * 3;
-    double* goal = (double*)batch.b[B_QCMD].buf + m * n;
-    Py_ssize_t c;
-    self->fresh = 1;
-    if (steps(self, &r, goal, (double*)batch.b[B_TAUCMD].buf + m * n, &c) < 0) {
-      fault = raised();
-      break;
-    }
-    memcpy((double*)batch.b[B_QDCMD].buf + m * n, (const double*)self->v[V_QD].buf + c * n,
-           n * sizeof(double));
-    ((unsigned char*)batch.b[B_GIVEN].buf)[m] = 1;
-    self->fresh = 0;  /* (commanded: the executor's _send) */
-  }
-  if (fetched == 1) rows_release(&batch);
-  return Py_BuildValue("(nN)", k, fault != NULL ? fault : Py_NewRef(Py_None));
-failed:
-  if (fetched == 1) rows_release(&batch);
-  return NULL;
-}
-
-static PyMethodDef batch_functions[] = {
-    {"periods", (PyCFunction)(void (*)(void))batch_periods, METH_FASTCALL,
-     "periods(kernels, ids, start, fetch, rows) -> (k, exception or None): the members' "
-     "periods of one batch in one call (inkarm/control/batch_lanes.py)"},
-    {NULL, NULL, 0, NULL}};
-
 /* advance() -> the plan row after this period's step (the executor calls it after the yield) */
 static PyObject* member_advance(MemberPeriod* self, PyObject* unused) {
-  advance(self);
+  period_advance(self);
   return PyLong_FromSsize_t(self->i);
 }
 
@@ -984,7 +749,7 @@ static PyMethodDef member_methods[] = {
      "export() -> dict: the force loop's, the plane's and the member's state"},
     {NULL, NULL, 0, NULL}};
 
-static PyTypeObject MemberPeriodType = {
+PyTypeObject MemberPeriodType = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "inkarm.control._law.MemberPeriod",
     .tp_basicsize = sizeof(MemberPeriod),
     .tp_dealloc = (destructor)member_dealloc,
@@ -1009,7 +774,7 @@ int add_member_period(PyObject* module) {
       "A reading the compiled member period cannot take: go on in Python.", PyExc_TypeError,
       NULL);
   if (!s_time || !s_q || !s_qd || !s_torque || !s_force || !s_tip_mm || !NotForLane) return -1;
-  if (PyModule_AddFunctions(module, batch_functions) < 0) return -1;
+  if (add_batch_periods(module) < 0) return -1;
   Py_INCREF(&MemberPeriodType);
   if (PyModule_AddObject(module, "MemberPeriod", (PyObject*)&MemberPeriodType) < 0) return -1;
   Py_INCREF(NotForLane);

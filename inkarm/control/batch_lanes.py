@@ -5,9 +5,10 @@ Each member of an execution is a generator (:func:`inkarm.control.executor._memb
 (:mod:`inkarm.control.member_lane`) a resume does little besides calls into C: the advance of
 the period before, the reading, the period's steps 2-4 (``MemberPeriod.period``) and the
 command. Where the members are a batch's whose reading and commands are (N, ...) arrays
-(:meth:`inkarm.sim.batch_members.BatchMembers.lane_rows`), ``_member.c``'s ``periods`` does all
-of that for every member in one call, reading their rows of the batch's arrays and writing
-their commands into rows of the period's command arrays; the generators wait at their yield.
+(:meth:`inkarm.sim.batch_members.BatchMembers.lane_rows`), ``_member_batch.c``'s ``periods``
+does all of that for every member in one call, reading their rows of the batch's arrays and
+writing their commands into rows of the period's command arrays; the generators wait at their
+yield.
 
 A member goes back to its generator (:meth:`BatchLanes.drop`, for the rest of its run) where
 its next period is not for the call: its plan ends, its reading is not one its lane takes, or
@@ -31,7 +32,7 @@ class BatchLanes:
     """The members whose periods one C call takes, in ascending order (``ids``)."""
 
     def __init__(self, periods: Callable, fetch: Callable, taken: set[int], rows: list[int]):
-        self._periods = periods  # (_member.c's periods)
+        self._periods = periods  # (_member_batch.c's periods)
         self._fetch = fetch  # (BatchMembers.lane_rows)
         self._kernels: tuple = ()
         self.ids: list[int] = []

@@ -218,9 +218,9 @@ class PathTracker:
     within tolerance (at most ``max_refine``). The Jacobian at the joint angles reached for
     one goal serves the first step towards the next, so each step costs one evaluation.
 
-    The solvers' loops run on its parts in few NumPy calls (:meth:`track` holds the one copy of
-    the per-goal step, its parts written out in one loop): the task at the last evaluation (J5, or J6 with a ``spin_goal``, in a buffer of its own; the
-    tip and tilt as floats) and the null-space motion with its limit bands made once.
+    :meth:`track` holds the one copy of the step, in few NumPy calls, on its parts: the task at
+    the last evaluation (J5, or J6 with a ``spin_goal``, in its own buffer; the tip and tilt as
+    floats) and the null-space motion with its limit bands made once.
 
     Args:
         kin: The controller's kinematics.

@@ -91,9 +91,9 @@ class BatchMembers:
 
     def lane_rows(self) -> tuple | None:
         """This period's reading and command rows for the members' compiled periods in one
-        call (``_member.c``'s ``periods``): (time [s], times (N,) or None, q, qd, torque (N, n),
-        force (N,), tip_mm (N, 3), then the commands' q, qd, tau_ff (N, n) and given (N,)
-        bool, which the call writes). None where the reading's arrays are not float64 in C
+        call (``_member_batch.c``'s ``periods``): (time [s], times (N,) or None, q, qd, torque
+        (N, n), force (N,), tip_mm (N, 3), then the commands' q, qd, tau_ff (N, n) and given
+        (N,) bool, which the call writes). None where the reading's arrays are not float64 in C
         order: each member then reads its :class:`PlantState` (:meth:`states`)."""
         s = self.reading()
         if not all(map(_lane_ready, (s.q, s.qd, s.torque, s.force, s.tip_mm))) or (

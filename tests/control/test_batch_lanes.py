@@ -1,4 +1,4 @@
-"""A batch's members' periods in one C call (inkarm/control/batch_lanes.py, ``_member.c``'s
+"""A batch's members' periods in one C call (inkarm/control/batch_lanes.py, ``_member_batch.c``'s
 ``periods``) against the members' generators: the same bits in every member's log and on its
 page, the same faults at the same rows (a watchdog, the search, a Ctrl-C inside a member's
 period or between two), with readings older than a period and each member's own read-out age,
