@@ -8,8 +8,9 @@ status, metrics and simulated time), in the same process, on the same machine.
 Run: ``python benchmarks/bench_ensemble.py [--members N] [--scenario FILE] [--quick]
 [--repeat R]`` (R blocks, each running every executor once and then the physics floors, so
 that a busy minute on a shared machine hits subject and reference alike; medians of the blocks;
-default 3: a block takes about 10 s for 64 members on two cores). Prints one markdown table: wall time, members per second,
-the aggregate real-time factor (simulated seconds of all members over the wall time), the
+default 3: a block takes about 10 s for 64 members on two cores). Prints one markdown table:
+wall time, members per second, the aggregate real-time factor (simulated seconds of all members
+over the wall time), the
 throughput ratio against the process pool, the CPU time per member (all processes and threads:
 the pool's workers with their start, the ensemble's workers from their fork) and its ratio; then
 the largest difference of a metric between the pool and the batch, member by member. On a
@@ -154,8 +155,9 @@ def rollout_cpu_s(cases: list) -> float:
 def open_loop_cases(path: str, seeds: list[int]) -> list:
     """The cases of the open-loop floor (:func:`rollout_cpu_s`): each member's own plant model
     from its start state, for as many physics steps as its run took, its logged torques held
-    over each control period open loop (the floor of sessions 29-31: the arm drifts off the letter and the
-    pen touches the paper in a few steps, so it leaves out most of the contact solving)."""
+    over each control period open loop (the floor of sessions 29-31: the arm drifts off the
+    letter and the pen touches the paper in a few steps, so it leaves out most of the contact
+    solving)."""
     cases = []
     for seed in seeds:
         scenario = with_point(load_scenario(path), {"plant.seed": seed})
@@ -176,7 +178,8 @@ def main() -> int:
     parser.add_argument("--members", type=int, default=None)
     parser.add_argument("--scenario", default=str(DEFAULT))
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--repeat", type=int, default=3, help="median of this many runs")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="median of this many alternating blocks")
     args = parser.parse_args()
     n = args.members or (8 if args.quick else 64)
     seeds = list(range(n))
@@ -214,7 +217,7 @@ def main() -> int:
     reference, reference_cpu = n / rows[0][1], rows[0][2] / n
     print(f"## Ensembles: {n} plants of {scenario.title!r}\n")
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
-    print(f"Median of {args.repeat} run{'s' * (args.repeat > 1)} each, {cpus} CPUs; load "
+    print(f"Median of {args.repeat} block{'s' * (args.repeat > 1)} each, {cpus} CPUs; load "
           f"average after the runs (1, 5, 15 min): {load}.\n")
     print("| executor | wall [s] | members/s | aggregate real-time factor | throughput ratio | "
           "CPU per member [s] | CPU ratio |")
@@ -225,9 +228,9 @@ def main() -> int:
     floor, open_loop = statistics.median(floors), statistics.median(open_loops)
     kept = rows[-1][2] / n
     print(f"\nPhysics floor: `mujoco.rollout` of each member's plant model through the controls "
-          f"its drives applied at each physics step (its own trajectory, the pen pressed; 8 "
-          f"members, one thread): {floor:.3f} s of CPU per member; the last executor above "
-          f"takes {kept / floor:.1f}x that (target <= 2x: "
+          f"its drives applied at each physics step (its own trajectory, the pen pressed; "
+          f"{len(trajectory)} members, one thread): {floor:.3f} s of CPU per member; the last "
+          f"executor above takes {kept / floor:.1f}x that (target <= 2x: "
           f"{'ok' if kept / floor <= 2.0 else 'MISSED'}). The floor of sessions 29-31 (the "
           f"logged torques open loop: the pen touches in a few steps) was {open_loop:.3f} s "
           f"({kept / open_loop:.1f}x).")

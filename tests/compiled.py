@@ -22,3 +22,15 @@ def compiled_or_skip(module, what: str, why: str = "INKARM_COMPILED=0 or not bui
             pytest.fail(message)
         pytest.skip(message)
     return module
+
+
+LOGGED = ("time", "q", "qd", "torque", "tip", "force", "reference", "phase", "stroke")
+"""The columns of a DrawLog that a compiled path must give bit for bit."""
+
+
+def assert_same_log(a, b) -> None:
+    """Logs ``a`` and ``b`` (DrawLogs) the same in every :data:`LOGGED` column: dtype, shape and
+    bytes."""
+    for key in LOGGED:
+        x, y = getattr(a, key), getattr(b, key)
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), key

@@ -67,12 +67,6 @@ def squared_depths(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return best, at, raster, width
 
 
-def depths(mask: np.ndarray) -> np.ndarray:
-    """D(p) in [px], float64, at the set pixels of the 2-D boolean ``mask`` in row-major order
-    (those of ``np.nonzero(mask)``): :func:`squared_depths`' square roots."""
-    return np.sqrt(squared_depths(mask)[0].astype(np.float64))
-
-
 def medial_axis(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rows, cols), in row-major order, of the set pixels of the 2-D boolean ``mask`` on its
     medial axis: D^2 >= the max of the 3 x 3 neighbourhood's (module docstring)."""

@@ -15,14 +15,13 @@ its next period is not for the call: its plan ends, its reading is not one its l
 its period raised (a watchdog's fault, the search's, a Ctrl-C), or the batch's step faulted it,
 or a Ctrl-C reached the others. Then the generator goes on as if it had run every period
 itself: its plan row and log row are its kernel's (it reads them from there), its advance is
-pending as after its own period, and a fault thrown in at its yield finds it in
-``Board.taken``, which tells it that its reading is the C period's (``MemberPeriod.fresh``:
-taken and not commanded yet) rather than its own last one.
+pending as after its own period, and a fault thrown in at its yield finds its kernel's
+``MemberPeriod.fresh`` set where the C period took a reading and did not command it: that
+reading, not its own last one, is the one to stop from.
 """
 
 from __future__ import annotations
 
-from bisect import bisect_left
 from collections.abc import Callable, Iterator
 
 from inkarm.control.compiled import member_module
@@ -31,24 +30,27 @@ from inkarm.control.compiled import member_module
 class BatchLanes:
     """The members whose periods one C call takes, in ascending order (``ids``)."""
 
-    def __init__(self, periods: Callable, fetch: Callable, taken: set[int], rows: list[int]):
+    def __init__(self, periods: Callable, fetch: Callable, rows: list[int]):
         self._periods = periods  # (_member_batch.c's periods)
         self._fetch = fetch  # (BatchMembers.lane_rows)
         self._kernels: tuple = ()
         self.ids: list[int] = []
-        self.taken = taken  # (the Board's: what a member's generator reads)
+        self.offered: dict[int, object] = {}  # (each member's kernel, by its first period)
+        self.taken: set[int] = set()  # (ids as a set)
         self._rows = rows  # (the Board's plan rows, the progress)
 
-    def take(self, offered: dict[int, object], members: list[int], stopping: list[bool]) -> None:
-        """Take the periods of ``members`` whose lanes are ``offered`` (their kernels, given
-        by each member's first period) and who are not stopping; ``offered`` is emptied."""
-        kernels = [None] * len(self._rows)
-        for m, kernel in offered.items():
-            kernels[m] = kernel
+    def take(self, members: list[int], stopping: list[bool]) -> None:
+        """Take, beside those taken already, the periods of ``members`` whose lanes are
+        ``offered`` (their kernels, given by each member's first period) and who are not
+        stopping; ``offered`` is emptied."""
+        kernels = list(self._kernels) or [None] * len(self._rows)
+        new = {m for m in members if m in self.offered and not stopping[m]}
+        for m in new:
+            kernels[m] = self.offered[m]
+        self.offered.clear()
         self._kernels = tuple(kernels)
-        self.ids = [m for m in members if kernels[m] is not None and not stopping[m]]
-        self.taken.update(self.ids)
-        offered.clear()
+        self.taken.update(new)  # (in place: lockstep holds it)
+        self.ids = sorted(self.taken)
 
     def drop(self, m: int) -> None:
         """Member ``m`` goes on in its generator."""
@@ -58,16 +60,15 @@ class BatchLanes:
     def period(self) -> Iterator[tuple[int, BaseException | None]]:
         """One period of every member taken, in one C call from one hand-back to the next:
         yields each member that goes back to its generator, with the exception its period
-        raised (None: its period is its generator's); the caller hands it back
-        (:meth:`drop`) before the next."""
+        raised (None: its period is its generator's), dropped already."""
         ids, k = self.ids, 0
         while k < len(ids):
             k, fault = self._periods(self._kernels, ids, k, self._fetch, self._rows)
             if k == len(ids):
                 return
             m = ids[k]
+            self.drop(m)  # (then ids[k] is the one after it)
             yield m, fault
-            k = bisect_left(ids, m + 1)  # (m dropped: the one after it)
 
 
 def batch_lanes(members, board) -> BatchLanes | None:
@@ -77,8 +78,8 @@ def batch_lanes(members, board) -> BatchLanes | None:
     periods = None if fetch is None else getattr(member_module(), "periods", None)
     if periods is None:
         return None
-    board.lanes = {}
-    return BatchLanes(periods, fetch, board.taken, board.rows)
+    board.lanes = BatchLanes(periods, fetch, board.rows)
+    return board.lanes
 
 
 __all__ = ["BatchLanes", "batch_lanes"]

@@ -271,17 +271,14 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
         lane_period, lane_advance = kernel.period, kernel.advance
         chunk = max(1, round(0.1 / dt)) if port is not None else 0
         if board.lanes is not None and not chunk:  # (offered: a batch's C call may take it)
-            board.lanes[member] = kernel
-    in_chunk = False
+            board.lanes.offered[member] = kernel
     loop_wall0 = _time.perf_counter()
     try:
         while i < n_ref:
             if chunk:  # whole periods in C, the plant's step included
-                in_chunk = True
                 ran = lane.run(chunk)
-                in_chunk = False
                 if ran:  # (the last one's step taken: lockstep does not step the plant)
-                    board.ticks, board.stepped = ran - 1, True
+                    board.ran = ran
                     i = lane.kernel.i
                     yield
                     rows[member] = i
@@ -299,7 +296,7 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
                         "commanded", "ref_row", "ref_blend"))
                     lane, chunk = None, 0
                     if board.lanes is not None:
-                        board.lanes.pop(member, None)
+                        board.lanes.offered.pop(member, None)
                 else:
                     logged = True
                     _send(command, order, state.time)
@@ -389,12 +386,9 @@ def _member(shared: _Shared, plant: Plant, law: Controller, member: int, board: 
     except (RunFault, KeyboardInterrupt) as err:  # make the arm safe; keep what happened
         if lane is not None:  # (where it is, what it logged, before its fault)
             row, logged, i = lane.kernel.row, lane.kernel.logged, lane.kernel.i
-            # (the plant's state handed back, or the periods taken by a batch's C call:
-            # the reading is the C period's)
-            if in_chunk or member in board.taken:
-                fresh = lane.kernel.fresh
-                if fresh:
-                    state = plant.read()
+            # (a reading the C took itself, run() or a batch's periods(), and did not command)
+            if lane.kernel.fresh:
+                fresh, state = True, plant.read()
             if state is None:  # (every period so far ran in C: a plant drawn on again)
                 state = plant.read()
         board.stopping[member] = True

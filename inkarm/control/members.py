@@ -80,22 +80,19 @@ class Board:
     """What the members tell the executor between periods: each one's plan row (the progress),
     whether it is stopping after a fault (then it is not told of a Ctrl-C: it is lifting
     already), whether a Ctrl-C reached one of them (then every other one stops too), and, from a
-    member stepped alone that ran whole periods in C, how many (for the progress) and that its
-    plant needs no step this time; and which members' periods a batch's C call takes."""
+    member stepped alone that ran whole periods in C, how many (for the progress; its plant needs
+    no step this time); and the batch's C call that may take the members' periods."""
 
-    __slots__ = ("interrupted", "lanes", "rows", "stepped", "stopping", "taken", "ticks")
+    __slots__ = ("interrupted", "lanes", "ran", "rows", "stopping")
 
     def __init__(self, n: int):
         self.rows = [0] * n
         self.stopping = [False] * n
         self.interrupted = False
-        self.ticks = 0  # periods a member ran whole in C beyond this one (Lane.run)
-        self.stepped = False  # and its plant is stepped already (a plant stepped alone)
-        # Where one C call may take the members' periods (inkarm.control.batch_lanes): each
-        # member's compiled period, offered by its first period ({}; None: no such call), and
-        # the members whose periods it takes (their generators wait at their yield).
-        self.lanes: dict[int, object] | None = None
-        self.taken: set[int] = set()
+        self.ran = 0  # periods a member stepped alone ran whole in C, its plant's steps too
+        # the C call that may take the members' periods (inkarm.control.batch_lanes.BatchLanes:
+        # each member's first period offers its compiled period there); None: no such call
+        self.lanes = None
 
 
 def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
@@ -116,7 +113,7 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
     interrupt: KeyboardInterrupt | None = None
     period = reported = 0
     lanes = batch_lanes(members, board)  # (None: every period in the members' generators)
-    taken = board.taken
+    taken = lanes.taken if lanes is not None else ()
 
     def keep(m: int, end: BaseException) -> None:
         """Member ``m`` ended with ``end``: keep its result."""
@@ -142,34 +139,24 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
             keep(m, end)
         return False
 
-    def release(m: int, fault: BaseException | None = None) -> bool:
-        """Member ``m``, taken by the C call, back to its generator: :func:`resume`, a fault
-        thrown in while it is still ``taken`` (its reading then the C period's)."""
-        if fault is None:
-            lanes.drop(m)
-            return resume(m)
-        try:
-            return resume(m, fault)
-        finally:
-            lanes.drop(m)
-
     advance = [run.__next__ for run in runs]
     while active:
         try:
-            if board.lanes and interrupt is None:  # (the members' first periods offered them)
-                lanes.take(board.lanes, active, board.stopping)
+            if lanes is not None and lanes.offered and interrupt is None:
+                lanes.take(active, board.stopping)
             ended: set[int] = set()
             rest = active
             if taken:  # the taken members' periods in one C call (the others' below)
                 rest = [m for m in active if m not in taken] if len(taken) < len(active) else ()
                 if interrupt is None:
                     for m, fault in lanes.period():
-                        if not release(m, fault):
+                        if not resume(m, fault):
                             ended.add(m)
                 else:  # Ctrl-C: lift and stop
                     for m in list(lanes.ids):
                         told.add(m)
-                        if not release(m, KeyboardInterrupt()):
+                        lanes.drop(m)
+                        if not resume(m, KeyboardInterrupt()):
                             ended.add(m)
             if ready or interrupt is not None:
                 for m in rest:
@@ -196,25 +183,24 @@ def lockstep(runs: list[Generator], members: Members, board: Board, n_ref: int,
                 interrupt = KeyboardInterrupt()
             if not active:
                 break
-            if board.stepped:  # (a member stepped alone took its periods in C, steps too)
-                board.stepped, faults = False, _NO_FAULTS
-            else:
-                faults = members.step(active)
+            ran, board.ran = board.ran, 0  # (a member stepped alone: its periods in C)
+            faults = _NO_FAULTS if ran else members.step(active)
             if faults:
                 for m, fault in faults.items():
-                    if release(m, fault) if m in taken else resume(m, fault):
+                    if m in taken:
+                        lanes.drop(m)
+                    if resume(m, fault):
                         ready.add(m)
                     else:
                         active.remove(m)
-            period += 1 + board.ticks
-            board.ticks = 0
+            period += ran or 1
             if progress is not None and period // report_every > reported and active:
                 reported = period // report_every
                 last = min(rows[m] for m in active)
                 progress(last / n_ref, PHASES[phases[min(last, n_ref - 1)]])
         except KeyboardInterrupt as stop:  # outside a member: in a step or the progress
             interrupt = interrupt or stop
-            board.stepped = False  # (a safe stop's commands are stepped as any)
+            board.ran = 0  # (a safe stop's commands are stepped as any)
     if interrupt is not None:
         stop = KeyboardInterrupt()
         stop.logs = [getattr(r, "log", r if isinstance(r, DrawLog) else None) for r in results]

@@ -99,34 +99,30 @@ class BatchMembers:
         if not all(map(_lane_ready, (s.q, s.qd, s.torque, s.force, s.tip_mm))) or (
                 s.times is not None and not _lane_ready(s.times)):
             return None
+        return (s.time, s.times, s.q, s.qd, s.torque, s.force, s.tip_mm, *self._command_rows())
+
+    def _command_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """This period's command rows (new each period: a delayed command holds its own)."""
         if self._rows is None:
             shape = (self.plant.n_members, self.plant.n)
             self._rows = (np.empty(shape), np.empty(shape), np.empty(shape),
                           np.zeros(shape[0], dtype=bool))
-        return (s.time, s.times, s.q, s.qd, s.torque, s.force, s.tip_mm, *self._rows)
+        return self._rows
 
     def step(self, members: list[int]) -> dict[int, RunFault]:
-        given = [m for m, order in enumerate(self.orders) if order is not None]
         zero = self._zero
-        if self._rows is not None:  # (the lanes' rows, and the others' orders into theirs)
-            q, qd, tau, gave = self._rows
-            for m in given:
-                order = self.orders[m]
+        q, qd, tau, gave = self._command_rows()  # (the lanes' rows, and the others' orders)
+        for m, order in enumerate(self.orders):
+            if order is not None:
                 q[m] = order.q
                 qd[m] = zero if order.qd is None else order.qd
                 tau[m] = zero if order.torque is None else order.torque
                 gave[m] = True
-            ids = np.flatnonzero(gave)
-            if len(ids) == len(gave):
-                self.plant.command(ids, q, qd, tau)
-            elif len(ids):
-                self.plant.command(ids, q[ids], qd[ids], tau[ids])
-        elif given:
-            orders = [self.orders[m] for m in given]
-            self.plant.command(
-                np.array(given, dtype=np.intp), np.array([o.q for o in orders], dtype=float),
-                np.array([zero if o.qd is None else o.qd for o in orders], dtype=float),
-                np.array([zero if o.torque is None else o.torque for o in orders], dtype=float))
+        ids = np.flatnonzero(gave)
+        if len(ids) == len(gave):
+            self.plant.command(ids, q, qd, tau)
+        elif len(ids):
+            self.plant.command(ids, q[ids], qd[ids], tau[ids])
         self.orders = [None] * len(self.orders)
         self._rows = self._reading = self._states = None
         return self.plant.step(np.asarray(members))

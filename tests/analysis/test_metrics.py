@@ -384,11 +384,11 @@ def _masks():
 def test_depths_and_centreline_are_scipys_bit_for_bit(mask):
     from scipy import ndimage
 
-    from inkarm.analysis.medial_axis import depths
+    from inkarm.analysis.medial_axis import squared_depths
 
     rows, cols = np.nonzero(mask)
     expected = ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1][rows, cols]
-    depth = depths(mask)
+    depth = np.sqrt(squared_depths(mask)[0].astype(np.float64))  # D at the ink's pixels
     assert depth.dtype == expected.dtype and np.array_equal(depth, expected)
     image = mask.astype(np.float32)
     whole = _centreline_on_the_whole_page(image, 7.0, 0.5)

@@ -10,15 +10,14 @@ import numpy as np
 import pytest
 
 from inkarm.control import batch_lanes, compiled, members
-from inkarm.control.surface import SurfaceEstimate
 from inkarm.core.log import LIFT
 from inkarm.jobs.ensemble import run_ensemble
 from inkarm.jobs.scenario import load_scenario
-from tests.compiled import compiled_or_skip
+from tests.compiled import assert_same_log
+from tests.control.test_member_lane import hook_solve
 
 pytestmark = pytest.mark.sim
 
-LOGGED = ("time", "q", "qd", "torque", "tip", "force", "reference", "phase", "stroke")
 # The executor's three ways for a batch: every step in Python (the extensions off), each
 # member's steps in one C call a period from its generator (the batch's call withheld), and
 # every member's period in one C call.
@@ -31,12 +30,6 @@ DELAYED = {"plant.sensing_delay_ms": 8.0, "plant.readout_jitter_ms": 3.0,
            "plant.actuation_delay_ms": 4.0, "plant.random": {"paper_height_mm": [-20.0, 16.0]},
            "controller.correction_limit_mm": 3.0}
 SEEDS = [0, 3, 9, 4]
-
-
-@pytest.fixture
-def built():
-    compiled._load.cache_clear()
-    return compiled_or_skip(compiled.member_module(), "the compiled member period")
 
 
 @pytest.fixture(scope="module")
@@ -76,12 +69,6 @@ def _ensembles(scenario, monkeypatch, seeds=SEEDS, progress=None, before=None) -
     return out
 
 
-def _assert_same_logs(a, b) -> None:
-    for key in LOGGED:
-        x, y = getattr(a, key), getattr(b, key)
-        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), key
-
-
 def _assert_same(ways: dict) -> None:
     (first, *_), *others = ways.values()
     for other, *_ in others:
@@ -91,7 +78,7 @@ def _assert_same(ways: dict) -> None:
                 assert (a.status, a.reason) == (b.status, b.reason)
                 assert a.canvas.image.tobytes() == b.canvas.image.tobytes()
                 a, b = a.log, b.log
-            _assert_same_logs(a, b)
+            assert_same_log(a, b)
 
 
 def test_faulting_members_and_old_readings_give_the_same_bits_every_way(built, monkeypatch,
@@ -131,15 +118,7 @@ def _interrupt():
 def _at_solve(monkeypatch, scenario, solve_no: int, seeds=SEEDS, act=_interrupt) -> dict:
     """``scenario`` each way with ``act()`` called at the plane's ``solve_no``-th solve (from a
     member's period in C: inside the batch's call)."""
-    plane, calls = SurfaceEstimate.plane, [0]
-
-    def solve(sums, prior):
-        calls[0] += 1
-        if calls[0] == solve_no:
-            act()
-        return plane(sums, prior)
-
-    monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(solve))
+    calls = hook_solve(monkeypatch, solve_no, act)
     return _ensembles(scenario, monkeypatch, seeds, before=lambda way: calls.__setitem__(0, 0))
 
 

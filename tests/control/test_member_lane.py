@@ -19,23 +19,16 @@ from inkarm.jobs.outcome import RunInterrupted
 from inkarm.jobs.run import run
 from inkarm.jobs.scenario import load_scenario, parse_scenario
 from inkarm.sim.plant import MujocoPlant
-from tests.compiled import compiled_or_skip
+from tests.compiled import LOGGED, assert_same_log
 
 pytestmark = pytest.mark.sim
 
-LOGGED = ("time", "q", "qd", "torque", "tip", "force", "reference", "phase", "stroke")
 LINE = {"source": {"kind": "plan", "plan": {"strokes": [{"targets": [
     {"mean": [0.0, 0.0], "cov": 1.0}, {"mean": [20.0, 5.0], "cov": 1.0}]}]}},
     "ink": {"px_per_mm": 4.0}}
 # The executor's three ways: every step in Python (the extensions off), the member's steps in
 # one C call a period (the plant's port withheld), and whole periods in C through the port.
 WAYS = ("python", "period", "whole")
-
-
-@pytest.fixture
-def built():
-    compiled._load.cache_clear()
-    return compiled_or_skip(compiled.member_module(), "the compiled member period")
 
 
 def _runs(scenario, monkeypatch, ways=WAYS) -> dict:
@@ -72,9 +65,7 @@ def _assert_same(runs: dict) -> None:
     (a, _), *others = runs.values()
     for b, _ in others:
         assert (a.status, a.reason) == (b.status, b.reason)
-        for key in LOGGED:
-            x, y = getattr(a.log, key), getattr(b.log, key)
-            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), key
+        assert_same_log(a.log, b.log)
         assert a.canvas.image.tobytes() == b.canvas.image.tobytes()
         assert a.canvas.n_strokes == b.canvas.n_strokes
 
@@ -135,18 +126,25 @@ def test_a_fault_inside_whole_periods_in_c_stops_the_run_as_in_python(
     assert runs["whole"][1] == -1  # (the fault came out of whole periods in C)
 
 
-def _at_sixth_solve(monkeypatch, scenario, act) -> dict:
-    """``scenario`` run each way (:func:`_runs`) with ``act()`` called at the plane's 6th solve,
-    well inside the drawing (the solve is Python's, called from C in whole periods)."""
+def hook_solve(monkeypatch, solve_no: int, act) -> list[int]:
+    """``act()`` called at the plane's ``solve_no``-th solve (the solve is Python's, called from
+    C); returns the count of solves, ``[n]``: set it to ``[0]`` before each run."""
     plane, calls = SurfaceEstimate.plane, [0]
 
     def solve(sums, prior):
         calls[0] += 1
-        if calls[0] == 6:
+        if calls[0] == solve_no:
             act()
         return plane(sums, prior)
 
     monkeypatch.setattr(SurfaceEstimate, "plane", staticmethod(solve))
+    return calls
+
+
+def _at_sixth_solve(monkeypatch, scenario, act) -> dict:
+    """``scenario`` run each way (:func:`_runs`) with ``act()`` called at the plane's 6th solve,
+    well inside the drawing (in whole periods in C)."""
+    calls = hook_solve(monkeypatch, 6, act)
     runs = {}
     for way in WAYS:
         calls[0] = 0

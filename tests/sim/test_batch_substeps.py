@@ -270,4 +270,3 @@ def test_a_diverging_member_is_named_with_its_error_and_the_others_go_on(cell, m
     assert list(diverged) == [1]
     assert re.search(message, str(diverged[1]))
     assert plant.step(np.array([0, 2])) == {}
-

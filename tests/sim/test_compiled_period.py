@@ -23,11 +23,10 @@ from inkarm.robots.gains import PIDGains
 from inkarm.sim import compiled
 from inkarm.sim.cell import build_model
 from inkarm.sim.drive import JointDrive
-from tests.compiled import compiled_or_skip
+from tests.compiled import assert_same_log, compiled_or_skip
 
 pytestmark = pytest.mark.sim
 
-LOGGED = ("time", "q", "qd", "torque", "tip", "force", "reference", "phase", "stroke")
 LINE = {"source": {"kind": "plan", "plan": {"strokes": [{"targets": [
     {"mean": [0.0, 0.0], "cov": 1.0}, {"mean": [20.0, 5.0], "cov": 1.0}]}]}},
     "ink": {"px_per_mm": 4.0}}
@@ -70,9 +69,7 @@ def _assert_same(python, native, touches: int = 0):
     (a, a_calls, a_periods), (b, b_calls, b_periods) = python, native
     assert a_periods == [None] and b_periods[0] is not None  # (each path taken)
     assert (a.status, a.reason) == (b.status, b.reason)
-    for key in LOGGED:
-        x, y = getattr(a.log, key), getattr(b.log, key)
-        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), key
+    assert_same_log(a.log, b.log)
     assert a.canvas.image.tobytes() == b.canvas.image.tobytes()
     assert a_calls == b_calls and len(a_calls) >= touches
 
